@@ -1,0 +1,189 @@
+//! Output encoding: PNG (exposure, tone map, sRGB 8-bit) and EXR (linear float RGB, optionally
+//! one layer per component); also bounded image decoding for inputs.
+
+use glam::Vec3;
+use std::io::Cursor;
+
+/// A linear-RGB float image, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+impl Frame {
+    pub fn new(width: u32, height: u32) -> Self {
+        Frame {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; (width * height) as usize],
+        }
+    }
+
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Sum of two frames of the same size.
+    pub fn add(&self, o: &Frame) -> Frame {
+        assert_eq!((self.width, self.height), (o.width, o.height));
+        Frame {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.iter().zip(&o.pixels).map(|(a, b)| *a + *b).collect(),
+        }
+    }
+
+    pub fn scale(&mut self, s: f32) {
+        for p in &mut self.pixels {
+            *p *= s;
+        }
+    }
+}
+
+/// Tone mapping applied before the sRGB transfer in PNG output.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ToneMap {
+    /// Clamp to [0, 1].
+    Clamp,
+    /// Narkowicz's ACES filmic fit.
+    #[default]
+    Aces,
+    /// x / (1 + x).
+    Reinhard,
+}
+
+/// PNG settings: radiance × 2^exposure, then the tone map, then sRGB.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PngSettings {
+    pub exposure: f32,
+    pub tone_map: ToneMap,
+}
+
+impl Default for PngSettings {
+    fn default() -> Self {
+        PngSettings {
+            exposure: 0.0,
+            tone_map: ToneMap::Clamp,
+        }
+    }
+}
+
+pub fn tone_map(x: f32, t: ToneMap) -> f32 {
+    let x = x.max(0.0);
+    match t {
+        ToneMap::Clamp => x.min(1.0),
+        ToneMap::Reinhard => x / (1.0 + x),
+        ToneMap::Aces => ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0),
+    }
+}
+
+pub fn linear_to_srgb(x: f32) -> f32 {
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum EncodeError {
+    #[error("image encoding failed: {0}")]
+    Image(#[from] image::ImageError),
+    #[error("layers differ in size")]
+    LayerSize,
+}
+
+/// 8-bit sRGB PNG bytes.
+pub fn encode_png(f: &Frame, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
+    let k = 2f32.powf(s.exposure);
+    let mut buf = Vec::with_capacity(f.pixels.len() * 3);
+    for p in &f.pixels {
+        for c in p.to_array() {
+            let v = linear_to_srgb(tone_map(c * k, s.tone_map));
+            buf.push((v * 255.0 + 0.5).clamp(0.0, 255.0) as u8);
+        }
+    }
+    let img = image::RgbImage::from_raw(f.width, f.height, buf).expect("buffer size matches");
+    let mut out = Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)?;
+    Ok(out.into_inner())
+}
+
+/// Linear float RGB EXR bytes.
+pub fn encode_exr(f: &Frame) -> Result<Vec<u8>, EncodeError> {
+    let buf: Vec<f32> = f.pixels.iter().flat_map(|p| p.to_array()).collect();
+    let img = image::Rgb32FImage::from_raw(f.width, f.height, buf).expect("buffer size matches");
+    let mut out = Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::OpenExr)?;
+    Ok(out.into_inner())
+}
+
+/// Decode PNG/EXR/HDR bytes with explicit limits on size and allocation.
+pub fn decode_image_limited(bytes: &[u8], max_side: u32) -> Result<image::DynamicImage, String> {
+    let mut reader = image::ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(max_side);
+    limits.max_image_height = Some(max_side);
+    limits.max_alloc = Some(u64::from(max_side) * u64::from(max_side) * 16 + (1 << 20));
+    reader.limits(limits);
+    reader.decode().map_err(|e| e.to_string())
+}
+
+/// Read a float image (EXR or PNG) back into a [`Frame`]; PNG is taken as sRGB.
+pub fn decode_frame(bytes: &[u8]) -> Result<Frame, String> {
+    let img = decode_image_limited(bytes, 16384)?;
+    let srgb = !matches!(
+        img,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    );
+    let rgb = img.to_rgb32f();
+    let (width, height) = rgb.dimensions();
+    let lin = |c: f32| {
+        if !srgb {
+            c
+        } else if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    Ok(Frame {
+        width,
+        height,
+        pixels: rgb
+            .pixels()
+            .map(|p| Vec3::new(lin(p.0[0]), lin(p.0[1]), lin(p.0[2])))
+            .collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trips_linear_values() {
+        let mut f = Frame::new(3, 2);
+        f.pixels[4] = Vec3::new(0.25, 7.5, 1e-3);
+        let back = decode_frame(&encode_exr(&f).unwrap()).unwrap();
+        assert_eq!((back.width, back.height), (3, 2));
+        assert!((back.at(1, 1) - f.at(1, 1)).abs().max_element() < 1e-6);
+    }
+
+    #[test]
+    fn png_is_srgb_encoded() {
+        let mut f = Frame::new(1, 1);
+        f.pixels[0] = Vec3::splat(0.5);
+        let back = decode_frame(&encode_png(&f, PngSettings::default()).unwrap()).unwrap();
+        assert!((back.pixels[0].x - 0.5).abs() < 0.01, "{:?}", back.pixels[0]);
+        let img = image::load_from_memory(&encode_png(&f, PngSettings::default()).unwrap())
+            .unwrap()
+            .to_rgb8();
+        assert_eq!(img.get_pixel(0, 0).0[0], 188); // sRGB(0.5) = 0.7354
+    }
+}

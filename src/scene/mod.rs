@@ -1,0 +1,12 @@
+//! Scene model: the JSON description users write ([`types`]), its validation and resolution
+//! into a [`World`] ([`load`]), procedural shapes and glTF import. No GPU, no HTTP.
+
+pub mod gltf;
+pub mod load;
+pub mod shapes;
+pub mod types;
+pub mod world;
+
+pub use load::{AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, parse_scene, resolve};
+pub use types::SceneDesc;
+pub use world::{Camera, EnvMap, Light, Material, Mesh, Object, Part, World};

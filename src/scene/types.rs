@@ -1,0 +1,247 @@
+//! The JSON scene description: what a user writes or POSTs.
+//!
+//! Units and conventions follow DESIGN.md §2: metres, right-handed, +Y up, linear Rec.709 RGB.
+//! Lights use Mitsuba 3's definitions so that the same numbers give the same picture.
+//! Field names here are the wire format; `api/scene.schema.json` documents the same shape.
+
+use glam::{Mat4, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// A linear RGB triple that may be written as one number (grey) or `[r, g, b]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Rgb {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+impl Rgb {
+    pub fn vec3(self) -> Vec3 {
+        match self {
+            Rgb::Grey(g) => Vec3::splat(g),
+            Rgb::Rgb(c) => Vec3::from(c),
+        }
+    }
+}
+
+impl From<Vec3> for Rgb {
+    fn from(v: Vec3) -> Self {
+        Rgb::Rgb(v.to_array())
+    }
+}
+
+/// A whole scene: one camera, the lights, named materials and objects.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    /// Free text, shown in logs.
+    #[serde(default)]
+    pub name: String,
+    pub camera: CameraDesc,
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+    /// Materials by name; objects refer to them by that name.
+    #[serde(default)]
+    pub materials: std::collections::BTreeMap<String, MaterialDesc>,
+    #[serde(default)]
+    pub objects: Vec<ObjectDesc>,
+}
+
+/// Perspective pinhole camera.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees, (0, 180).
+    #[serde(default = "default_fov")]
+    pub fov_y: f32,
+    #[serde(default = "default_size")]
+    pub width: u32,
+    #[serde(default = "default_size")]
+    pub height: u32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+fn default_size() -> u32 {
+    256
+}
+
+/// A light source. Delta lights (directional, point, spot) follow Mitsuba 3.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LightDesc {
+    /// Parallel light travelling along `direction`; `irradiance` in W/m² on a surface facing it.
+    Directional { direction: [f32; 3], irradiance: Rgb },
+    /// Isotropic point light; `intensity` in W/sr.
+    Point { position: [f32; 3], intensity: Rgb },
+    /// Spot light at `position` aimed at `target`; `intensity` in W/sr on the axis, full
+    /// intensity inside `beam_width` (degrees from the axis), falling linearly in angle to zero
+    /// at `cutoff_angle` (Mitsuba's `spot`).
+    Spot {
+        position: [f32; 3],
+        target: [f32; 3],
+        intensity: Rgb,
+        #[serde(default = "default_cutoff")]
+        cutoff_angle: f32,
+        #[serde(default = "default_beam")]
+        beam_width: f32,
+    },
+    /// A segment of isotropic emitters from `start` to `end`; `intensity` (W/sr) is the total,
+    /// spread uniformly along the segment (a point light of that intensity when the segment
+    /// shrinks to a point).
+    Line {
+        start: [f32; 3],
+        end: [f32; 3],
+        intensity: Rgb,
+    },
+    /// Distant light from all directions: an equirectangular HDR image (`path`, +Y up, u=0 at
+    /// -Z going towards +X) or a constant `radiance`, multiplied by `scale`. Radiance in W/(m²·sr).
+    Environment {
+        #[serde(default)]
+        path: Option<String>,
+        #[serde(default)]
+        radiance: Option<Rgb>,
+        #[serde(default = "one")]
+        scale: f32,
+    },
+}
+
+fn default_cutoff() -> f32 {
+    20.0
+}
+fn default_beam() -> f32 {
+    15.0
+}
+fn one() -> f32 {
+    1.0
+}
+
+/// Surface materials.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MaterialDesc {
+    /// Lambertian, BRDF albedo/π.
+    Diffuse { albedo: Rgb },
+    /// Diffuse base plus a GGX specular lobe: f = albedo/π + D·G2·F / (4 cosθi cosθo), with
+    /// α = roughness², height-correlated Smith G2 and Schlick Fresnel from `specular` (F0).
+    Glossy {
+        albedo: Rgb,
+        #[serde(default = "default_f0")]
+        specular: Rgb,
+        roughness: f32,
+    },
+    /// Smooth dielectric: index `ior` inside (1.0 outside), Fresnel-weighted reflection and
+    /// refraction, and Beer-Lambert `absorption` (per metre, per channel) inside.
+    Dielectric {
+        #[serde(default = "default_ior")]
+        ior: f32,
+        #[serde(default = "zero_rgb")]
+        absorption: Rgb,
+    },
+    /// Perfect specular reflector with reflectance `reflectance`.
+    Mirror {
+        #[serde(default = "one_rgb")]
+        reflectance: Rgb,
+    },
+}
+
+fn default_f0() -> Rgb {
+    Rgb::Grey(0.04)
+}
+fn default_ior() -> f32 {
+    1.5
+}
+fn zero_rgb() -> Rgb {
+    Rgb::Grey(0.0)
+}
+fn one_rgb() -> Rgb {
+    Rgb::Grey(1.0)
+}
+
+/// One object: a shape, a material and a transform.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectDesc {
+    /// Unique name; bakes and renders refer to objects by it.
+    pub name: String,
+    pub shape: ShapeDesc,
+    /// Name of an entry of `materials`. Required for procedural shapes; for glTF it overrides
+    /// the file's materials when given.
+    #[serde(default)]
+    pub material: Option<String>,
+    #[serde(default)]
+    pub transform: TransformDesc,
+}
+
+/// Geometry. Procedural shapes are centred at the origin in their local frame.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeDesc {
+    /// Rectangle in the local y=0 plane, normal +Y, `size` = [x extent, z extent].
+    Plane { size: [f32; 2] },
+    /// UV sphere with smooth normals; `segments` around the equator (rings = segments/2).
+    Sphere {
+        radius: f32,
+        #[serde(default = "default_segments")]
+        segments: u32,
+    },
+    /// Axis-aligned box with full extents `size`.
+    Box { size: [f32; 3] },
+    /// Torus around the local Y axis.
+    Torus {
+        major_radius: f32,
+        minor_radius: f32,
+        #[serde(default = "default_segments")]
+        segments: u32,
+    },
+    /// Capped cylinder along the local Y axis, from y=-height/2 to y=height/2.
+    Cylinder {
+        radius: f32,
+        height: f32,
+        #[serde(default = "default_segments")]
+        segments: u32,
+    },
+    /// A glTF 2.0 file (`.glb` or `.gltf` with embedded data), resolved relative to the scene.
+    Gltf { path: String },
+}
+
+fn default_segments() -> u32 {
+    128
+}
+
+/// Translation, rotation and scale applied as T·R·S.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TransformDesc {
+    #[serde(default)]
+    pub translation: Option<[f32; 3]>,
+    /// Rotation as Euler angles in degrees, applied about X, then Y, then Z.
+    #[serde(default)]
+    pub rotation_deg: Option<[f32; 3]>,
+    /// Uniform (one number) or per-axis scale.
+    #[serde(default)]
+    pub scale: Option<Rgb>,
+}
+
+impl TransformDesc {
+    pub fn matrix(&self) -> Mat4 {
+        let t = Vec3::from(self.translation.unwrap_or([0.0; 3]));
+        let r = self.rotation_deg.unwrap_or([0.0; 3]);
+        let q = Quat::from_euler(
+            glam::EulerRot::ZYX,
+            r[2].to_radians(),
+            r[1].to_radians(),
+            r[0].to_radians(),
+        );
+        let s = self.scale.map(Rgb::vec3).unwrap_or(Vec3::ONE);
+        Mat4::from_scale_rotation_translation(s, q, t)
+    }
+}

@@ -1,0 +1,303 @@
+//! The resolved scene every method reads: meshes generated or imported, materials and lights
+//! in their physical form, camera with the projection helpers all renderers share.
+
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+/// Perspective pinhole camera (vertical field of view, square pixels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Camera {
+    /// Orthonormal basis: right, true up, forward (towards the target).
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let f = (self.target - self.eye).normalize();
+        let r = f.cross(self.up).normalize();
+        let u = r.cross(f);
+        (r, u, f)
+    }
+
+    /// tan(fov_y / 2): half the image plane height at distance 1.
+    pub fn tan_half_fov(&self) -> f32 {
+        (self.fov_y.to_radians() * 0.5).tan()
+    }
+
+    pub fn aspect(&self) -> f32 {
+        self.width as f32 / self.height as f32
+    }
+
+    /// Area of one pixel on the image plane at distance 1 in front of the eye.
+    pub fn pixel_area(&self) -> f32 {
+        let h = 2.0 * self.tan_half_fov() / self.height as f32;
+        h * h
+    }
+
+    /// Unit direction through image position (x, y) in pixels; (0,0) is the top-left corner
+    /// of the image, pixel centres are at i + 0.5.
+    pub fn ray_dir(&self, x: f32, y: f32) -> Vec3 {
+        let (r, u, f) = self.basis();
+        let t = self.tan_half_fov();
+        let sx = (2.0 * x / self.width as f32 - 1.0) * t * self.aspect();
+        let sy = (1.0 - 2.0 * y / self.height as f32) * t;
+        (f + r * sx + u * sy).normalize()
+    }
+
+    /// Image position (pixels, same convention as [`Camera::ray_dir`]) of a world point and the
+    /// cosine between the view axis and the direction to it; None behind the camera.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        let (r, u, f) = self.basis();
+        let d = p - self.eye;
+        let z = d.dot(f);
+        if z <= 1e-6 {
+            return None;
+        }
+        let t = self.tan_half_fov();
+        let sx = d.dot(r) / z / (t * self.aspect());
+        let sy = d.dot(u) / z / t;
+        let x = (sx + 1.0) * 0.5 * self.width as f32;
+        let y = (1.0 - sy) * 0.5 * self.height as f32;
+        Some((x, y, z / d.length()))
+    }
+
+    pub fn view_matrix(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
+    }
+
+    /// Right-handed perspective with a [0,1] depth range (wgpu convention).
+    pub fn proj_matrix(&self, near: f32, far: f32) -> Mat4 {
+        glam::camera::rh::proj::directx::perspective(self.fov_y.to_radians(), self.aspect(), near, far)
+    }
+}
+
+/// An equirectangular environment image, linear RGB, row 0 at +Y.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvMap {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec3>,
+}
+
+impl EnvMap {
+    /// Radiance arriving *from* direction `d` (unit).
+    pub fn lookup(&self, d: Vec3) -> Vec3 {
+        let (u, v) = env_uv(d);
+        let x = ((u * self.width as f32) as u32).min(self.width - 1);
+        let y = ((v * self.height as f32) as u32).min(self.height - 1);
+        self.texels[(y * self.width + x) as usize]
+    }
+}
+
+/// Equirectangular coordinates in [0,1)² of direction `d`: u = 0 at -Z turning towards +X,
+/// v = 0 at +Y.
+pub fn env_uv(d: Vec3) -> (f32, f32) {
+    let u = 0.5 + d.x.atan2(-d.z) / (2.0 * std::f32::consts::PI);
+    let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+    (u.rem_euclid(1.0), v)
+}
+
+/// A light in the form renderers use (directions normalised, angles in radians).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// `direction`: unit travel direction. `irradiance`: W/m² facing the light.
+    Directional { direction: Vec3, irradiance: Vec3 },
+    /// `intensity` in W/sr.
+    Point { position: Vec3, intensity: Vec3 },
+    /// `direction`: unit axis. Angles in radians.
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cutoff: f32,
+        beam_width: f32,
+    },
+    /// Total `intensity` (W/sr) spread uniformly over the segment.
+    Line {
+        start: Vec3,
+        end: Vec3,
+        intensity: Vec3,
+    },
+    /// Distant light: `radiance` × (map lookup, or 1 without a map).
+    Environment {
+        map: Option<Arc<EnvMap>>,
+        radiance: Vec3,
+    },
+}
+
+impl Light {
+    /// Mitsuba's spot falloff: 1 inside the beam width, linear in angle to 0 at the cutoff.
+    pub fn spot_falloff(cos_theta: f32, cutoff: f32, beam_width: f32) -> f32 {
+        if cos_theta <= cutoff.cos() {
+            return 0.0;
+        }
+        if cos_theta >= beam_width.cos() {
+            return 1.0;
+        }
+        let theta = cos_theta.clamp(-1.0, 1.0).acos();
+        ((cutoff - theta) / (cutoff - beam_width).max(1e-6)).clamp(0.0, 1.0)
+    }
+
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Light::Directional { .. } => "directional",
+            Light::Point { .. } => "point",
+            Light::Spot { .. } => "spot",
+            Light::Line { .. } => "line",
+            Light::Environment { .. } => "environment",
+        }
+    }
+}
+
+/// Surface material in physical form.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    Diffuse {
+        albedo: Vec3,
+    },
+    /// albedo/π + GGX(α = roughness²) specular with Schlick F0 = `specular`.
+    Glossy {
+        albedo: Vec3,
+        specular: Vec3,
+        roughness: f32,
+    },
+    /// `absorption`: Beer-Lambert coefficient per metre.
+    Dielectric {
+        ior: f32,
+        absorption: Vec3,
+    },
+    Mirror {
+        reflectance: Vec3,
+    },
+}
+
+impl Material {
+    /// Specular (delta) materials carry caustics; the others receive them.
+    pub fn is_specular(&self) -> bool {
+        matches!(self, Material::Dielectric { .. } | Material::Mirror { .. })
+    }
+}
+
+/// Triangle mesh with smooth per-vertex normals.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// A copy with positions and normals transformed by `m`.
+    pub fn transformed(&self, m: Mat4) -> Mesh {
+        let nm = m.inverse().transpose();
+        let flip = m.determinant() < 0.0;
+        Mesh {
+            positions: self.positions.iter().map(|p| m.transform_point3(*p)).collect(),
+            normals: self
+                .normals
+                .iter()
+                .map(|n| nm.transform_vector3(*n).normalize_or_zero())
+                .collect(),
+            indices: if flip {
+                self.indices.iter().map(|t| [t[0], t[2], t[1]]).collect()
+            } else {
+                self.indices.clone()
+            },
+        }
+    }
+
+    /// Area-weighted vertex normals (for meshes that come without normals).
+    pub fn compute_normals(&mut self) {
+        let mut n = vec![Vec3::ZERO; self.positions.len()];
+        for t in &self.indices {
+            let [a, b, c] = t.map(|i| self.positions[i as usize]);
+            let fnrm = (b - a).cross(c - a);
+            for &i in t {
+                n[i as usize] += fnrm;
+            }
+        }
+        self.normals = n.into_iter().map(|v| v.normalize_or(Vec3::Y)).collect();
+    }
+
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        )
+    }
+}
+
+/// Part of an object drawn with one material; mesh in the object's local frame.
+#[derive(Clone, Debug)]
+pub struct Part {
+    pub mesh: Arc<Mesh>,
+    /// Index into [`World::materials`].
+    pub material: u32,
+}
+
+/// A named object: parts in a local frame plus the object-to-world transform, so that bakes
+/// can work in the object's frame and renders can move the object rigidly.
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub name: String,
+    pub parts: Vec<Part>,
+    pub transform: Mat4,
+}
+
+impl Object {
+    pub fn triangle_count(&self) -> usize {
+        self.parts.iter().map(|p| p.mesh.triangle_count()).sum()
+    }
+}
+
+/// The resolved scene.
+#[derive(Clone, Debug)]
+pub struct World {
+    pub name: String,
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+    pub materials: Vec<Material>,
+    pub objects: Vec<Object>,
+    /// Non-fatal findings while loading (clamped values, ignored glTF features...).
+    pub warnings: Vec<String>,
+}
+
+impl World {
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().map(Object::triangle_count).sum()
+    }
+
+    /// World-space bounds of all geometry.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for o in &self.objects {
+            for p in &o.parts {
+                for v in &p.mesh.positions {
+                    let w = o.transform.transform_point3(*v);
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    pub fn object(&self, name: &str) -> Option<&Object> {
+        self.objects.iter().find(|o| o.name == name)
+    }
+}
