@@ -42,6 +42,12 @@ pub enum GltfError {
     Invalid(String),
 }
 
-pub fn import_gltf(_bytes: &[u8], _limits: &GltfLimits) -> Result<GltfImport, GltfError> {
+/// Import a glTF from bytes. Relative URIs are read through `assets` (None: only embedded
+/// data is allowed); absolute, `file:` and network URIs are refused.
+pub fn import_gltf(
+    _bytes: &[u8],
+    _limits: &GltfLimits,
+    _assets: Option<&dyn super::AssetSource>,
+) -> Result<GltfImport, GltfError> {
     Err(GltfError::Invalid("glTF import is not built yet".into()))
 }

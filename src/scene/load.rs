@@ -535,7 +535,7 @@ pub fn resolve(
                         message,
                     }
                 })?;
-                let imported = gltf_import::import_gltf(&bytes, &limits.gltf).map_err(|e| {
+                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(assets)).map_err(|e| {
                     SceneError::Asset {
                         path: sp("path"),
                         file: file.clone(),
