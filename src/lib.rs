@@ -11,3 +11,4 @@
 
 pub mod encode;
 pub mod scene;
+pub mod trace;
