@@ -11,4 +11,5 @@
 
 pub mod encode;
 pub mod scene;
+pub mod reference;
 pub mod trace;

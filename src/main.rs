@@ -1,1 +1,280 @@
-fn main() {}
+//! `caustica`: the command line. Thin: parses arguments and calls the library.
+
+use anyhow::{Context, Result, bail};
+use caustica::encode::{self, Frame, PngSettings, ToneMap};
+use caustica::reference::{self, ReferenceParams, compare};
+use caustica::scene::{self, World};
+use caustica::trace::Accel;
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+#[derive(Parser)]
+#[command(name = "caustica", version, about = "Caustics renderer: CPU ground truth and GPU methods")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+enum Method {
+    /// GPU direct lighting with shadow maps; glass and mirrors drawn from the environment.
+    Direct,
+    /// CPU ground truth: photon tracing + camera paths.
+    Reference,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+enum Component {
+    Total,
+    Direct,
+    Caustics,
+    Specular,
+    Indirect,
+}
+
+impl Component {
+    fn name(self) -> &'static str {
+        match self {
+            Component::Total => "total",
+            Component::Direct => "direct",
+            Component::Caustics => "caustics",
+            Component::Specular => "specular",
+            Component::Indirect => "indirect",
+        }
+    }
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render a scene to PNG or EXR (format from the extension).
+    Render {
+        scene: PathBuf,
+        #[arg(long, value_enum, default_value = "direct")]
+        method: Method,
+        #[arg(long)]
+        width: Option<u32>,
+        #[arg(long)]
+        height: Option<u32>,
+        #[arg(long, value_enum, default_value = "total")]
+        component: Component,
+        /// Output file: .png (tone-mapped sRGB) or .exr (linear radiance).
+        #[arg(long)]
+        out: PathBuf,
+        /// EXR only: also write one layer per component next to it (NAME.COMPONENT.exr).
+        #[arg(long)]
+        layers: bool,
+        /// PNG exposure in stops.
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+        #[arg(long, value_enum, default_value = "clamp")]
+        tone_map: ToneMapArg,
+        /// Reference: photons (light paths) to trace.
+        #[arg(long, default_value_t = 4_000_000)]
+        photons: u64,
+        /// Reference: camera samples per pixel.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Reference: stop tracing photons after this many seconds.
+        #[arg(long)]
+        time_budget: Option<f64>,
+    },
+    /// Compare two images (EXR) on the pixels where the camera sees OBJECT, after a 3×3 blur:
+    /// relative L1 and flux ratio of A against the reference B.
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        #[arg(long)]
+        scene: PathBuf,
+        #[arg(long, default_value = "floor")]
+        object: String,
+    },
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ToneMapArg {
+    Clamp,
+    Aces,
+    Reinhard,
+}
+
+fn main() -> Result<()> {
+    init_logging();
+    match Cli::parse().cmd {
+        Cmd::Render {
+            scene,
+            method,
+            width,
+            height,
+            component,
+            out,
+            layers,
+            exposure,
+            tone_map,
+            photons,
+            spp,
+            seed,
+            time_budget,
+        } => {
+            let mut timings: Vec<(String, Duration)> = Vec::new();
+            let t = Instant::now();
+            let mut world = load(&scene)?;
+            if let Some(w) = width {
+                world.camera.width = w;
+            }
+            if let Some(h) = height {
+                world.camera.height = h;
+            }
+            scene::load::resolve_camera(&camera_desc(&world), &scene::Limits::default())
+                .context("--width/--height")?;
+            timings.push(("load".into(), t.elapsed()));
+            let frames: Vec<(&str, Frame)> = match method {
+                Method::Reference => {
+                    let t = Instant::now();
+                    let accel = Accel::build(&world);
+                    timings.push(("bvh".into(), t.elapsed()));
+                    let params = ReferenceParams {
+                        seed,
+                        photons,
+                        spp,
+                        time_budget: time_budget.map(Duration::from_secs_f64),
+                        ..Default::default()
+                    };
+                    let bar = progress_bar("reference");
+                    let (c, stats) = reference::render(&world, &accel, &params, &|f| {
+                        bar.set_position((f * 1000.0) as u64);
+                        true
+                    })?;
+                    bar.finish_and_clear();
+                    timings.extend(stats.stages.iter().cloned());
+                    eprintln!(
+                        "photons traced: {}, caustic photons stored: {}, camera samples: {}",
+                        stats.photons_traced, stats.caustic_photons_stored, stats.camera_samples
+                    );
+                    ["total", "direct", "caustics", "specular", "indirect"]
+                        .into_iter()
+                        .map(|n| (n, c.get(n).expect("known component")))
+                        .collect()
+                }
+                Method::Direct => bail!(
+                    "method 'direct' needs the GPU renderer, which this build does not have yet"
+                ),
+            };
+            let main = frames
+                .iter()
+                .find(|(n, _)| *n == component.name())
+                .map(|(_, f)| f.clone())
+                .with_context(|| format!("method has no component '{}'", component.name()))?;
+            let t = Instant::now();
+            write_frame(&out, &main, exposure, tone_map)?;
+            if layers {
+                for (n, f) in &frames {
+                    write_frame(&layer_path(&out, n), f, exposure, tone_map)?;
+                }
+            }
+            timings.push(("encode".into(), t.elapsed()));
+            eprintln!("wrote {}", out.display());
+            for (stage, d) in &timings {
+                eprintln!("  {stage:<12} {:>10.1} ms", d.as_secs_f64() * 1e3);
+            }
+            Ok(())
+        }
+        Cmd::Compare {
+            a,
+            b,
+            scene,
+            object,
+        } => {
+            let world = load(&scene)?;
+            let read = |p: &Path| -> Result<Frame> {
+                encode::decode_frame(&std::fs::read(p).with_context(|| p.display().to_string())?)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
+            };
+            let (fa, fb) = (read(&a)?, read(&b)?);
+            let mut w = world.clone();
+            w.camera.width = fb.width;
+            w.camera.height = fb.height;
+            let accel = Accel::build(&w);
+            let mask = compare::object_mask(&w, &accel, &object);
+            let c = compare::compare(&fa, &fb, &mask);
+            println!(
+                "relative L1 {:.4}  flux ratio {:.4}  over {} pixels of '{object}'",
+                c.rel_l1, c.flux_ratio, c.pixels
+            );
+            Ok(())
+        }
+    }
+}
+
+fn camera_desc(w: &World) -> scene::types::CameraDesc {
+    let c = &w.camera;
+    scene::types::CameraDesc {
+        eye: c.eye.to_array(),
+        target: c.target.to_array(),
+        up: c.up.to_array(),
+        fov_y: c.fov_y,
+        width: c.width,
+        height: c.height,
+    }
+}
+
+fn load(path: &Path) -> Result<World> {
+    let world = scene::load_scene_file(path, &scene::Limits::default())
+        .with_context(|| format!("loading scene {}", path.display()))?;
+    for w in &world.warnings {
+        tracing::warn!("{w}");
+    }
+    Ok(world)
+}
+
+fn layer_path(out: &Path, name: &str) -> PathBuf {
+    let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("out");
+    let ext = out.extension().and_then(|s| s.to_str()).unwrap_or("exr");
+    out.with_file_name(format!("{stem}.{name}.{ext}"))
+}
+
+fn write_frame(out: &Path, f: &Frame, exposure: f32, tone_map: ToneMapArg) -> Result<()> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let bytes = match ext.as_deref() {
+        Some("png") => encode::encode_png(
+            f,
+            PngSettings {
+                exposure,
+                tone_map: match tone_map {
+                    ToneMapArg::Clamp => ToneMap::Clamp,
+                    ToneMapArg::Aces => ToneMap::Aces,
+                    ToneMapArg::Reinhard => ToneMap::Reinhard,
+                },
+            },
+        )?,
+        Some("exr") => encode::encode_exr(f)?,
+        _ => bail!("--out must end in .png or .exr: {}", out.display()),
+    };
+    std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))
+}
+
+fn progress_bar(what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
+            .expect("valid template"),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
+fn init_logging() {
+    use tracing_subscriber::EnvFilter;
+    let filter = EnvFilter::try_from_env("CAUSTICA_LOG")
+        .unwrap_or_else(|_| EnvFilter::new("info,wgpu_hal::gles::egl=off,wgpu_core=warn,naga=warn"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+}

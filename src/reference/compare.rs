@@ -1,0 +1,110 @@
+//! Image comparison as the quality figures are stated: a 3×3 box blur, then relative L1 and
+//! total flux over a mask of pixels (e.g. the receiver seen directly by the camera).
+
+use crate::encode::Frame;
+use crate::scene::World;
+use crate::trace::Accel;
+use glam::Vec3;
+
+/// 3×3 box blur (edge pixels average their in-image neighbours).
+pub fn blur3(f: &Frame) -> Frame {
+    let (w, h) = (f.width as i64, f.height as i64);
+    let mut out = Frame::new(f.width, f.height);
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = Vec3::ZERO;
+            let mut n = 0.0;
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (xx, yy) = (x + dx, y + dy);
+                    if xx >= 0 && yy >= 0 && xx < w && yy < h {
+                        s += f.pixels[(yy * w + xx) as usize];
+                        n += 1.0;
+                    }
+                }
+            }
+            out.pixels[(y * w + x) as usize] = s / n;
+        }
+    }
+    out
+}
+
+/// Pixels whose whole 3×3 neighbourhood sees object `name` directly through the pixel centre
+/// (so that a blur never mixes in other surfaces).
+pub fn object_mask(world: &World, accel: &Accel, name: &str) -> Vec<bool> {
+    let cam = &world.camera;
+    let oi = world.objects.iter().position(|o| o.name == name);
+    let (w, h) = (cam.width as i64, cam.height as i64);
+    let sees: Vec<bool> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            accel
+                .intersect(cam.eye, d, f32::INFINITY)
+                .is_some_and(|hit| Some(hit.object as usize) == oi)
+        })
+        .collect();
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0 && yy >= 0 && xx < w && yy < h && sees[(yy * w + xx) as usize]
+                })
+            })
+        })
+        .collect()
+}
+
+/// Figures of one comparison.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Comparison {
+    /// Σ|a−b| / Σ|b| over masked pixels and channels, after a 3×3 blur of both.
+    pub rel_l1: f32,
+    /// Σa / Σb over masked pixels (total flux ratio).
+    pub flux_ratio: f32,
+    pub pixels: usize,
+}
+
+/// Compare `a` against the reference `b` on `mask`.
+pub fn compare(a: &Frame, b: &Frame, mask: &[bool]) -> Comparison {
+    assert_eq!((a.width, a.height), (b.width, b.height), "image sizes differ");
+    let (ab, bb) = (blur3(a), blur3(b));
+    let (mut diff, mut base, mut sa, mut sb) = (0f64, 0f64, 0f64, 0f64);
+    let mut pixels = 0;
+    for i in 0..ab.pixels.len() {
+        if !mask[i] {
+            continue;
+        }
+        pixels += 1;
+        let (x, y) = (ab.pixels[i], bb.pixels[i]);
+        diff += f64::from((x - y).abs().element_sum());
+        base += f64::from(y.abs().element_sum());
+        sa += f64::from(x.element_sum());
+        sb += f64::from(y.element_sum());
+    }
+    Comparison {
+        rel_l1: (diff / base.max(1e-30)) as f32,
+        flux_ratio: (sa / sb.max(1e-30)) as f32,
+        pixels,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identical_images_compare_perfectly() {
+        let mut f = Frame::new(4, 4);
+        f.pixels[5] = Vec3::ONE;
+        let c = compare(&f, &f, &[true; 16]);
+        assert_eq!(c.rel_l1, 0.0);
+        assert!((c.flux_ratio - 1.0).abs() < 1e-6);
+        let mut g = f.clone();
+        g.scale(1.1);
+        let c = compare(&g, &f, &[true; 16]);
+        assert!((c.rel_l1 - 0.1).abs() < 1e-5 && (c.flux_ratio - 1.1).abs() < 1e-5);
+    }
+}

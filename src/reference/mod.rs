@@ -1,0 +1,863 @@
+//! The ground truth: CPU photon tracing (light tracing splatted to the camera, plus a caustic
+//! photon map) and camera paths, against which every other method is measured.
+//!
+//! Components (all linear radiance, W/(m²·sr), averaged over each pixel with a box filter):
+//! - `direct`: camera ray → first non-specular surface → every light, with shadow rays in which
+//!   specular objects block light (light through them is caustics). Background radiance too.
+//! - `caustics`: light paths with at least one specular vertex before a non-specular vertex
+//!   seen directly by the camera, L (S|D)* S (S|D)* D → camera, by *light tracing*: every photon
+//!   vertex on a non-specular surface is connected to the pinhole and splatted into the pixel it
+//!   projects to (the estimator of Mitsuba's `ptracer`). Per pixel it is a histogram density
+//!   estimate whose bin is the pixel footprint, so it converges without bias as photons grow.
+//! - `indirect`: purely diffuse interreflection L D D+ → camera, by the same light tracing.
+//! - `specular`: camera paths through specular chains (glass and mirrors are visible and
+//!   refract the scene): E S+ D, with direct lighting at D plus caustics at D from a photon map
+//!   of caustic photons (fixed-radius density estimate whose radius shrinks as N^-1/6).
+//! - `total` = direct + caustics + indirect + specular.
+//!
+//! Photons are aimed where they matter: for each (light, specular object) pair, photons are
+//! emitted only towards the object's bounding sphere and kept only if their first hit is a
+//! specular surface of that object; a second population covers the whole scene and keeps only
+//! paths whose first hit is non-specular (their first vertex is the `direct` component's, so it
+//! is not splatted). Each path is thus sampled by exactly one population.
+//!
+//! Deterministic for a seed: work is cut into fixed chunks with their own random stream and
+//! their results are summed in chunk order.
+
+pub mod compare;
+pub mod sampling;
+
+use crate::encode::Frame;
+use crate::scene::{Light, Material, World};
+use crate::trace::optics::{brdf, sample_specular, segment_transmittance};
+use crate::trace::{Accel, Hit};
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use sampling::*;
+use std::time::{Duration, Instant};
+
+/// Reference render settings.
+#[derive(Clone, Debug)]
+pub struct ReferenceParams {
+    pub seed: u64,
+    /// Photons (light paths) to trace in all.
+    pub photons: u64,
+    /// Camera samples per pixel for `direct` and `specular`.
+    pub spp: u32,
+    /// Longest path, in bounces (Mitsuba's `max_depth` 16 for the canonical scenes).
+    pub max_depth: u32,
+    /// Stop photon tracing after this long (the result stays unbiased; it is just noisier).
+    pub time_budget: Option<Duration>,
+    /// Shadow-ray samples for line and environment lights at each shading point.
+    pub area_light_samples: u32,
+}
+
+impl Default for ReferenceParams {
+    fn default() -> Self {
+        ReferenceParams {
+            seed: 1,
+            photons: 4_000_000,
+            spp: 16,
+            max_depth: 16,
+            time_budget: None,
+            area_light_samples: 8,
+        }
+    }
+}
+
+/// The component images.
+#[derive(Clone, Debug)]
+pub struct Components {
+    pub direct: Frame,
+    pub caustics: Frame,
+    pub indirect: Frame,
+    pub specular: Frame,
+}
+
+impl Components {
+    pub fn total(&self) -> Frame {
+        self.direct
+            .add(&self.caustics)
+            .add(&self.indirect)
+            .add(&self.specular)
+    }
+
+    /// A component by name: direct, caustics, indirect, specular or total.
+    pub fn get(&self, name: &str) -> Option<Frame> {
+        Some(match name {
+            "direct" => self.direct.clone(),
+            "caustics" => self.caustics.clone(),
+            "indirect" => self.indirect.clone(),
+            "specular" => self.specular.clone(),
+            "total" => self.total(),
+            _ => return None,
+        })
+    }
+}
+
+/// What the reference did and how long each stage took.
+#[derive(Clone, Debug, Default)]
+pub struct ReferenceStats {
+    pub photons_traced: u64,
+    pub caustic_photons_stored: usize,
+    pub camera_samples: u64,
+    pub stages: Vec<(String, Duration)>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReferenceError {
+    #[error("canceled")]
+    Canceled,
+}
+
+/// Photons per chunk of work: one random stream, one result buffer.
+const CHUNK: u64 = 4096;
+
+/// A source of photons: one light, aimed at one object's bounding sphere or at the whole scene.
+#[derive(Clone, Debug)]
+struct Population {
+    light: usize,
+    /// `Some(object)`: first hit must be a specular part of that object. `None`: first hit must
+    /// be non-specular.
+    target: Option<u32>,
+    centre: Vec3,
+    radius: f32,
+    /// Planned photons.
+    count: u64,
+}
+
+/// A stored caustic photon for the density estimate seen through specular chains.
+#[derive(Clone, Copy, Debug)]
+struct Photon {
+    pos: Vec3,
+    /// Unit direction the light came from (away from the surface).
+    wi: Vec3,
+    /// Flux, not yet divided by the population's photon count.
+    flux: Vec3,
+    pop: u32,
+}
+
+/// One splat of light tracing into a pixel.
+struct Splat {
+    pixel: u32,
+    value: Vec3,
+    caustic: bool,
+}
+
+/// Render every component of the reference.
+///
+/// `progress(fraction)` is called as work completes; returning false cancels.
+pub fn render(
+    world: &World,
+    accel: &Accel,
+    params: &ReferenceParams,
+    progress: &(dyn Fn(f32) -> bool + Sync),
+) -> Result<(Components, ReferenceStats), ReferenceError> {
+    let mut stats = ReferenceStats::default();
+    let cam = &world.camera;
+    let (w, h) = (cam.width, cam.height);
+    let t0 = Instant::now();
+
+    // --- Photon pass -----------------------------------------------------------------------
+    let pops = populations(world, accel, params.photons);
+    let mut caustics = vec![Vec3::ZERO; (w * h) as usize];
+    let mut indirect = vec![Vec3::ZERO; (w * h) as usize];
+    let mut photons: Vec<Photon> = Vec::new();
+    let mut emitted = vec![0u64; pops.len()];
+    // Chunks listed round-robin over populations so that stopping early (time budget) leaves
+    // every population with a fair share; each population is normalised by its own count.
+    let mut chunks: Vec<(usize, u64, u64)> = Vec::new(); // (population, first photon, count)
+    let max_chunks = pops
+        .iter()
+        .map(|p| p.count.div_ceil(CHUNK))
+        .max()
+        .unwrap_or(0);
+    for c in 0..max_chunks {
+        for (pi, p) in pops.iter().enumerate() {
+            let first = c * CHUNK;
+            if first < p.count {
+                chunks.push((pi, first, CHUNK.min(p.count - first)));
+            }
+        }
+    }
+    let batch = (rayon::current_num_threads() * 8).max(1);
+    let mut done = 0usize;
+    let mut per_pop_splat: Vec<(Vec<Vec3>, Vec<Vec3>)> = Vec::new();
+    let multi = pops.len() > 1;
+    if multi {
+        per_pop_splat = pops
+            .iter()
+            .map(|_| {
+                (
+                    vec![Vec3::ZERO; (w * h) as usize],
+                    vec![Vec3::ZERO; (w * h) as usize],
+                )
+            })
+            .collect();
+    }
+    while done < chunks.len() {
+        let end = (done + batch).min(chunks.len());
+        let results: Vec<(Vec<Splat>, Vec<Photon>)> = chunks[done..end]
+            .par_iter()
+            .map(|&(pi, first, n)| {
+                trace_photon_chunk(world, accel, params, &pops, pi, first, n)
+            })
+            .collect();
+        for (&(pi, _, n), (splats, ph)) in chunks[done..end].iter().zip(results) {
+            emitted[pi] += n;
+            let (c_img, i_img) = if multi {
+                let e = &mut per_pop_splat[pi];
+                (&mut e.0, &mut e.1)
+            } else {
+                (&mut caustics, &mut indirect)
+            };
+            for s in splats {
+                if s.caustic {
+                    c_img[s.pixel as usize] += s.value;
+                } else {
+                    i_img[s.pixel as usize] += s.value;
+                }
+            }
+            photons.extend(ph);
+        }
+        done = end;
+        if !progress(0.8 * done as f32 / chunks.len() as f32) {
+            return Err(ReferenceError::Canceled);
+        }
+        if params.time_budget.is_some_and(|b| t0.elapsed() > b) {
+            break;
+        }
+    }
+    stats.photons_traced = emitted.iter().sum();
+    // Normalise by photons actually emitted per population.
+    let norm: Vec<f32> = emitted
+        .iter()
+        .map(|&n| if n > 0 { 1.0 / n as f32 } else { 0.0 })
+        .collect();
+    if multi {
+        for (pi, (c, i)) in per_pop_splat.iter().enumerate() {
+            for k in 0..c.len() {
+                caustics[k] += c[k] * norm[pi];
+                indirect[k] += i[k] * norm[pi];
+            }
+        }
+    } else if let Some(&s) = norm.first() {
+        caustics.iter_mut().for_each(|v| *v *= s);
+        indirect.iter_mut().for_each(|v| *v *= s);
+    }
+    for p in &mut photons {
+        p.flux *= norm[p.pop as usize];
+    }
+    stats.caustic_photons_stored = photons.len();
+    stats.stages.push(("photons".into(), t0.elapsed()));
+
+    // --- Photon map for caustics seen through specular chains ------------------------------
+    let t1 = Instant::now();
+    let caustic_photons: u64 = pops
+        .iter()
+        .zip(&emitted)
+        .filter(|(p, _)| p.target.is_some())
+        .map(|(_, n)| *n)
+        .sum();
+    let radius = pops
+        .iter()
+        .filter(|p| p.target.is_some())
+        .map(|p| p.radius)
+        .fold(0.0f32, f32::max)
+        * 0.25
+        * (caustic_photons.max(1) as f32).powf(-1.0 / 6.0);
+    let pmap = PhotonMap::new(photons, radius.max(1e-5));
+    stats.stages.push(("photon map".into(), t1.elapsed()));
+
+    // --- Camera pass -----------------------------------------------------------------------
+    let t2 = Instant::now();
+    let rows: Vec<Vec<(Vec3, Vec3)>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            (0..w)
+                .map(|x| camera_pixel(world, accel, params, &pmap, x, y))
+                .collect()
+        })
+        .collect();
+    if !progress(1.0) {
+        return Err(ReferenceError::Canceled);
+    }
+    stats.camera_samples = u64::from(w) * u64::from(h) * u64::from(params.spp);
+    stats.stages.push(("camera".into(), t2.elapsed()));
+    let mut direct = Frame::new(w, h);
+    let mut specular = Frame::new(w, h);
+    for (y, row) in rows.into_iter().enumerate() {
+        for (x, (d, s)) in row.into_iter().enumerate() {
+            direct.pixels[y * w as usize + x] = d;
+            specular.pixels[y * w as usize + x] = s;
+        }
+    }
+    Ok((
+        Components {
+            direct,
+            caustics: Frame {
+                width: w,
+                height: h,
+                pixels: caustics,
+            },
+            indirect: Frame {
+                width: w,
+                height: h,
+                pixels: indirect,
+            },
+            specular,
+        },
+        stats,
+    ))
+}
+
+/// Bounding sphere of a world-space point set.
+fn object_sphere(world: &World, oi: usize) -> (Vec3, f32) {
+    let o = &world.objects[oi];
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in &o.parts {
+        for v in &p.mesh.positions {
+            let w = o.transform.transform_point3(*v);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    let c = (lo + hi) * 0.5;
+    let mut r = 0.0f32;
+    for p in &o.parts {
+        for v in &p.mesh.positions {
+            r = r.max((o.transform.transform_point3(*v) - c).length());
+        }
+    }
+    (c, r * 1.001 + 1e-5)
+}
+
+/// A rough flux estimate of photons from `light` towards a sphere, used to share photons.
+fn power_towards(light: &Light, centre: Vec3, radius: f32) -> f32 {
+    let lum = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722)).max(0.0);
+    match light {
+        Light::Directional { irradiance, .. } => {
+            lum(*irradiance) * std::f32::consts::PI * radius * radius
+        }
+        Light::Point {
+            position,
+            intensity,
+        } => lum(*intensity) * cone_solid_angle(cone_cos(*position, centre, radius)),
+        Light::Spot {
+            position,
+            intensity,
+            ..
+        } => lum(*intensity) * cone_solid_angle(cone_cos(*position, centre, radius)),
+        Light::Line {
+            start,
+            end,
+            intensity,
+        } => lum(*intensity) * cone_solid_angle(cone_cos((*start + *end) * 0.5, centre, radius)),
+        Light::Environment { radiance, .. } => {
+            lum(*radiance) * SPHERE_SOLID_ANGLE * std::f32::consts::PI * radius * radius
+        }
+    }
+}
+
+/// Cosine of the half-angle of the cone from `p` that contains the sphere; -1 when inside.
+fn cone_cos(p: Vec3, c: Vec3, r: f32) -> f32 {
+    let d = (c - p).length();
+    if d <= r * 1.0001 {
+        -1.0
+    } else {
+        (1.0 - (r / d).powi(2)).max(0.0).sqrt()
+    }
+}
+
+fn populations(world: &World, accel: &Accel, photons: u64) -> Vec<Population> {
+    let specular_objects: Vec<usize> = world
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| {
+            o.parts
+                .iter()
+                .any(|p| accel.materials[p.material as usize].is_specular())
+        })
+        .map(|(i, _)| i)
+        .collect();
+    let (lo, hi) = world.bounds();
+    let scene_centre = (lo + hi) * 0.5;
+    let scene_radius = ((hi - lo).length() * 0.5).max(1e-3) * 1.001;
+    let mut targeted = Vec::new();
+    for (li, l) in world.lights.iter().enumerate() {
+        for &oi in &specular_objects {
+            let (c, r) = object_sphere(world, oi);
+            targeted.push((
+                power_towards(l, c, r),
+                Population {
+                    light: li,
+                    target: Some(oi as u32),
+                    centre: c,
+                    radius: r,
+                    count: 0,
+                },
+            ));
+        }
+    }
+    let mut global: Vec<(f32, Population)> = world
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(li, l)| {
+            (
+                power_towards(l, scene_centre, scene_radius),
+                Population {
+                    light: li,
+                    target: None,
+                    centre: scene_centre,
+                    radius: scene_radius,
+                    count: 0,
+                },
+            )
+        })
+        .collect();
+    // Caustics get 80% of the photons when there is anything specular, shared by flux.
+    let (n_targeted, n_global) = if targeted.is_empty() {
+        (0, photons)
+    } else {
+        (photons - photons / 5, photons / 5)
+    };
+    let mut out = Vec::new();
+    for (list, n) in [(&mut targeted, n_targeted), (&mut global, n_global)] {
+        let sum: f32 = list.iter().map(|(p, _)| *p).sum();
+        for (p, pop) in list.iter_mut() {
+            let share = if sum > 0.0 { *p / sum } else { 0.0 };
+            pop.count = (n as f64 * f64::from(share)).round() as u64;
+            if pop.count > 0 {
+                out.push(pop.clone());
+            }
+        }
+    }
+    out
+}
+
+/// Emit one photon of a population: origin, unit direction and flux (not divided by the count).
+fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, Vec3)> {
+    let light = &world.lights[pop.light];
+    let towards = |p: Vec3, rng: &mut Pcg| -> (Vec3, f32) {
+        let cos_max = cone_cos(p, pop.centre, pop.radius);
+        let axis = (pop.centre - p).normalize_or(Vec3::Y);
+        (uniform_cone(axis, cos_max, rng.vec2()), cone_solid_angle(cos_max))
+    };
+    let from_far = |d: Vec3, rng: &mut Pcg| -> Vec3 {
+        let (t, b) = frame(d);
+        let q = disk(rng.vec2()) * pop.radius;
+        pop.centre + t * q.x + b * q.y - d * (pop.radius * 2.0 + 1.0)
+    };
+    let disk_area = std::f32::consts::PI * pop.radius * pop.radius;
+    match light {
+        Light::Directional {
+            direction,
+            irradiance,
+        } => Some((from_far(*direction, rng), *direction, *irradiance * disk_area)),
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let (d, omega) = towards(*position, rng);
+            Some((*position, d, *intensity * omega))
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cutoff,
+            beam_width,
+        } => {
+            // Whole scene: sample the spot's own cone, it bounds the emission.
+            let (d, omega) = if pop.target.is_none() {
+                let c = cutoff.cos();
+                (
+                    uniform_cone(*direction, c, rng.vec2()),
+                    cone_solid_angle(c),
+                )
+            } else {
+                towards(*position, rng)
+            };
+            let f = Light::spot_falloff(d.dot(*direction), *cutoff, *beam_width);
+            if f <= 0.0 {
+                return None;
+            }
+            Some((*position, d, *intensity * (f * omega)))
+        }
+        Light::Line {
+            start,
+            end,
+            intensity,
+        } => {
+            let p = start.lerp(*end, rng.f32());
+            let (d, omega) = towards(p, rng);
+            Some((p, d, *intensity * omega))
+        }
+        Light::Environment { map, radiance } => {
+            // Light arriving from direction `from` travels along -from.
+            let from = uniform_sphere(rng.vec2());
+            let l = *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.lookup(from));
+            let d = -from;
+            Some((from_far(d, rng), d, l * (SPHERE_SOLID_ANGLE * disk_area)))
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trace_photon_chunk(
+    world: &World,
+    accel: &Accel,
+    params: &ReferenceParams,
+    pops: &[Population],
+    pi: usize,
+    first: u64,
+    n: u64,
+) -> (Vec<Splat>, Vec<Photon>) {
+    let pop = &pops[pi];
+    let cam = &world.camera;
+    let pixel_area = cam.pixel_area();
+    let mut rng = Pcg::new(params.seed, ((pi as u64) << 40) | (first / CHUNK));
+    let mut splats = Vec::new();
+    let mut stored = Vec::new();
+    for _ in 0..n {
+        let Some((mut o, mut d, mut flux)) = emit(world, pop, &mut rng) else {
+            continue;
+        };
+        let mut specular_seen = false;
+        let mut diffuse_vertices = 0u32;
+        for depth in 0..params.max_depth {
+            let Some(hit) = accel.intersect(o, d, f32::INFINITY) else {
+                break;
+            };
+            let mat = accel.material(&hit);
+            if depth == 0 {
+                let ok = match pop.target {
+                    Some(t) => hit.object == t && mat.is_specular(),
+                    None => !mat.is_specular(),
+                };
+                if !ok {
+                    break;
+                }
+            }
+            flux *= segment_transmittance(&hit, mat);
+            if mat.is_specular() {
+                let Some(b) = sample_specular(&hit, d, mat, rng.f32()) else {
+                    break;
+                };
+                flux *= b.weight;
+                specular_seen = true;
+                o = hit.spawn(b.dir);
+                d = b.dir;
+                continue;
+            }
+            // Non-specular vertex: splat to the camera unless it is the direct component's.
+            diffuse_vertices += 1;
+            let wi = -d;
+            if specular_seen || diffuse_vertices >= 2 {
+                if let Some(s) = connect_to_camera(world, accel, &hit, mat, wi, flux, pixel_area) {
+                    splats.push(Splat {
+                        pixel: s.0,
+                        value: s.1,
+                        caustic: specular_seen,
+                    });
+                }
+                if specular_seen && diffuse_vertices == 1 {
+                    stored.push(Photon {
+                        pos: hit.point,
+                        wi,
+                        flux,
+                        pop: pi as u32,
+                    });
+                }
+            }
+            // Continue diffusely: cosine sampling, weight f·π (albedo for Lambertian).
+            let nd = cosine_hemisphere(hit.normal, rng.vec2());
+            if nd.dot(hit.geo_normal) <= 0.0 {
+                break;
+            }
+            let weight = brdf(mat, hit.normal, wi, nd) * std::f32::consts::PI;
+            flux *= weight;
+            // Russian roulette after a few bounces keeps long paths cheap but unbiased.
+            if depth >= 3 {
+                let keep = weight.max_element().clamp(0.05, 0.95);
+                if rng.f32() >= keep {
+                    break;
+                }
+                flux /= keep;
+            }
+            if flux.max_element() <= 0.0 {
+                break;
+            }
+            o = hit.spawn(nd);
+            d = nd;
+        }
+    }
+    (splats, stored)
+}
+
+/// Light-tracing connection of a photon vertex to the pinhole: the pixel and the radiance it
+/// adds there, Φ·f·|cosθx| / (d²·cos³θc·A_pixel).
+fn connect_to_camera(
+    world: &World,
+    accel: &Accel,
+    hit: &Hit,
+    mat: &Material,
+    wi: Vec3,
+    flux: Vec3,
+    pixel_area: f32,
+) -> Option<(u32, Vec3)> {
+    let cam = &world.camera;
+    let to_cam = cam.eye - hit.point;
+    let dist = to_cam.length();
+    let wo = to_cam / dist;
+    let cos_x = hit.geo_normal.dot(wo);
+    if cos_x <= 0.0 {
+        return None;
+    }
+    let (px, py, cos_c) = cam.project(hit.point)?;
+    if px < 0.0 || py < 0.0 || px >= cam.width as f32 || py >= cam.height as f32 {
+        return None;
+    }
+    let f = brdf(mat, hit.normal, wi, wo);
+    if f == Vec3::ZERO {
+        return None;
+    }
+    let origin = hit.spawn(wo);
+    if accel.occluded(origin, wo, (cam.eye - origin).length() * (1.0 - 1e-5)) {
+        return None;
+    }
+    let pixel = py as u32 * cam.width + px as u32;
+    let value = flux * f * (cos_x / (dist * dist * cos_c.powi(3) * pixel_area));
+    Some((pixel, value))
+}
+
+/// Uniform grid over stored caustic photons for fixed-radius gathers.
+struct PhotonMap {
+    photons: Vec<Photon>,
+    radius: f32,
+    cells: std::collections::HashMap<(i32, i32, i32), Vec<u32>>,
+}
+
+impl PhotonMap {
+    fn new(photons: Vec<Photon>, radius: f32) -> PhotonMap {
+        let mut cells: std::collections::HashMap<(i32, i32, i32), Vec<u32>> =
+            std::collections::HashMap::new();
+        for (i, p) in photons.iter().enumerate() {
+            cells.entry(Self::cell(p.pos, radius)).or_default().push(i as u32);
+        }
+        PhotonMap {
+            photons,
+            radius,
+            cells,
+        }
+    }
+
+    fn cell(p: Vec3, r: f32) -> (i32, i32, i32) {
+        let c = (p / (2.0 * r)).floor();
+        (c.x as i32, c.y as i32, c.z as i32)
+    }
+
+    /// Reflected radiance from caustic photons around `hit` towards `wo`.
+    fn radiance(&self, hit: &Hit, mat: &Material, wo: Vec3) -> Vec3 {
+        if self.photons.is_empty() {
+            return Vec3::ZERO;
+        }
+        let r2 = self.radius * self.radius;
+        let (cx, cy, cz) = Self::cell(hit.point, self.radius);
+        let mut sum = Vec3::ZERO;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(list) = self.cells.get(&(cx + dx, cy + dy, cz + dz)) else {
+                        continue;
+                    };
+                    for &i in list {
+                        let p = &self.photons[i as usize];
+                        let v = p.pos - hit.point;
+                        // Same surface: within the disk and close to its plane.
+                        if v.length_squared() < r2
+                            && v.dot(hit.geo_normal).abs() < 0.1 * self.radius
+                        {
+                            sum += p.flux * brdf(mat, hit.normal, p.wi, wo);
+                        }
+                    }
+                }
+            }
+        }
+        sum / (std::f32::consts::PI * r2)
+    }
+}
+
+/// Direct (and background) and specular radiance of one pixel.
+fn camera_pixel(
+    world: &World,
+    accel: &Accel,
+    params: &ReferenceParams,
+    pmap: &PhotonMap,
+    x: u32,
+    y: u32,
+) -> (Vec3, Vec3) {
+    let cam = &world.camera;
+    let mut rng = Pcg::new(
+        params.seed ^ 0x5eed_cafe,
+        u64::from(y) * u64::from(cam.width) + u64::from(x),
+    );
+    let spp = params.spp.max(1);
+    // Stratified jitter on a k×k grid (k² ≥ spp; extra cells wrap).
+    let k = (spp as f32).sqrt().ceil() as u32;
+    let (mut direct, mut spec) = (Vec3::ZERO, Vec3::ZERO);
+    for s in 0..spp {
+        let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
+        let j = (cell + rng.vec2()) / k as f32;
+        let d = cam.ray_dir(x as f32 + j.x, y as f32 + j.y);
+        let Some(hit) = accel.intersect(cam.eye, d, f32::INFINITY) else {
+            direct += background(world, d);
+            continue;
+        };
+        let mat = accel.material(&hit);
+        if !mat.is_specular() {
+            direct += shade(world, accel, params, &hit, mat, -d, &mut rng);
+            continue;
+        }
+        // Specular chain.
+        let mut throughput = Vec3::ONE;
+        let (mut h, mut dir) = (hit, d);
+        for _ in 0..params.max_depth {
+            let m = accel.material(&h);
+            throughput *= segment_transmittance(&h, m);
+            if !m.is_specular() {
+                spec += throughput
+                    * (shade(world, accel, params, &h, m, -dir, &mut rng)
+                        + pmap.radiance(&h, m, -dir));
+                break;
+            }
+            let Some(b) = sample_specular(&h, dir, m, rng.f32()) else {
+                break;
+            };
+            throughput *= b.weight;
+            let o = h.spawn(b.dir);
+            dir = b.dir;
+            match accel.intersect(o, dir, f32::INFINITY) {
+                Some(n) => h = n,
+                None => {
+                    spec += throughput * background(world, dir);
+                    break;
+                }
+            }
+        }
+    }
+    (direct / spp as f32, spec / spp as f32)
+}
+
+/// Radiance arriving from the environment along a ray travelling in `d`.
+fn background(world: &World, d: Vec3) -> Vec3 {
+    world
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Environment { map, radiance } => {
+                *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.lookup(-d))
+            }
+            _ => Vec3::ZERO,
+        })
+        .sum()
+}
+
+/// Reflected radiance at a non-specular hit towards `wo` from every light, shadowed by all
+/// geometry (specular objects included).
+fn shade(
+    world: &World,
+    accel: &Accel,
+    params: &ReferenceParams,
+    hit: &Hit,
+    mat: &Material,
+    wo: Vec3,
+    rng: &mut Pcg,
+) -> Vec3 {
+    let n = hit.normal;
+    let mut sum = Vec3::ZERO;
+    // Unshadowed-by-self check and shadow ray towards a point light at `p`.
+    let point = |p: Vec3| -> Option<(Vec3, f32)> {
+        let v = p - hit.point;
+        let dist = v.length();
+        let wi = v / dist;
+        if wi.dot(hit.geo_normal) <= 0.0 || n.dot(wi) <= 0.0 {
+            return None;
+        }
+        let o = hit.spawn(wi);
+        if accel.occluded(o, wi, (p - o).length() * (1.0 - 1e-5)) {
+            return None;
+        }
+        Some((wi, dist))
+    };
+    for l in &world.lights {
+        match l {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                let wi = -*direction;
+                if wi.dot(hit.geo_normal) > 0.0
+                    && n.dot(wi) > 0.0
+                    && !accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
+                {
+                    sum += brdf(mat, n, wi, wo) * *irradiance * n.dot(wi);
+                }
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                if let Some((wi, d)) = point(*position) {
+                    sum += brdf(mat, n, wi, wo) * *intensity * (n.dot(wi) / (d * d));
+                }
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                if let Some((wi, d)) = point(*position) {
+                    let f = Light::spot_falloff((-wi).dot(*direction), *cutoff, *beam_width);
+                    if f > 0.0 {
+                        sum += brdf(mat, n, wi, wo) * *intensity * (f * n.dot(wi) / (d * d));
+                    }
+                }
+            }
+            Light::Line {
+                start,
+                end,
+                intensity,
+            } => {
+                let m = params.area_light_samples.max(1);
+                for k in 0..m {
+                    let p = start.lerp(*end, (k as f32 + rng.f32()) / m as f32);
+                    if let Some((wi, d)) = point(p) {
+                        sum += brdf(mat, n, wi, wo) * *intensity
+                            * (n.dot(wi) / (d * d * m as f32));
+                    }
+                }
+            }
+            Light::Environment { map, radiance } => {
+                let m = params.area_light_samples.max(1);
+                for _ in 0..m {
+                    let wi = cosine_hemisphere(n, rng.vec2());
+                    if wi.dot(hit.geo_normal) <= 0.0
+                        || accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
+                    {
+                        continue;
+                    }
+                    let le = *radiance * map.as_ref().map_or(Vec3::ONE, |e| e.lookup(wi));
+                    // f·L·cos / pdf with pdf = cos/π.
+                    sum += brdf(mat, n, wi, wo) * le * (std::f32::consts::PI / m as f32);
+                }
+            }
+        }
+    }
+    sum
+}
