@@ -10,6 +10,6 @@
 //! - [`encode`]: PNG and EXR.
 
 pub mod encode;
-pub mod scene;
 pub mod reference;
+pub mod scene;
 pub mod trace;

@@ -11,7 +11,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 #[derive(Parser)]
-#[command(name = "caustica", version, about = "Caustics renderer: CPU ground truth and GPU methods")]
+#[command(
+    name = "caustica",
+    version,
+    about = "Caustics renderer: CPU ground truth and GPU methods"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -271,8 +275,9 @@ fn progress_bar(what: &str) -> ProgressBar {
 
 fn init_logging() {
     use tracing_subscriber::EnvFilter;
-    let filter = EnvFilter::try_from_env("CAUSTICA_LOG")
-        .unwrap_or_else(|_| EnvFilter::new("info,wgpu_hal::gles::egl=off,wgpu_core=warn,naga=warn"));
+    let filter = EnvFilter::try_from_env("CAUSTICA_LOG").unwrap_or_else(|_| {
+        EnvFilter::new("info,wgpu_hal::gles::egl=off,wgpu_core=warn,naga=warn")
+    });
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

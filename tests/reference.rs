@@ -59,7 +59,10 @@ fn check_against_mitsuba(light: &str) {
     );
     eprintln!("{light}: total vs ptracer {total:?}, direct vs path {direct:?}");
     assert!(total.rel_l1 <= 0.05, "{light}: total {total:?}");
-    assert!((total.flux_ratio - 1.0).abs() <= 0.02, "{light}: total {total:?}");
+    assert!(
+        (total.flux_ratio - 1.0).abs() <= 0.02,
+        "{light}: total {total:?}"
+    );
     assert!(direct.rel_l1 <= 0.02, "{light}: direct {direct:?}");
     // The caustic is really there: a bright spot on the floor, above the direct lighting.
     let peak = c.caustics.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
@@ -136,9 +139,18 @@ fn caustic_through_a_slab_is_fresnel_and_beer_lambert_exact() {
         }
         let mean = sum / n;
         eprintln!("sigma {sigma}: mean caustic radiance {mean}, expected {expect}");
-        assert!((mean / expect - 1.0).abs() < 0.03, "sigma {sigma}: {mean} vs {expect}");
-        assert!(c.direct.at(24, 26).x == 0.0, "the slab shadows the direct light");
-        assert!(c.direct.at(24, 40).x > 0.0, "the floor beyond the slab is lit");
+        assert!(
+            (mean / expect - 1.0).abs() < 0.03,
+            "sigma {sigma}: {mean} vs {expect}"
+        );
+        assert!(
+            c.direct.at(24, 26).x == 0.0,
+            "the slab shadows the direct light"
+        );
+        assert!(
+            c.direct.at(24, 40).x > 0.0,
+            "the floor beyond the slab is lit"
+        );
     }
 }
 
@@ -163,15 +175,28 @@ fn glass_is_visible_and_refracts_the_lit_floor() {
     let expect = floor * slab_transmittance(0.0, 0.05);
     let s = c.specular.at(8, 8).x;
     assert!((s / expect - 1.0).abs() < 0.02, "{s} vs {expect}");
-    assert_eq!(c.direct.at(8, 8), Vec3::ZERO, "the glass pixel has no direct term");
+    assert_eq!(
+        c.direct.at(8, 8),
+        Vec3::ZERO,
+        "the glass pixel has no direct term"
+    );
 }
 
 #[test]
 fn lambertian_floor_direct_is_exact_for_each_delta_light() {
     let lights = [
-        (r#"{"type": "directional", "direction": [1, -2, 0], "irradiance": 1.5}"#, 1.5 * 2.0 / 5f32.sqrt()),
-        (r#"{"type": "point", "position": [0, 2, 0], "intensity": 4.0}"#, 4.0 / 4.0),
-        (r#"{"type": "spot", "position": [0, 2, 0], "target": [0, 0, 0], "intensity": 4.0, "cutoff_angle": 30, "beam_width": 20}"#, 4.0 / 4.0),
+        (
+            r#"{"type": "directional", "direction": [1, -2, 0], "irradiance": 1.5}"#,
+            1.5 * 2.0 / 5f32.sqrt(),
+        ),
+        (
+            r#"{"type": "point", "position": [0, 2, 0], "intensity": 4.0}"#,
+            4.0 / 4.0,
+        ),
+        (
+            r#"{"type": "spot", "position": [0, 2, 0], "target": [0, 0, 0], "intensity": 4.0, "cutoff_angle": 30, "beam_width": 20}"#,
+            4.0 / 4.0,
+        ),
     ];
     for (light, e) in lights {
         let world = parse(&format!(

@@ -69,16 +69,23 @@ pub struct Comparison {
 
 /// Compare `a` against the reference `b` on `mask`.
 pub fn compare(a: &Frame, b: &Frame, mask: &[bool]) -> Comparison {
-    assert_eq!((a.width, a.height), (b.width, b.height), "image sizes differ");
+    assert_eq!(
+        (a.width, a.height),
+        (b.width, b.height),
+        "image sizes differ"
+    );
     let (ab, bb) = (blur3(a), blur3(b));
     let (mut diff, mut base, mut sa, mut sb) = (0f64, 0f64, 0f64, 0f64);
     let mut pixels = 0;
-    for i in 0..ab.pixels.len() {
-        if !mask[i] {
-            continue;
-        }
+    for ((x, y), _) in ab
+        .pixels
+        .iter()
+        .zip(&bb.pixels)
+        .zip(mask)
+        .filter(|(_, m)| **m)
+    {
         pixels += 1;
-        let (x, y) = (ab.pixels[i], bb.pixels[i]);
+        let (x, y) = (*x, *y);
         diff += f64::from((x - y).abs().element_sum());
         base += f64::from(y.abs().element_sum());
         sa += f64::from(x.element_sum());

@@ -199,9 +199,7 @@ pub fn render(
         let end = (done + batch).min(chunks.len());
         let results: Vec<(Vec<Splat>, Vec<Photon>)> = chunks[done..end]
             .par_iter()
-            .map(|&(pi, first, n)| {
-                trace_photon_chunk(world, accel, params, &pops, pi, first, n)
-            })
+            .map(|&(pi, first, n)| trace_photon_chunk(world, accel, params, &pops, pi, first, n))
             .collect();
         for (&(pi, _, n), (splats, ph)) in chunks[done..end].iter().zip(results) {
             emitted[pi] += n;
@@ -444,7 +442,10 @@ fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, V
     let towards = |p: Vec3, rng: &mut Pcg| -> (Vec3, f32) {
         let cos_max = cone_cos(p, pop.centre, pop.radius);
         let axis = (pop.centre - p).normalize_or(Vec3::Y);
-        (uniform_cone(axis, cos_max, rng.vec2()), cone_solid_angle(cos_max))
+        (
+            uniform_cone(axis, cos_max, rng.vec2()),
+            cone_solid_angle(cos_max),
+        )
     };
     let from_far = |d: Vec3, rng: &mut Pcg| -> Vec3 {
         let (t, b) = frame(d);
@@ -456,7 +457,11 @@ fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, V
         Light::Directional {
             direction,
             irradiance,
-        } => Some((from_far(*direction, rng), *direction, *irradiance * disk_area)),
+        } => Some((
+            from_far(*direction, rng),
+            *direction,
+            *irradiance * disk_area,
+        )),
         Light::Point {
             position,
             intensity,
@@ -474,10 +479,7 @@ fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, V
             // Whole scene: sample the spot's own cone, it bounds the emission.
             let (d, omega) = if pop.target.is_none() {
                 let c = cutoff.cos();
-                (
-                    uniform_cone(*direction, c, rng.vec2()),
-                    cone_solid_angle(c),
-                )
+                (uniform_cone(*direction, c, rng.vec2()), cone_solid_angle(c))
             } else {
                 towards(*position, rng)
             };
@@ -646,7 +648,10 @@ impl PhotonMap {
         let mut cells: std::collections::HashMap<(i32, i32, i32), Vec<u32>> =
             std::collections::HashMap::new();
         for (i, p) in photons.iter().enumerate() {
-            cells.entry(Self::cell(p.pos, radius)).or_default().push(i as u32);
+            cells
+                .entry(Self::cell(p.pos, radius))
+                .or_default()
+                .push(i as u32);
         }
         PhotonMap {
             photons,
@@ -838,8 +843,7 @@ fn shade(
                 for k in 0..m {
                     let p = start.lerp(*end, (k as f32 + rng.f32()) / m as f32);
                     if let Some((wi, d)) = point(p) {
-                        sum += brdf(mat, n, wi, wo) * *intensity
-                            * (n.dot(wi) / (d * d * m as f32));
+                        sum += brdf(mat, n, wi, wo) * *intensity * (n.dot(wi) / (d * d * m as f32));
                     }
                 }
             }

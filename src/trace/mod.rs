@@ -104,11 +104,7 @@ impl Accel {
                     .map(|n| normal_xform(nm, *n))
                     .collect();
                 for idx in &p.mesh.indices {
-                    let [a, b, c] = if flip {
-                        [idx[0], idx[2], idx[1]]
-                    } else {
-                        *idx
-                    };
+                    let [a, b, c] = if flip { [idx[0], idx[2], idx[1]] } else { *idx };
                     tris.push(Triangle {
                         v0: pos[a as usize],
                         v1: pos[b as usize],
@@ -171,8 +167,7 @@ impl Accel {
         let ng: Vec3 = tri.compute_normal().into();
         let front_face = ng.dot(dir) < 0.0;
         let geo_normal = if front_face { ng } else { -ng };
-        let ns: Vec3 =
-            (d.normals[0] * w + d.normals[1] * uv.x + d.normals[2] * uv.y).into();
+        let ns: Vec3 = (d.normals[0] * w + d.normals[1] * uv.x + d.normals[2] * uv.y).into();
         let mut normal = ns.normalize_or(ng);
         if !front_face {
             normal = -normal;

@@ -131,6 +131,43 @@ pub fn segment_transmittance(hit: &Hit, mat: &Material) -> Vec3 {
     }
 }
 
+/// BRDF of a non-specular material for unit normal `n`, light direction `wi` and view direction
+/// `wo` (both pointing away from the surface). Zero below the surface; specular materials
+/// (delta BSDFs) return zero here.
+pub fn brdf(mat: &Material, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
+    let (ci, co) = (n.dot(wi), n.dot(wo));
+    if ci <= 0.0 || co <= 0.0 {
+        return Vec3::ZERO;
+    }
+    match *mat {
+        Material::Diffuse { albedo } => albedo * std::f32::consts::FRAC_1_PI,
+        Material::Glossy {
+            albedo,
+            specular,
+            roughness,
+        } => albedo * std::f32::consts::FRAC_1_PI + ggx_specular(specular, roughness, n, wi, wo),
+        _ => Vec3::ZERO,
+    }
+}
+
+/// GGX microfacet specular lobe D·G2·F / (4 cosθi cosθo) with α = roughness², height-correlated
+/// Smith G2 and Schlick Fresnel from `f0`. The WGSL in `shaders/` evaluates the same formula.
+pub fn ggx_specular(f0: Vec3, roughness: f32, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
+    let (ci, co) = (n.dot(wi), n.dot(wo));
+    if ci <= 0.0 || co <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let a = roughness * roughness;
+    let a2 = a * a;
+    let h = (wi + wo).normalize();
+    let nh = n.dot(h).max(0.0);
+    let d = a2 / (std::f32::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
+    let lambda = |c: f32| ((a2 + (1.0 - a2) * c * c).sqrt() / c - 1.0) * 0.5;
+    let g2 = 1.0 / (1.0 + lambda(ci) + lambda(co));
+    let f = f0 + (Vec3::ONE - f0) * (1.0 - wi.dot(h).clamp(0.0, 1.0)).powi(5);
+    f * (d * g2 / (4.0 * ci * co))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,41 +220,4 @@ mod tests {
             assert!((sum - 1.0).abs() < 1e-6);
         }
     }
-}
-
-/// BRDF of a non-specular material for unit normal `n`, light direction `wi` and view direction
-/// `wo` (both pointing away from the surface). Zero below the surface; specular materials
-/// (delta BSDFs) return zero here.
-pub fn brdf(mat: &Material, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
-    let (ci, co) = (n.dot(wi), n.dot(wo));
-    if ci <= 0.0 || co <= 0.0 {
-        return Vec3::ZERO;
-    }
-    match *mat {
-        Material::Diffuse { albedo } => albedo * std::f32::consts::FRAC_1_PI,
-        Material::Glossy {
-            albedo,
-            specular,
-            roughness,
-        } => albedo * std::f32::consts::FRAC_1_PI + ggx_specular(specular, roughness, n, wi, wo),
-        _ => Vec3::ZERO,
-    }
-}
-
-/// GGX microfacet specular lobe D·G2·F / (4 cosθi cosθo) with α = roughness², height-correlated
-/// Smith G2 and Schlick Fresnel from `f0`. The WGSL in `shaders/` evaluates the same formula.
-pub fn ggx_specular(f0: Vec3, roughness: f32, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
-    let (ci, co) = (n.dot(wi), n.dot(wo));
-    if ci <= 0.0 || co <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let a = roughness * roughness;
-    let a2 = a * a;
-    let h = (wi + wo).normalize();
-    let nh = n.dot(h).max(0.0);
-    let d = a2 / (std::f32::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
-    let lambda = |c: f32| ((a2 + (1.0 - a2) * c * c).sqrt() / c - 1.0) * 0.5;
-    let g2 = 1.0 / (1.0 + lambda(ci) + lambda(co));
-    let f = f0 + (Vec3::ONE - f0) * (1.0 - wi.dot(h).clamp(0.0, 1.0)).powi(5);
-    f * (d * g2 / (4.0 * ci * co))
 }
