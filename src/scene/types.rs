@@ -5,10 +5,11 @@
 //! Field names here are the wire format; `api/scene.schema.json` documents the same shape.
 
 use glam::{Mat4, Quat, Vec3};
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// A linear RGB triple that may be written as one number (grey) or `[r, g, b]`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(untagged)]
 pub enum Rgb {
     Grey(f32),
@@ -31,7 +32,7 @@ impl From<Vec3> for Rgb {
 }
 
 /// A whole scene: one camera, the lights, named materials and objects.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SceneDesc {
     /// Free text, shown in logs.
@@ -48,7 +49,7 @@ pub struct SceneDesc {
 }
 
 /// Perspective pinhole camera.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
     pub eye: [f32; 3],
@@ -75,7 +76,7 @@ fn default_size() -> u32 {
 }
 
 /// A light source. Delta lights (directional, point, spot) follow Mitsuba 3.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LightDesc {
     /// Parallel light travelling along `direction`; `irradiance` in W/m² on a surface facing it.
@@ -128,7 +129,7 @@ fn one() -> f32 {
 }
 
 /// Surface materials.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, JsonSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MaterialDesc {
     /// Lambertian, BRDF albedo/π.
@@ -170,7 +171,7 @@ fn one_rgb() -> Rgb {
 }
 
 /// One object: a shape, a material and a transform.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectDesc {
     /// Unique name; bakes and renders refer to objects by it.
@@ -185,7 +186,7 @@ pub struct ObjectDesc {
 }
 
 /// Geometry. Procedural shapes are centred at the origin in their local frame.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeDesc {
     /// Rectangle in the local y=0 plane, normal +Y, `size` = [x extent, z extent].
@@ -221,7 +222,7 @@ fn default_segments() -> u32 {
 }
 
 /// Translation, rotation and scale applied as T·R·S.
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TransformDesc {
     #[serde(default)]
@@ -247,4 +248,16 @@ impl TransformDesc {
         let s = self.scale.map(Rgb::vec3).unwrap_or(Vec3::ONE);
         Mat4::from_scale_rotation_translation(s, q, t)
     }
+}
+
+/// The JSON Schema of [`SceneDesc`], as committed in `api/scene.schema.json`.
+pub fn scene_schema() -> serde_json::Value {
+    let mut v = serde_json::to_value(schemars::schema_for!(SceneDesc)).expect("schema serialises");
+    if let Some(o) = v.as_object_mut() {
+        o.insert(
+            "$id".into(),
+            "https://caustica.invalid/api/scene.schema.json".into(),
+        );
+    }
+    v
 }
