@@ -66,7 +66,8 @@ enum Cmd {
         /// Output file: .png (tone-mapped sRGB) or .exr (linear radiance).
         #[arg(long)]
         out: PathBuf,
-        /// EXR only: also write one layer per component next to it (NAME.COMPONENT.exr).
+        /// Every component too: EXR gets one layer per component (the chosen one first); PNG
+        /// gets one file per component next to it (NAME.COMPONENT.png).
         #[arg(long)]
         layers: bool,
         /// PNG exposure in stops.
@@ -173,10 +174,25 @@ fn main() -> Result<()> {
                 .map(|(_, f)| f.clone())
                 .with_context(|| format!("method has no component '{}'", component.name()))?;
             let t = Instant::now();
-            write_frame(&out, &main, exposure, tone_map)?;
-            if layers {
-                for (n, f) in &frames {
-                    write_frame(&layer_path(&out, n), f, exposure, tone_map)?;
+            let is_exr = out
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            if layers && is_exr {
+                let mut list = vec![(component.name(), &main)];
+                list.extend(
+                    frames
+                        .iter()
+                        .filter(|(n, _)| *n != component.name())
+                        .map(|(n, f)| (*n, f)),
+                );
+                std::fs::write(&out, encode::encode_exr_layers(&list)?)
+                    .with_context(|| format!("writing {}", out.display()))?;
+            } else {
+                write_frame(&out, &main, exposure, tone_map)?;
+                if layers {
+                    for (n, f) in &frames {
+                        write_frame(&layer_path(&out, n), f, exposure, tone_map)?;
+                    }
                 }
             }
             timings.push(("encode".into(), t.elapsed()));

@@ -97,8 +97,10 @@ pub fn linear_to_srgb(x: f32) -> f32 {
 pub enum EncodeError {
     #[error("image encoding failed: {0}")]
     Image(#[from] image::ImageError),
-    #[error("layers differ in size")]
+    #[error("layers differ in size or there are none")]
     LayerSize,
+    #[error("EXR encoding failed: {0}")]
+    Exr(String),
 }
 
 /// 8-bit sRGB PNG bytes.
@@ -123,6 +125,47 @@ pub fn encode_exr(f: &Frame) -> Result<Vec<u8>, EncodeError> {
     let img = image::Rgb32FImage::from_raw(f.width, f.height, buf).expect("buffer size matches");
     let mut out = Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::OpenExr)?;
+    Ok(out.into_inner())
+}
+
+/// One EXR file with one linear RGB layer per named frame (layer names such as `direct`,
+/// `caustics`; channels `NAME.R`, `NAME.G`, `NAME.B`), ZIP-compressed.
+pub fn encode_exr_layers(layers: &[(&str, &Frame)]) -> Result<Vec<u8>, EncodeError> {
+    use exr::prelude::*;
+    let Some((_, first)) = layers.first() else {
+        return Err(EncodeError::LayerSize);
+    };
+    let size = Vec2(first.width as usize, first.height as usize);
+    if layers
+        .iter()
+        .any(|(_, f)| (f.width, f.height) != (first.width, first.height))
+    {
+        return Err(EncodeError::LayerSize);
+    }
+    let list: Vec<_> = layers
+        .iter()
+        .map(|(name, f)| {
+            let w = f.width as usize;
+            Layer::new(
+                size,
+                LayerAttributes::named(*name),
+                Encoding::SMALL_LOSSLESS,
+                SpecificChannels::rgb(move |p: Vec2<usize>| {
+                    let c = f.pixels[p.1 * w + p.0];
+                    (c.x, c.y, c.z)
+                }),
+            )
+        })
+        .collect();
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        list,
+    );
+    let mut out = Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut out)
+        .map_err(|e| EncodeError::Exr(e.to_string()))?;
     Ok(out.into_inner())
 }
 
@@ -178,6 +221,34 @@ mod tests {
         let back = decode_frame(&encode_exr(&f).unwrap()).unwrap();
         assert_eq!((back.width, back.height), (3, 2));
         assert!((back.at(1, 1) - f.at(1, 1)).abs().max_element() < 1e-6);
+    }
+
+    #[test]
+    fn exr_layers_read_back_by_name() {
+        use exr::prelude::*;
+        let mut a = Frame::new(5, 3);
+        let mut b = Frame::new(5, 3);
+        a.pixels[7] = Vec3::new(1.0, 2.0, 3.0);
+        b.pixels[2] = Vec3::splat(0.5);
+        let bytes = encode_exr_layers(&[("direct", &a), ("caustics", &b)]).unwrap();
+        let img = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .all_layers()
+            .all_attributes()
+            .from_buffered(Cursor::new(bytes))
+            .unwrap();
+        let names: Vec<String> = img
+            .layer_data
+            .iter()
+            .map(|l| l.attributes.layer_name.as_ref().unwrap().to_string())
+            .collect();
+        assert_eq!(names, ["direct", "caustics"]);
+        let direct = &img.layer_data[0].channel_data.list;
+        // Channels are sorted by name: B, G, R.
+        assert_eq!(direct[2].sample_data.value_by_flat_index(7).to_f32(), 1.0);
+        assert_eq!(direct[0].sample_data.value_by_flat_index(7).to_f32(), 3.0);
     }
 
     #[test]
