@@ -213,3 +213,38 @@ fn lambertian_floor_direct_is_exact_for_each_delta_light() {
         assert!((v / expect - 1.0).abs() < 0.005, "{light}: {v} vs {expect}");
     }
 }
+
+#[test]
+fn constant_environment_lights_a_floor_with_pi_times_radiance() {
+    // Unoccluded floor under a constant sky of radiance L: E = πL, so radiance = ρ·L.
+    let world = parse(
+        r#"{
+        "camera": {"eye": [0, 1, 0.001], "target": [0, 0, 0], "fov_y": 2, "width": 4, "height": 4},
+        "lights": [{"type": "environment", "radiance": [0.5, 1.0, 2.0], "scale": 2.0}],
+        "materials": {"floor": {"type": "diffuse", "albedo": 0.7}},
+        "objects": [{"name": "floor", "shape": {"type": "plane", "size": [100, 100]}, "material": "floor"}]
+        }"#,
+    );
+    let c = render(&world, 1000, 64, 1);
+    let v = c.direct.at(1, 2);
+    let expect = Vec3::new(0.5, 1.0, 2.0) * 2.0 * 0.7;
+    assert!(((v / expect) - Vec3::ONE).abs().max_element() < 0.01, "{v} vs {expect}");
+}
+
+#[test]
+fn line_light_matches_numerical_integration() {
+    // Segment from (-1, 1, 0) to (1, 1, 0), total intensity 3 W/sr; floor point at the origin:
+    // E = ∫ (I/L)·cosθ/d² dx = (I/L)·∫ 1/(1+x²)^{3/2} dx over [-1, 1] = (I/L)·√2.
+    let world = parse(
+        r#"{
+        "camera": {"eye": [0, 0.5, 0.0001], "target": [0, 0, 0], "fov_y": 1, "width": 2, "height": 2},
+        "lights": [{"type": "line", "start": [-1, 1, 0], "end": [1, 1, 0], "intensity": 3.0}],
+        "materials": {"floor": {"type": "diffuse", "albedo": 0.5}},
+        "objects": [{"name": "floor", "shape": {"type": "plane", "size": [10, 10]}, "material": "floor"}]
+        }"#,
+    );
+    let c = render(&world, 1000, 256, 1);
+    let expect = 0.5 / PI * 1.5 * 2f32.sqrt();
+    let v = c.direct.at(1, 1).x;
+    assert!((v / expect - 1.0).abs() < 0.01, "{v} vs {expect}");
+}
