@@ -10,4 +10,6 @@
 //! - [`encode`]: PNG and EXR.
 
 pub mod encode;
+pub mod gpu;
+pub mod render;
 pub mod scene;

@@ -31,7 +31,12 @@ impl Frame {
         Frame {
             width: self.width,
             height: self.height,
-            pixels: self.pixels.iter().zip(&o.pixels).map(|(a, b)| *a + *b).collect(),
+            pixels: self
+                .pixels
+                .iter()
+                .zip(&o.pixels)
+                .map(|(a, b)| *a + *b)
+                .collect(),
         }
     }
 
@@ -180,7 +185,11 @@ mod tests {
         let mut f = Frame::new(1, 1);
         f.pixels[0] = Vec3::splat(0.5);
         let back = decode_frame(&encode_png(&f, PngSettings::default()).unwrap()).unwrap();
-        assert!((back.pixels[0].x - 0.5).abs() < 0.01, "{:?}", back.pixels[0]);
+        assert!(
+            (back.pixels[0].x - 0.5).abs() < 0.01,
+            "{:?}",
+            back.pixels[0]
+        );
         let img = image::load_from_memory(&encode_png(&f, PngSettings::default()).unwrap())
             .unwrap()
             .to_rgb8();

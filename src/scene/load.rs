@@ -120,7 +120,10 @@ impl AssetSource for MapSource {
             .get(name)
             .ok_or_else(|| "no file of that name was uploaded with the scene".to_string())?;
         if b.len() > max_bytes {
-            return Err(format!("file is {} bytes, the limit is {max_bytes}", b.len()));
+            return Err(format!(
+                "file is {} bytes, the limit is {max_bytes}",
+                b.len()
+            ));
         }
         Ok(b.clone())
     }
@@ -267,7 +270,10 @@ pub fn resolve_light(
             let pos = finite3(&p("position"), *position)?;
             let tgt = finite3(&p("target"), *target)?;
             if (tgt - pos).length() < 1e-6 {
-                return Err(SceneError::invalid(p("target"), "must differ from position"));
+                return Err(SceneError::invalid(
+                    p("target"),
+                    "must differ from position",
+                ));
             }
             if !(*cutoff_angle > 0.0 && *cutoff_angle < 90.0) {
                 return Err(SceneError::invalid(
@@ -487,7 +493,10 @@ pub fn resolve(
         let sp = |f: &str| format!("{path}.shape.{f}");
         let parts = match &o.shape {
             ShapeDesc::Plane { size } => vec![(
-                shapes::plane(positive(&sp("size[0]"), size[0])?, positive(&sp("size[1]"), size[1])?),
+                shapes::plane(
+                    positive(&sp("size[0]"), size[0])?,
+                    positive(&sp("size[1]"), size[1])?,
+                ),
                 need_material()?,
             )],
             ShapeDesc::Sphere { radius, segments } => vec![(
@@ -528,20 +537,19 @@ pub fn resolve(
                 need_material()?,
             )],
             ShapeDesc::Gltf { path: file } => {
-                let bytes = assets.read(file, limits.max_asset_bytes).map_err(|message| {
-                    SceneError::Asset {
+                let bytes = assets
+                    .read(file, limits.max_asset_bytes)
+                    .map_err(|message| SceneError::Asset {
                         path: sp("path"),
                         file: file.clone(),
                         message,
-                    }
-                })?;
-                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(assets)).map_err(|e| {
-                    SceneError::Asset {
+                    })?;
+                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(assets))
+                    .map_err(|e| SceneError::Asset {
                         path: sp("path"),
                         file: file.clone(),
                         message: e.to_string(),
-                    }
-                })?;
+                    })?;
                 warnings.extend(imported.warnings.iter().map(|w| format!("{file}: {w}")));
                 let m = o.transform.matrix();
                 // Lights inside the file move with the object.
@@ -587,7 +595,10 @@ pub fn resolve(
     if lights.len() > limits.max_lights {
         return Err(SceneError::Limit {
             path: "lights".into(),
-            message: format!("at most {} lights (counting glTF lights)", limits.max_lights),
+            message: format!(
+                "at most {} lights (counting glTF lights)",
+                limits.max_lights
+            ),
         });
     }
     Ok(World {
@@ -690,10 +701,7 @@ mod tests {
         let bad = SPHERE.replace("\"fov_y\": 40", "\"fov_y\": 40, \"width\": 100000");
         assert_eq!(load(&bad).unwrap_err().field(), "camera.width");
         let bad = SPHERE.replace("\"radius\": 0.5", "\"radius\": 0.5, \"segments\": 1000000");
-        assert_eq!(
-            load(&bad).unwrap_err().field(),
-            "objects[1].shape.segments"
-        );
+        assert_eq!(load(&bad).unwrap_err().field(), "objects[1].shape.segments");
     }
 
     #[test]

@@ -7,6 +7,8 @@ pub mod shapes;
 pub mod types;
 pub mod world;
 
-pub use load::{AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, parse_scene, resolve};
+pub use load::{
+    AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, parse_scene, resolve,
+};
 pub use types::SceneDesc;
 pub use world::{Camera, EnvMap, Light, Material, Mesh, Object, Part, World};

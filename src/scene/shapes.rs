@@ -28,7 +28,11 @@ pub fn sphere(radius: f32, segments: u32) -> Mesh {
         let theta = PI * i as f32 / rings as f32;
         for j in 0..=seg {
             let phi = TAU * j as f32 / seg as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin());
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                -theta.sin() * phi.sin(),
+            );
             m.positions.push(n * radius);
             m.normals.push(n);
         }
@@ -63,7 +67,11 @@ pub fn cuboid(size: Vec3) -> Mesh {
     ];
     for (n, u, v) in faces {
         // u × v must equal n for counter-clockwise winding seen from outside.
-        let (u, v) = if u.cross(v).dot(n) > 0.0 { (u, v) } else { (v, u) };
+        let (u, v) = if u.cross(v).dot(n) > 0.0 {
+            (u, v)
+        } else {
+            (v, u)
+        };
         let base = m.positions.len() as u32;
         for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
             m.positions.push((n + u * a + v * b) * h);
@@ -126,7 +134,8 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
         m.normals.push(n);
         for j in 0..=seg {
             let phi = TAU * j as f32 / seg as f32;
-            m.positions.push(Vec3::new(phi.cos() * radius, y, -phi.sin() * radius));
+            m.positions
+                .push(Vec3::new(phi.cos() * radius, y, -phi.sin() * radius));
             m.normals.push(n);
         }
         for j in 0..seg {

@@ -79,7 +79,10 @@ fn default_size() -> u32 {
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LightDesc {
     /// Parallel light travelling along `direction`; `irradiance` in W/m² on a surface facing it.
-    Directional { direction: [f32; 3], irradiance: Rgb },
+    Directional {
+        direction: [f32; 3],
+        irradiance: Rgb,
+    },
     /// Isotropic point light; `intensity` in W/sr.
     Point { position: [f32; 3], intensity: Rgb },
     /// Spot light at `position` aimed at `target`; `intensity` in W/sr on the axis, full

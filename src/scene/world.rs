@@ -73,7 +73,12 @@ impl Camera {
 
     /// Right-handed perspective with a [0,1] depth range (wgpu convention).
     pub fn proj_matrix(&self, near: f32, far: f32) -> Mat4 {
-        glam::camera::rh::proj::directx::perspective(self.fov_y.to_radians(), self.aspect(), near, far)
+        glam::camera::rh::proj::directx::perspective(
+            self.fov_y.to_radians(),
+            self.aspect(),
+            near,
+            far,
+        )
     }
 }
 
@@ -202,7 +207,11 @@ impl Mesh {
         let nm = m.inverse().transpose();
         let flip = m.determinant() < 0.0;
         Mesh {
-            positions: self.positions.iter().map(|p| m.transform_point3(*p)).collect(),
+            positions: self
+                .positions
+                .iter()
+                .map(|p| m.transform_point3(*p))
+                .collect(),
             normals: self
                 .normals
                 .iter()
