@@ -540,11 +540,15 @@ pub fn encode(
                 array_layer_count: Some(1),
                 ..Default::default()
             });
-            let ts = timestamps.map(|q| wgpu::RenderPassTimestampWrites {
-                query_set: q,
-                beginning_of_pass_write_index: (i == 0).then_some(0),
-                end_of_pass_write_index: (i + 1 == n_layers).then_some(1),
-            });
+            let (first, last) = (i == 0, i + 1 == n_layers);
+            let ts =
+                timestamps
+                    .filter(|_| first || last)
+                    .map(|q| wgpu::RenderPassTimestampWrites {
+                        query_set: q,
+                        beginning_of_pass_write_index: first.then_some(0),
+                        end_of_pass_write_index: last.then_some(1),
+                    });
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("shadow"),
                 color_attachments: &[],

@@ -291,7 +291,7 @@ impl Renderer {
             if let (Some(q), Some(rb), Some(read)) = (&queries, &query_buf, &query_read) {
                 // Slots 0/1 are only written when there are shadow passes.
                 let first = if plan.layers.is_empty() { 2 } else { 0 };
-                enc.resolve_query_set(q, first..4, rb, first as u64 * 8);
+                enc.resolve_query_set(q, first..4, rb, 0);
                 enc.copy_buffer_to_buffer(rb, 0, read, 0, 32);
             }
             h.queue.submit([enc.finish()]);
@@ -308,14 +308,17 @@ impl Renderer {
 
         if let Some(read) = &query_read {
             let bytes = self.ctx.map_read(dev, read)?;
-            let ts: &[u64] = bytemuck::cast_slice(&bytes);
+            // Slot k was resolved to index k - first.
+            let first = if plan.layers.is_empty() { 2 } else { 0 };
+            let all: &[u64] = bytemuck::cast_slice(&bytes);
+            let ts = |k: usize| all[k - first];
             let period = h.queue.get_timestamp_period() as f64;
             let span =
                 |a: u64, b: u64| Duration::from_nanos((b.saturating_sub(a) as f64 * period) as u64);
             if !plan.layers.is_empty() {
-                timings.push(("gpu:shadow_maps".to_string(), span(ts[0], ts[1])));
+                timings.push(("gpu:shadow_maps".to_string(), span(ts(0), ts(1))));
             }
-            timings.push(("gpu:direct".to_string(), span(ts[2], ts[3])));
+            timings.push(("gpu:direct".to_string(), span(ts(2), ts(3))));
         }
 
         let t3 = Instant::now();
