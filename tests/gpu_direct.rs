@@ -234,7 +234,7 @@ fn check_against_cpu(
         let gpu_lit = g > 0.5 * l;
         total += 1;
         shadowed_n += shadowed as usize;
-        if gpu_lit == !shadowed {
+        if gpu_lit != shadowed {
             agree += 1;
         }
         if gpu_lit && !shadowed {
