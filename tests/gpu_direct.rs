@@ -524,3 +524,44 @@ fn constant_environment_and_mirror() {
     assert_eq!(only.direct, out.direct);
     assert!(only.specular.pixels.iter().all(|p| *p == Vec3::ZERO));
 }
+
+#[test]
+fn wide_spot_uses_cube_shadows_and_matches_cpu() {
+    // A cutoff above 75° cannot use one perspective map: the renderer switches to six faces.
+    let lp = Vec3::new(0.1, 0.9, 0.0);
+    let axis = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let (cutoff, beam) = (85f32.to_radians(), 60f32.to_radians());
+    let i = 2.0;
+    let spheres = [
+        (Vec3::new(0.9, 0.4, 0.2), 0.2),
+        (Vec3::new(-0.2, 0.4, -0.1), 0.15),
+    ];
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &spheres,
+        vec![Light::Spot {
+            position: lp,
+            direction: axis,
+            intensity: Vec3::splat(i),
+            cutoff,
+            beam_width: beam,
+        }],
+    );
+    check_against_cpu(
+        &w,
+        &spheres,
+        |p| {
+            let d = lp - p;
+            let dist = d.length();
+            let wi = d / dist;
+            let f = Light::spot_falloff((-wi).dot(axis), cutoff, beam);
+            (
+                0.5 / PI * i * f * wi.y / (dist * dist),
+                occluded(p, wi, dist, &spheres),
+            )
+        },
+        "wide spot",
+    );
+}
