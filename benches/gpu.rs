@@ -1,1 +1,79 @@
-fn main() {}
+//! GPU frame time: the direct renderer (shadow maps + direct/specular layers + readback) at
+//! 800×600 on the glass-sphere scene, on whatever adapter `GpuContext` picks
+//! (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The adapter name is printed: quote it
+//! with the median.
+
+use caustica::gpu::{GpuConfig, GpuContext};
+use caustica::render::{RenderOptions, Renderer};
+use caustica::scene::{Camera, Light, Material, Object, Part, World, shapes};
+use criterion::{Criterion, criterion_group, criterion_main};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+use std::time::Duration;
+
+fn glass_sphere_world() -> World {
+    let part = |mesh, material| Part {
+        mesh: Arc::new(mesh),
+        material,
+    };
+    World {
+        name: "glass sphere".into(),
+        camera: Camera {
+            eye: Vec3::new(0.0, 3.2, 3.2),
+            target: Vec3::new(0.35, 0.0, 0.0),
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 800,
+            height: 600,
+        },
+        lights: vec![Light::Directional {
+            direction: Vec3::new(1.0, -1.2, 0.0).normalize(),
+            irradiance: Vec3::splat(3.0),
+        }],
+        materials: vec![
+            Material::Diffuse {
+                albedo: Vec3::splat(0.6),
+            },
+            Material::Dielectric {
+                ior: 1.5,
+                absorption: Vec3::ZERO,
+            },
+        ],
+        objects: vec![
+            Object {
+                name: "floor".into(),
+                parts: vec![part(shapes::plane(8.0, 8.0), 0)],
+                transform: Mat4::IDENTITY,
+            },
+            Object {
+                name: "sphere".into(),
+                parts: vec![part(shapes::sphere(0.5, 128), 1)],
+                transform: Mat4::from_translation(Vec3::new(0.0, 0.58, 0.0)),
+            },
+        ],
+        warnings: vec![],
+    }
+}
+
+fn bench_direct(c: &mut Criterion) {
+    let ctx = Arc::new(GpuContext::new(&GpuConfig::default()).expect("no GPU adapter"));
+    println!("adapter: {}", ctx.adapter_info());
+    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let world = glass_sphere_world();
+    let opts = RenderOptions {
+        width: Some(800),
+        height: Some(600),
+        ..Default::default()
+    };
+    let first = renderer.render(&world, &opts).expect("render");
+    println!("one frame's stages: {:?}", first.timings);
+    let mut g = c.benchmark_group("gpu");
+    g.sample_size(20).measurement_time(Duration::from_secs(15));
+    g.bench_function("direct_frame_800x600_glass_sphere", |b| {
+        b.iter(|| renderer.render(&world, &opts).expect("render"))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_direct);
+criterion_main!(benches);

@@ -10,6 +10,8 @@
 //! - [`encode`]: PNG and EXR.
 
 pub mod encode;
+pub mod gpu;
 pub mod reference;
+pub mod render;
 pub mod scene;
 pub mod trace;

@@ -228,7 +228,10 @@ fn constant_environment_lights_a_floor_with_pi_times_radiance() {
     let c = render(&world, 1000, 64, 1);
     let v = c.direct.at(1, 2);
     let expect = Vec3::new(0.5, 1.0, 2.0) * 2.0 * 0.7;
-    assert!(((v / expect) - Vec3::ONE).abs().max_element() < 0.01, "{v} vs {expect}");
+    assert!(
+        ((v / expect) - Vec3::ONE).abs().max_element() < 0.01,
+        "{v} vs {expect}"
+    );
 }
 
 #[test]

@@ -24,8 +24,7 @@ fn every_example_scene_parses() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "json") {
             let bytes = std::fs::read(&p).unwrap();
-            caustica::scene::parse_scene(&bytes)
-                .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            caustica::scene::parse_scene(&bytes).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             caustica::scene::load_scene_file(&p, &Default::default())
                 .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             n += 1;

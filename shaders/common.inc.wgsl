@@ -1,0 +1,128 @@
+// Shared code for Caustica's passes: the uniform layouts the Rust side mirrors
+// (render/direct.rs), Mitsuba's spot falloff, the Glossy BRDF that scene/types.rs defines as
+// the contract (albedo/π + GGX D · height-correlated Smith G2 · Schlick F / (4 cosθi cosθo),
+// α = roughness²), Schlick Fresnel for dielectrics and the equirectangular mapping of
+// scene/world.rs `env_uv`. It is pasted textually where a pass says `#include`, so it holds
+// types and functions only, no bindings.
+
+const PI: f32 = 3.141592653589793;
+
+const LIGHT_DIRECTIONAL: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_SPOT: u32 = 2u;
+
+const MAT_DIFFUSE: u32 = 0u;
+const MAT_GLOSSY: u32 = 1u;
+const MAT_DIELECTRIC: u32 = 2u;
+const MAT_MIRROR: u32 = 3u;
+
+struct Globals {
+    view_proj: mat4x4<f32>,
+    inv_view_proj: mat4x4<f32>,
+    // xyz: camera position.
+    eye: vec4<f32>,
+    // rgb: constant environment radiance (sum of constant environment lights).
+    env_radiance: vec4<f32>,
+    // rgb: multiplier of the environment map; w: 1 when a map is bound.
+    env_map_scale: vec4<f32>,
+    // x: number of lights, y/z: environment map size, w: unused.
+    counts: vec4<u32>,
+    // xy: viewport size in pixels.
+    viewport: vec4<f32>,
+    // Irradiance from the environment as 9 SH coefficients (cosine lobe already applied).
+    sh: array<vec4<f32>, 9>,
+}
+
+// A shadowed delta light. Line lights arrive as several point lights.
+struct Light {
+    kind: u32,
+    // First layer of the shadow map array; n_layers: 0 (unshadowed), 1, or 6 (cube faces +X, -X, +Y, -Y, +Z, -Z).
+    first_layer: u32,
+    n_layers: u32,
+    // 1 for an orthographic shadow map (texel size constant), 0 for perspective.
+    ortho: u32,
+    position: vec4<f32>,
+    // xyz: travel direction (directional) or beam axis (spot).
+    direction: vec4<f32>,
+    // rgb: irradiance W/m² (directional) or intensity W/sr (point, spot).
+    intensity: vec4<f32>,
+    // x: cutoff (rad), y: beam width (rad), z: shadow texel size (world units; per unit distance when perspective).
+    params: vec4<f32>,
+    mats: array<mat4x4<f32>, 6>,
+}
+
+struct Material {
+    kind: u32,
+    roughness: f32,
+    ior: f32,
+    _pad: u32,
+    // rgb: albedo (diffuse, glossy) or reflectance (mirror).
+    albedo: vec4<f32>,
+    // rgb: F0 of the glossy lobe.
+    specular: vec4<f32>,
+}
+
+// Mitsuba's spot: 1 inside the beam width, linear in angle down to 0 at the cutoff.
+fn spot_falloff(cos_theta: f32, cutoff: f32, beam_width: f32) -> f32 {
+    if cos_theta <= cos(cutoff) {
+        return 0.0;
+    }
+    if cos_theta >= cos(beam_width) {
+        return 1.0;
+    }
+    let theta = acos(clamp(cos_theta, -1.0, 1.0));
+    return clamp((cutoff - theta) / max(cutoff - beam_width, 1e-6), 0.0, 1.0);
+}
+
+fn smith_lambda(cos_t: f32, a2: f32) -> f32 {
+    let c2 = max(cos_t * cos_t, 1e-12);
+    let tan2 = max(1.0 - c2, 0.0) / c2;
+    return 0.5 * (-1.0 + sqrt(1.0 + a2 * tan2));
+}
+
+// f(wi, wo) of the Glossy material; n, wi, wo unit, wi and wo pointing away from the surface.
+fn glossy_brdf(n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, albedo: vec3<f32>, f0: vec3<f32>, roughness: f32) -> vec3<f32> {
+    let ci = dot(n, wi);
+    let co = dot(n, wo);
+    if ci <= 0.0 || co <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let alpha = max(roughness * roughness, 1e-3);
+    let a2 = alpha * alpha;
+    let h = normalize(wi + wo);
+    let nh = max(dot(n, h), 0.0);
+    let d0 = nh * nh * (a2 - 1.0) + 1.0;
+    let d = a2 / (PI * d0 * d0);
+    let g2 = 1.0 / (1.0 + smith_lambda(ci, a2) + smith_lambda(co, a2));
+    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - clamp(dot(wi, h), 0.0, 1.0), 5.0);
+    return albedo / PI + d * g2 * f / (4.0 * ci * co);
+}
+
+// Schlick's approximation for a dielectric interface with relative index `ior`.
+fn fresnel_schlick_ior(cos_i: f32, ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    let f0 = r * r;
+    return f0 + (1.0 - f0) * pow(1.0 - clamp(cos_i, 0.0, 1.0), 5.0);
+}
+
+// Equirectangular coordinates in [0,1)²: u = 0 at -Z turning towards +X, v = 0 at +Y.
+fn env_uv(d: vec3<f32>) -> vec2<f32> {
+    let u = 0.5 + atan2(d.x, -d.z) / (2.0 * PI);
+    let v = acos(clamp(d.y, -1.0, 1.0)) / PI;
+    return vec2<f32>(fract(u), v);
+}
+
+// Environment irradiance on a surface with normal n, from 9 SH coefficients (Ramamoorthi &
+// Hanrahan 2001, cosine convolution already folded into the coefficients).
+fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
+    var e = sh[0].rgb * 0.282095;
+    e += sh[1].rgb * (0.488603 * n.y);
+    e += sh[2].rgb * (0.488603 * n.z);
+    e += sh[3].rgb * (0.488603 * n.x);
+    e += sh[4].rgb * (1.092548 * n.x * n.y);
+    e += sh[5].rgb * (1.092548 * n.y * n.z);
+    e += sh[6].rgb * (0.315392 * (3.0 * n.z * n.z - 1.0));
+    e += sh[7].rgb * (1.092548 * n.x * n.z);
+    e += sh[8].rgb * (0.546274 * (n.x * n.x - n.y * n.y));
+    return max(e, vec3<f32>(0.0));
+}

@@ -1,0 +1,202 @@
+// Direct pass: one forward pass over all geometry that writes two HDR layers of linear
+// radiance W/(m²·sr). `direct`: receivers (diffuse, glossy) lit by every delta light with PCF
+// shadows from the shadow map array, plus unshadowed environment irradiance from spherical
+// harmonics (diffuse lobe only). `specular`: the specular objects themselves, mirror = reflectance
+// × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
+// the reflected and (first-interface) refracted directions; and the visible environment behind
+// everything (fullscreen background draw). Specular objects are 0 in `direct`, receivers 0 in
+// `specular`. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
+// behind, they get nothing.
+
+#include "common.inc.wgsl"
+
+@group(0) @binding(0) var<uniform> g: Globals;
+@group(0) @binding(1) var<storage, read> lights: array<Light>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(4) var shadow_sampler: sampler_comparison;
+@group(0) @binding(5) var env_map: texture_2d<f32>;
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) @interpolate(flat) material: u32,
+}
+
+struct FsOut {
+    @location(0) direct: vec4<f32>,
+    @location(1) specular: vec4<f32>,
+}
+
+@vertex
+fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) material: u32) -> VsOut {
+    var out: VsOut;
+    out.clip = g.view_proj * vec4<f32>(position, 1.0);
+    out.world = position;
+    out.normal = normal;
+    out.material = material;
+    return out;
+}
+
+// Radiance arriving from direction d (unit), as scene/world.rs EnvMap::lookup (nearest texel).
+fn env_radiance(d: vec3<f32>) -> vec3<f32> {
+    var l = g.env_radiance.rgb;
+    if g.env_map_scale.w > 0.5 {
+        let uv = env_uv(d);
+        let size = vec2<f32>(f32(g.counts.y), f32(g.counts.z));
+        let texel = min(vec2<u32>(uv * size), vec2<u32>(g.counts.y - 1u, g.counts.z - 1u));
+        l += g.env_map_scale.rgb * textureLoad(env_map, texel, 0).rgb;
+    }
+    return l;
+}
+
+// Fraction of light `i` reaching p (PCF 3×3 of bilinear compare taps). `n_l` is the surface
+// normal turned towards the light, used for the normal-offset bias; `dist` the distance to the
+// light (perspective texel size grows with it).
+fn shadow_factor(i: u32, p: vec3<f32>, n_l: vec3<f32>, dist: f32) -> f32 {
+    let n_layers = lights[i].n_layers;
+    if n_layers == 0u {
+        return 1.0;
+    }
+    var texel = lights[i].params.z;
+    if lights[i].ortho == 0u {
+        texel = texel * dist;
+    }
+    let q = p + n_l * (2.0 * texel);
+    var face = 0u;
+    if n_layers == 6u {
+        let d = q - lights[i].position.xyz;
+        let a = abs(d);
+        if a.x >= a.y && a.x >= a.z {
+            face = select(1u, 0u, d.x > 0.0);
+        } else if a.y >= a.z {
+            face = select(3u, 2u, d.y > 0.0);
+        } else {
+            face = select(5u, 4u, d.z > 0.0);
+        }
+    }
+    let c = lights[i].mats[face] * vec4<f32>(q, 1.0);
+    if c.w <= 0.0 {
+        return 1.0;
+    }
+    let ndc = c.xyz / c.w;
+    let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
+        return 1.0;
+    }
+    let layer = lights[i].first_layer + face;
+    let step = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
+    var sum = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            let o = vec2<f32>(f32(x), f32(y)) * step;
+            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o, layer, ndc.z);
+        }
+    }
+    return sum / 9.0;
+}
+
+@fragment
+fn fs_main(in: VsOut) -> FsOut {
+    let p = in.world;
+    // Geometric normal from screen derivatives, oriented like the shading normal.
+    var ng = cross(dpdx(p), dpdy(p));
+    var n = normalize(in.normal);
+    let ng_len = length(ng);
+    if ng_len > 0.0 {
+        ng = ng / ng_len;
+    } else {
+        ng = n;
+    }
+    if dot(ng, n) < 0.0 {
+        ng = -ng;
+    }
+    let v = normalize(g.eye.xyz - p);
+    let m = materials[in.material];
+    var out: FsOut;
+    out.direct = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+
+    if m.kind == MAT_DIELECTRIC || m.kind == MAT_MIRROR {
+        var ns = n;
+        if dot(ng, v) < 0.0 {
+            ns = -ns; // open meshes seen from behind: reflect off the side we see
+        }
+        let cos_o = clamp(dot(ns, v), 0.0, 1.0);
+        let r = reflect(-v, ns);
+        if m.kind == MAT_MIRROR {
+            out.specular = vec4<f32>(m.albedo.rgb * env_radiance(r), 1.0);
+        } else {
+            let f = fresnel_schlick_ior(cos_o, m.ior);
+            let t = refract(-v, ns, 1.0 / m.ior);
+            out.specular = vec4<f32>(f * env_radiance(r) + (1.0 - f) * env_radiance(t), 1.0);
+        }
+        return out;
+    }
+
+    // Receivers: one-sided.
+    let cos_o = dot(n, v);
+    if dot(ng, v) <= 0.0 || cos_o <= 0.0 {
+        return out;
+    }
+    let albedo = m.albedo.rgb;
+    var l = vec3<f32>(0.0);
+    for (var i = 0u; i < g.counts.x; i++) {
+        let kind = lights[i].kind;
+        var wi: vec3<f32>;
+        var e: vec3<f32>;
+        var dist = 1.0;
+        if kind == LIGHT_DIRECTIONAL {
+            wi = -lights[i].direction.xyz;
+            e = lights[i].intensity.rgb;
+        } else {
+            let to_l = lights[i].position.xyz - p;
+            dist = length(to_l);
+            wi = to_l / max(dist, 1e-6);
+            var falloff = 1.0;
+            if kind == LIGHT_SPOT {
+                let ct = dot(-wi, lights[i].direction.xyz);
+                falloff = spot_falloff(ct, lights[i].params.x, lights[i].params.y);
+            }
+            e = lights[i].intensity.rgb * falloff / max(dist * dist, 1e-12);
+        }
+        let cos_i = dot(n, wi);
+        if cos_i <= 0.0 || dot(ng, wi) <= 0.0 || all(e <= vec3<f32>(0.0)) {
+            continue;
+        }
+        let vis = shadow_factor(i, p, ng, dist);
+        if vis <= 0.0 {
+            continue;
+        }
+        var f = albedo / PI;
+        if m.kind == MAT_GLOSSY {
+            f = glossy_brdf(n, wi, v, albedo, m.specular.rgb, m.roughness);
+        }
+        l += f * e * cos_i * vis;
+    }
+    // Environment: diffuse lobe only, unshadowed.
+    l += albedo / PI * sh_irradiance(g.sh, n);
+    out.direct = vec4<f32>(l, 1.0);
+    return out;
+}
+
+// Background: a fullscreen triangle at the far plane, drawn after the geometry with a
+// less-equal depth test, so it only covers pixels no surface did.
+@vertex
+fn vs_background(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((vi << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(vi & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 1.0, 1.0);
+}
+
+@fragment
+fn fs_background(@builtin(position) frag: vec4<f32>) -> FsOut {
+    let ndc = vec2<f32>(frag.x / g.viewport.x * 2.0 - 1.0, 1.0 - frag.y / g.viewport.y * 2.0);
+    let far = g.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let d = normalize(far.xyz / far.w - g.eye.xyz);
+    var out: FsOut;
+    out.direct = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    out.specular = vec4<f32>(env_radiance(d), 1.0);
+    return out;
+}

@@ -1,0 +1,567 @@
+//! The direct renderer on a real adapter (lavapipe in CI): readback, and radiance compared
+//! number for number with analytic CPU evaluations of the same scenes. No adapter = failure.
+
+use caustica::gpu::{GpuConfig, GpuContext};
+use caustica::render::{Components, RenderOptions, Renderer};
+use caustica::scene::shapes;
+use caustica::scene::{Camera, Light, Material, Object, Part, World};
+use glam::{Mat4, Vec3};
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+fn context() -> Arc<GpuContext> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        let dir = std::env::temp_dir().join(format!("caustica-xdg-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(&dir);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+        }
+        // SAFETY: set before any GPU thread of this test reads the environment; a race with
+        // another test setting the same value is benign.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+    }
+    let ctx = GpuContext::new(&GpuConfig::default())
+        .expect("a GPU adapter is required (CI installs lavapipe: mesa-vulkan-drivers)");
+    eprintln!("adapter: {}", ctx.adapter_info());
+    Arc::new(ctx)
+}
+
+const W: u32 = 120;
+const H: u32 = 90;
+
+fn camera() -> Camera {
+    Camera {
+        eye: Vec3::new(0.0, 4.5, 3.5),
+        target: Vec3::new(0.0, 0.0, 0.2),
+        up: Vec3::Y,
+        fov_y: 40.0,
+        width: W,
+        height: H,
+    }
+}
+
+fn object(name: &str, mesh: caustica::scene::Mesh, material: u32, transform: Mat4) -> Object {
+    Object {
+        name: name.into(),
+        parts: vec![Part {
+            mesh: Arc::new(mesh),
+            material,
+        }],
+        transform,
+    }
+}
+
+const PLANE_HALF: f32 = 2.0;
+
+/// A 4×4 plane (material 0) plus spheres (material 1), analytic copies of the spheres for the
+/// CPU side.
+fn world(receiver: Material, spheres: &[(Vec3, f32)], lights: Vec<Light>) -> World {
+    let mut objects = vec![object(
+        "floor",
+        shapes::plane(2.0 * PLANE_HALF, 2.0 * PLANE_HALF),
+        0,
+        Mat4::IDENTITY,
+    )];
+    for (i, (c, r)) in spheres.iter().enumerate() {
+        objects.push(object(
+            &format!("sphere{i}"),
+            shapes::sphere(*r, 128),
+            1,
+            Mat4::from_translation(*c),
+        ));
+    }
+    World {
+        name: "test".into(),
+        camera: camera(),
+        lights,
+        materials: vec![
+            receiver,
+            Material::Diffuse {
+                albedo: Vec3::splat(0.5),
+            },
+        ],
+        objects,
+        warnings: vec![],
+    }
+}
+
+fn ray_sphere(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
+    let oc = o - c;
+    let b = oc.dot(d);
+    let disc = b * b - (oc.length_squared() - r * r);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    [-b - s, -b + s].into_iter().find(|t| *t > 1e-4)
+}
+
+/// Plane pixels: (x, y, world point) for pixel centres whose camera ray hits the plane first,
+/// at least `margin` inside its edges.
+fn plane_pixels(cam: &Camera, spheres: &[(Vec3, f32)], margin: f32) -> Vec<(u32, u32, Vec3)> {
+    let mut out = Vec::new();
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            if d.y >= 0.0 {
+                continue;
+            }
+            let t = -cam.eye.y / d.y;
+            let p = cam.eye + d * t;
+            if p.x.abs() > PLANE_HALF - margin || p.z.abs() > PLANE_HALF - margin {
+                continue;
+            }
+            if spheres
+                .iter()
+                .any(|(c, r)| ray_sphere(cam.eye, d, *c, *r + 0.02).is_some_and(|ts| ts < t))
+            {
+                continue;
+            }
+            out.push((x, y, p));
+        }
+    }
+    out
+}
+
+fn occluded(p: Vec3, to_light: Vec3, max_t: f32, spheres: &[(Vec3, f32)]) -> bool {
+    spheres
+        .iter()
+        .any(|(c, r)| ray_sphere(p, to_light, *c, *r).is_some_and(|t| t < max_t))
+}
+
+/// Renders with a fresh context and renderer.
+fn render(w: &World) -> caustica::render::RenderOutput {
+    let mut r = Renderer::new(context()).expect("renderer");
+    let out = r.render(w, &RenderOptions::default()).expect("render");
+    eprintln!("timings: {:?}", out.timings);
+    out
+}
+
+#[test]
+fn readback_handles_any_width() {
+    let ctx = context();
+    let h = ctx.handle();
+    for &(w, ht) in &[(1u32, 3u32), (7, 5), (257, 4), (800, 3)] {
+        let tex = h.device.create_texture(&wgpu::TextureDescriptor {
+            label: None,
+            size: wgpu::Extent3d {
+                width: w,
+                height: ht,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Float,
+            usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let data: Vec<[f32; 4]> = (0..w * ht)
+            .map(|i| [(i % w) as f32, (i / w) as f32, i as f32 * 0.5, -1.0])
+            .collect();
+        h.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &tex,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(&data),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 16),
+                rows_per_image: Some(ht),
+            },
+            tex.size(),
+        );
+        let back = ctx.readback_rgba32f(&tex).expect("readback");
+        assert_eq!(back, data, "width {w}");
+    }
+}
+
+#[test]
+fn directional_light_on_diffuse_plane_is_exact() {
+    let e = 2.0;
+    let theta = 60f32.to_radians();
+    let dir = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &[],
+        vec![Light::Directional {
+            direction: dir,
+            irradiance: Vec3::splat(e),
+        }],
+    );
+    let out = render(&w);
+    let expected = 0.5 / PI * e * theta.cos();
+    let px = plane_pixels(&w.camera, &[], 0.02);
+    assert!(px.len() > 5000, "{} plane pixels", px.len());
+    let mut worst = 0.0f32;
+    for (x, y, _) in &px {
+        let v = out.direct.at(*x, *y);
+        for c in v.to_array() {
+            worst = worst.max((c - expected).abs() / expected);
+        }
+    }
+    eprintln!("expected {expected}, worst relative error {worst}");
+    assert!(worst < 0.01, "worst relative error {worst}");
+    // Specular layer: nothing specular, no environment.
+    assert!(out.specular.pixels.iter().all(|p| *p == Vec3::ZERO));
+}
+
+/// Compares lit/unlit per plane pixel and the radiance of pixels lit on both sides.
+fn check_against_cpu(
+    w: &World,
+    spheres: &[(Vec3, f32)],
+    cpu: impl Fn(Vec3) -> (f32, bool), // (unshadowed radiance, shadowed?)
+    label: &str,
+) {
+    let out = render(w);
+    let px = plane_pixels(&w.camera, spheres, 0.02);
+    let peak = px.iter().map(|(_, _, p)| cpu(*p).0).fold(0.0f32, f32::max);
+    let (mut agree, mut total, mut rel_sum, mut rel_n, mut shadowed_n) =
+        (0usize, 0usize, 0.0f64, 0usize, 0usize);
+    for (x, y, p) in &px {
+        let (l, shadowed) = cpu(*p);
+        if l < 1e-3 * peak {
+            continue; // outside the beam: no lit/unlit question
+        }
+        let g = out.direct.at(*x, *y).x;
+        let gpu_lit = g > 0.5 * l;
+        total += 1;
+        shadowed_n += shadowed as usize;
+        if gpu_lit != shadowed {
+            agree += 1;
+        }
+        if gpu_lit && !shadowed {
+            rel_sum += ((g - l).abs() / l) as f64;
+            rel_n += 1;
+        }
+    }
+    let agreement = agree as f64 / total as f64;
+    let mean_rel = rel_sum / rel_n as f64;
+    eprintln!(
+        "{label}: {total} pixels, {shadowed_n} shadowed on the CPU, agreement {agreement:.4}, mean relative error {mean_rel:.5} over {rel_n} lit"
+    );
+    assert!(total > 3000, "{label}: only {total} pixels");
+    assert!(
+        shadowed_n > 50,
+        "{label}: the test scene should have a shadow ({shadowed_n})"
+    );
+    assert!(
+        agreement >= 0.97,
+        "{label}: lit/unlit agreement {agreement}"
+    );
+    assert!(mean_rel < 0.02, "{label}: mean relative error {mean_rel}");
+}
+
+#[test]
+fn sphere_shadow_under_directional_light_matches_cpu() {
+    let theta = 60f32.to_radians();
+    let dir = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+    let spheres = [(Vec3::new(-0.6, 0.8, 0.0), 0.5)];
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &spheres,
+        vec![Light::Directional {
+            direction: dir,
+            irradiance: Vec3::splat(2.0),
+        }],
+    );
+    let l = 0.5 / PI * 2.0 * theta.cos();
+    check_against_cpu(
+        &w,
+        &spheres,
+        |p| (l, occluded(p, -dir, f32::INFINITY, &spheres)),
+        "directional",
+    );
+}
+
+#[test]
+fn point_light_shadows_and_falloff_match_cpu() {
+    let lp = Vec3::new(0.2, 1.2, -0.1);
+    let i = 3.0;
+    // One sphere below the light (-Y cube face), one to the side (+X face).
+    let spheres = [
+        (Vec3::new(-0.3, 0.5, 0.3), 0.25),
+        (Vec3::new(1.0, 0.5, 0.3), 0.3),
+    ];
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &spheres,
+        vec![Light::Point {
+            position: lp,
+            intensity: Vec3::splat(i),
+        }],
+    );
+    check_against_cpu(
+        &w,
+        &spheres,
+        |p| {
+            let d = lp - p;
+            let dist = d.length();
+            let wi = d / dist;
+            (
+                0.5 / PI * i * wi.y / (dist * dist),
+                occluded(p, wi, dist, &spheres),
+            )
+        },
+        "point",
+    );
+}
+
+#[test]
+fn spot_light_shadows_and_falloff_match_cpu() {
+    let lp = Vec3::new(0.0, 2.5, 0.0);
+    let axis = (Vec3::new(0.4, 0.0, 0.3) - lp).normalize();
+    let (cutoff, beam) = (35f32.to_radians(), 20f32.to_radians());
+    let i = 8.0;
+    let spheres = [(Vec3::new(0.2, 1.0, 0.1), 0.25)];
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &spheres,
+        vec![Light::Spot {
+            position: lp,
+            direction: axis,
+            intensity: Vec3::splat(i),
+            cutoff,
+            beam_width: beam,
+        }],
+    );
+    check_against_cpu(
+        &w,
+        &spheres,
+        |p| {
+            let d = lp - p;
+            let dist = d.length();
+            let wi = d / dist;
+            let f = Light::spot_falloff((-wi).dot(axis), cutoff, beam);
+            (
+                0.5 / PI * i * f * wi.y / (dist * dist),
+                occluded(p, wi, dist, &spheres),
+            )
+        },
+        "spot",
+    );
+}
+
+/// The Glossy BRDF of scene/types.rs, evaluated on the CPU.
+fn glossy_brdf(n: Vec3, wi: Vec3, wo: Vec3, albedo: f32, f0: f32, roughness: f32) -> f32 {
+    let (ci, co) = (n.dot(wi), n.dot(wo));
+    if ci <= 0.0 || co <= 0.0 {
+        return 0.0;
+    }
+    let a2 = (roughness * roughness).powi(2);
+    let h = (wi + wo).normalize();
+    let nh = n.dot(h);
+    let d = a2 / (PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
+    let lambda = |c: f32| 0.5 * (-1.0 + (1.0 + a2 * (1.0 - c * c) / (c * c)).sqrt());
+    let g2 = 1.0 / (1.0 + lambda(ci) + lambda(co));
+    let f = f0 + (1.0 - f0) * (1.0 - wi.dot(h)).powi(5);
+    albedo / PI + d * g2 * f / (4.0 * ci * co)
+}
+
+#[test]
+fn glossy_plane_matches_cpu_brdf() {
+    let lp = Vec3::new(0.0, 1.5, -1.0);
+    let i = 4.0;
+    let (albedo, f0, rough) = (0.3, 0.5, 0.4);
+    let w = world(
+        Material::Glossy {
+            albedo: Vec3::splat(albedo),
+            specular: Vec3::splat(f0),
+            roughness: rough,
+        },
+        &[],
+        vec![Light::Point {
+            position: lp,
+            intensity: Vec3::splat(i),
+        }],
+    );
+    let out = render(&w);
+    let cam = &w.camera;
+    let px = plane_pixels(cam, &[], 0.02);
+    let (mut rel_sum, mut worst, mut peak_ratio) = (0.0f64, 0.0f32, 0.0f32);
+    for (x, y, p) in &px {
+        let wi = (lp - *p).normalize();
+        let dist2 = (lp - *p).length_squared();
+        let wo = (cam.eye - *p).normalize();
+        let f = glossy_brdf(Vec3::Y, wi, wo, albedo, f0, rough);
+        let l = f * i * wi.y / dist2;
+        let g = out.direct.at(*x, *y).x;
+        let rel = (g - l).abs() / l;
+        rel_sum += rel as f64;
+        worst = worst.max(rel);
+        peak_ratio = peak_ratio.max(f / (albedo / PI));
+    }
+    let mean = rel_sum / px.len() as f64;
+    eprintln!(
+        "glossy: mean relative error {mean:.5}, worst {worst:.4}, peak f / diffuse {peak_ratio:.1}"
+    );
+    assert!(peak_ratio > 3.0, "the view should include the highlight");
+    assert!(mean < 0.01, "mean relative error {mean}");
+    assert!(worst < 0.05, "worst relative error {worst}");
+}
+
+#[test]
+fn renders_again_after_device_loss() {
+    let ctx = context();
+    let mut r = Renderer::new(ctx.clone()).expect("renderer");
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &[(Vec3::new(0.0, 0.8, 0.0), 0.5)],
+        vec![Light::Directional {
+            direction: Vec3::new(0.3, -1.0, 0.1).normalize(),
+            irradiance: Vec3::splat(2.0),
+        }],
+    );
+    let opts = RenderOptions::default();
+    let before = r.render(&w, &opts).expect("first render");
+    assert!(
+        before.direct.pixels.iter().any(|p| p.x > 0.1),
+        "the frame has lit pixels"
+    );
+    let g0 = ctx.generation();
+    ctx.device().destroy();
+    let after = r.render(&w, &opts).expect("render after loss");
+    assert!(ctx.generation() > g0, "device was recreated");
+    assert_eq!(before.direct, after.direct);
+    // And the renderer keeps working.
+    r.render(&w, &opts).expect("third render");
+}
+
+#[test]
+fn line_light_of_zero_length_is_a_point_light() {
+    let p = Vec3::new(0.3, 1.0, 0.2);
+    let spheres = [(Vec3::new(0.0, 0.4, 0.0), 0.2)];
+    let mat = Material::Diffuse {
+        albedo: Vec3::splat(0.5),
+    };
+    let a = render(&world(
+        mat,
+        &spheres,
+        vec![Light::Point {
+            position: p,
+            intensity: Vec3::splat(2.0),
+        }],
+    ));
+    let b = render(&world(
+        mat,
+        &spheres,
+        vec![Light::Line {
+            start: p,
+            end: p,
+            intensity: Vec3::splat(2.0),
+        }],
+    ));
+    let max_diff = a
+        .direct
+        .pixels
+        .iter()
+        .zip(&b.direct.pixels)
+        .map(|(x, y)| (*x - *y).abs().max_element() / x.max_element().max(1e-3))
+        .fold(0.0f32, f32::max);
+    assert!(max_diff < 1e-3, "{max_diff}");
+}
+
+#[test]
+fn constant_environment_and_mirror() {
+    let l_env = 0.7;
+    let mut w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &[(Vec3::new(0.0, 0.6, 0.0), 0.5)],
+        vec![Light::Environment {
+            map: None,
+            radiance: Vec3::splat(l_env),
+        }],
+    );
+    w.materials[1] = Material::Mirror {
+        reflectance: Vec3::splat(0.8),
+    };
+    let mut r = Renderer::new(context()).unwrap();
+    let out = r.render(&w, &RenderOptions::default()).unwrap();
+    // Diffuse plane under a constant sky (unshadowed): albedo × L.
+    let px = plane_pixels(&w.camera, &[(Vec3::new(0.0, 0.6, 0.0), 0.5)], 0.02);
+    for (x, y, _) in px.iter().step_by(17) {
+        let v = out.direct.at(*x, *y).x;
+        assert!((v - 0.5 * l_env).abs() < 0.01 * l_env, "{v}");
+        assert_eq!(out.specular.at(*x, *y), Vec3::ZERO);
+    }
+    // Mirror sphere in the centre of the image: 0 in direct, reflectance × L in specular.
+    let (cx, cy, _) = w.camera.project(Vec3::new(0.0, 0.6, 0.0)).unwrap();
+    let (cx, cy) = (cx as u32, cy as u32);
+    assert_eq!(out.direct.at(cx, cy), Vec3::ZERO);
+    assert!((out.specular.at(cx, cy).x - 0.8 * l_env).abs() < 1e-3);
+    // Background shows the sky in the specular layer.
+    assert!((out.specular.at(0, 0).x - l_env).abs() < 1e-4);
+    // Components: asking for direct only leaves specular black.
+    let only = r
+        .render(
+            &w,
+            &RenderOptions {
+                components: Components {
+                    direct: true,
+                    specular: false,
+                },
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    assert_eq!(only.direct, out.direct);
+    assert!(only.specular.pixels.iter().all(|p| *p == Vec3::ZERO));
+}
+
+#[test]
+fn wide_spot_uses_cube_shadows_and_matches_cpu() {
+    // A cutoff above 75° cannot use one perspective map: the renderer switches to six faces.
+    let lp = Vec3::new(0.1, 0.9, 0.0);
+    let axis = Vec3::new(0.2, -1.0, 0.1).normalize();
+    let (cutoff, beam) = (85f32.to_radians(), 60f32.to_radians());
+    let i = 2.0;
+    let spheres = [
+        (Vec3::new(0.9, 0.4, 0.2), 0.2),
+        (Vec3::new(-0.2, 0.4, -0.1), 0.15),
+    ];
+    let w = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.5),
+        },
+        &spheres,
+        vec![Light::Spot {
+            position: lp,
+            direction: axis,
+            intensity: Vec3::splat(i),
+            cutoff,
+            beam_width: beam,
+        }],
+    );
+    check_against_cpu(
+        &w,
+        &spheres,
+        |p| {
+            let d = lp - p;
+            let dist = d.length();
+            let wi = d / dist;
+            let f = Light::spot_falloff((-wi).dot(axis), cutoff, beam);
+            (
+                0.5 / PI * i * f * wi.y / (dist * dist),
+                occluded(p, wi, dist, &spheres),
+            )
+        },
+        "wide spot",
+    );
+}

@@ -1,0 +1,70 @@
+//! Every WGSL file under shaders/ parses and validates with naga, after the same `#include`
+//! expansion the renderer does (reading the included files from disk).
+
+use caustica::render::shaders::{FILES, expand_includes};
+use std::path::{Path, PathBuf};
+
+fn shader_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders")
+}
+
+fn validate(name: &str, src: &str) -> Result<(), String> {
+    let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .map_err(|e| format!("{name}: {}", e.emit_to_string(src)))?;
+    Ok(())
+}
+
+#[test]
+fn every_wgsl_file_validates() {
+    let dir = shader_dir();
+    let lookup = |n: &str| std::fs::read_to_string(dir.join(n)).ok();
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 3, "expected shaders, found {names:?}");
+    let mut failures = Vec::new();
+    for name in &names {
+        let raw = std::fs::read_to_string(dir.join(name)).unwrap();
+        assert!(
+            raw.trim_start().starts_with("//"),
+            "{name} must start with a comment paragraph of intent"
+        );
+        match expand_includes(&raw, &lookup).and_then(|src| validate(name, &src)) {
+            Ok(()) => {}
+            Err(e) => failures.push(format!("{name}: {e}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+#[test]
+fn embedded_shaders_match_the_files() {
+    let dir = shader_dir();
+    for (name, text) in FILES {
+        let disk = std::fs::read_to_string(dir.join(name)).unwrap();
+        assert_eq!(&disk, text, "{name}");
+    }
+    let count = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .ends_with(".wgsl")
+        })
+        .count();
+    assert_eq!(
+        count,
+        FILES.len(),
+        "every shader file is embedded in render::shaders::FILES"
+    );
+}
