@@ -535,7 +535,9 @@ pub fn resolve(
                         message,
                     }
                 })?;
-                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(assets)).map_err(|e| {
+                // Relative URIs inside a .gltf resolve next to it, not next to the scene.
+                let beside = gltf_import::PrefixedSource::beside(assets, file);
+                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(&beside)).map_err(|e| {
                     SceneError::Asset {
                         path: sp("path"),
                         file: file.clone(),
