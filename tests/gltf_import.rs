@@ -518,7 +518,9 @@ fn lights_and_cameras_follow_their_nodes() {
 
 #[test]
 fn strips_and_sparse_accessors() {
-    // Same data drawn as a strip [0,1,3,2] and with a sparse override of vertex 2.
+    // The quad's vertices drawn as a non-indexed strip, with a sparse accessor moving vertex 0
+    // onto vertex 2's value (1, 1, 0): sparse index 0 is the first byte of the index view,
+    // the value is read from vertex 2's bytes.
     let json = quad_gltf(r#"{"mesh":0}"#, "0", "")
         .replace(r#""indices":1"#, r#""mode":5"#)
         .replace(
@@ -531,13 +533,52 @@ fn strips_and_sparse_accessors() {
             r#"{"buffer":0,"byteOffset":48,"byteLength":12}"#,
             r#"{"buffer":0,"byteOffset":48,"byteLength":12},
                {"buffer":0,"byteOffset":48,"byteLength":1},
-               {"buffer":0,"byteOffset":0,"byteLength":12}"#,
+               {"buffer":0,"byteOffset":24,"byteLength":12}"#,
         );
-    // Sparse index = first byte of the index view (0): vertex 0 replaced by vertex 0's value.
     let i = import_gltf(json.as_bytes(), &GltfLimits::default(), None).unwrap();
-    assert_eq!(triangles(&i), 2);
     let m = &i.parts[0].0;
     assert_eq!(m.indices, vec![[0, 1, 2], [1, 3, 2]]);
+    assert_eq!(m.positions[0], Vec3::new(1., 1., 0.));
+    // Triangle 0 became degenerate: kept, with a warning.
+    assert!(
+        i.warnings
+            .iter()
+            .any(|w| w.contains("1 of 2 triangles are degenerate")),
+        "{:?}",
+        i.warnings
+    );
+    // A sparse index past the accessor's count is refused.
+    let e = err_text(import_gltf(
+        json.replace(r#""count":4,"type":"VEC3""#, r#""count":1,"type":"VEC3""#)
+            .replace(
+                r#""byteOffset":48,"byteLength":1}"#,
+                r#""byteOffset":50,"byteLength":1}"#,
+            )
+            .as_bytes(),
+        &GltfLimits::default(),
+        None,
+    ));
+    assert!(e.contains("sparse index 1 is out of bounds"), "{e}");
+}
+
+#[test]
+fn wrong_accessor_types_are_refused() {
+    let base = quad_gltf(r#"{"mesh":0}"#, "0", "");
+    let json = base.replace(
+        r#""componentType":5126,"count":4,"type":"VEC3""#,
+        r#""componentType":5123,"count":4,"type":"VEC3""#,
+    );
+    let e = err_text(import_gltf(json.as_bytes(), &GltfLimits::default(), None));
+    assert!(e.contains("POSITION") && e.contains("VEC3 FLOAT"), "{e}");
+    let json = base.replace(
+        r#""componentType":5123,"count":6,"type":"SCALAR""#,
+        r#""componentType":5126,"count":3,"type":"SCALAR""#,
+    );
+    let e = err_text(import_gltf(json.as_bytes(), &GltfLimits::default(), None));
+    assert!(e.contains("indices") && e.contains("unsigned"), "{e}");
+    let json = base.replace(r#""type":"VEC3"}"#, r#""type":"VEC3","normalized":true}"#);
+    let e = err_text(import_gltf(json.as_bytes(), &GltfLimits::default(), None));
+    assert!(e.contains("not normalized"), "{e}");
 }
 
 // ---------------------------------------------------------------------------------------------

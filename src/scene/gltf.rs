@@ -88,7 +88,10 @@ pub struct MaterialInfo {
 pub struct GltfImport {
     /// Meshes in the file's scene space (node transforms applied) with their materials.
     pub parts: Vec<(Mesh, Material)>,
+    /// `KHR_lights_punctual` lights in the file's scene space, radiometric: glTF's candela
+    /// (point, spot) and lux (directional) divided by [`LUMENS_PER_WATT`].
     pub lights: Vec<Light>,
+    /// Perspective cameras (height 256, width from the aspect ratio).
     pub cameras: Vec<super::world::Camera>,
     pub warnings: Vec<String>,
     /// Every material of the file, in file order, whether used or not.
