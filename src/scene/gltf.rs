@@ -1,17 +1,55 @@
-//! glTF 2.0 import from bytes (GLB or embedded JSON). Placeholder interface; the hardened
-//! importer replaces the body.
+//! glTF 2.0 import from untrusted bytes (GLB or JSON).
+//!
+//! The `gltf` crate (1.4.1) is used only to deserialize the JSON document. Everything it would
+//! otherwise do on bad input is done here by hand, because on malformed files it panics (bad
+//! percent-encoding, image views past their buffer, odd accessor counts), follows `../` and
+//! `file://` URIs, allocates whatever a GLB header declares and loops forever on node cycles:
+//!
+//! * GLB framing (magic, version, lengths, chunk order and alignment) is checked before
+//!   anything is allocated; the JSON chunk alone is handed to the crate.
+//! * Every call into the crate runs under `catch_unwind`; a panic becomes [`GltfError::Panic`].
+//! * Buffers come from the GLB BIN chunk, base64 `data:` URIs (size-checked before decoding) or
+//!   relative paths read through an [`AssetSource`]; schemes, absolute paths, `..` and bad
+//!   percent-encoding are refused.
+//! * All buffer views and accessors are bounds-checked up front; vertex data is read by hand.
+//! * The node graph is walked iteratively with a depth cap and a visited set, so loops end
+//!   with an error; triangle and vertex caps are applied after instancing.
+//! * Material values are clamped into range with a warning naming the material.
 
-use super::world::{Light, Material, Mesh};
+use super::AssetSource;
+use super::world::{Camera, Light, Material, Mesh};
+use glam::{Mat4, Quat, Vec3};
+use gltf::json;
+use json::accessor::{ComponentType, Type};
+use json::mesh::{Mode, Semantic};
+use json::validation::Checked;
+use std::borrow::Cow;
+use std::collections::HashMap;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+/// Luminous efficacy used to turn glTF's photometric light units into radiometric ones:
+/// 683 lm/W (the definition of the candela at 555 nm). glTF point and spot intensities are in
+/// candela (lm/sr) and become W/sr; directional intensities are in lux (lm/m²) and become W/m².
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Most warnings kept; further ones are counted in one final line.
+const MAX_WARNINGS: usize = 100;
 
 /// Caps applied while importing untrusted glTF.
 #[derive(Clone, Debug)]
 pub struct GltfLimits {
+    /// Most nodes in the file (and most nodes visited in the scene walk).
     pub max_nodes: usize,
+    /// Deepest node nesting (a root node is at depth 1).
     pub max_depth: usize,
+    /// Most triangles after instancing, over the whole file.
     pub max_triangles: usize,
+    /// Most vertices after instancing, over the whole file; also caps the vertex data decoded.
     pub max_vertices: usize,
     /// Largest texture width or height decoded, pixels.
     pub max_texture_side: u32,
+    /// Most bytes of buffer data (all buffers together) and of any one image.
+    pub max_buffer_bytes: usize,
 }
 
 impl Default for GltfLimits {
@@ -22,8 +60,27 @@ impl Default for GltfLimits {
             max_triangles: 4_000_000,
             max_vertices: 8_000_000,
             max_texture_side: 8192,
+            max_buffer_bytes: 256 << 20,
         }
     }
+}
+
+/// A glTF material as read (values clamped into range) and the physical material it maps to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialInfo {
+    /// `material 3 'Glass'` (index and name, as used in warnings).
+    pub label: String,
+    /// Linear base colour: factor × mean of the base colour texture when it decoded.
+    pub base_color: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// `KHR_materials_transmission` factor (0 without the extension).
+    pub transmission: f32,
+    /// `KHR_materials_ior` (1.5 without the extension), clamped to [1, 4].
+    pub ior: f32,
+    /// Beer-Lambert coefficient per scene unit from `KHR_materials_volume`.
+    pub absorption: Vec3,
+    pub resolved: Material,
 }
 
 /// What a glTF file contributes to a scene.
@@ -31,23 +88,1655 @@ impl Default for GltfLimits {
 pub struct GltfImport {
     /// Meshes in the file's scene space (node transforms applied) with their materials.
     pub parts: Vec<(Mesh, Material)>,
+    /// `KHR_lights_punctual` lights in the file's scene space, radiometric: glTF's candela
+    /// (point, spot) and lux (directional) divided by [`LUMENS_PER_WATT`].
     pub lights: Vec<Light>,
+    /// Perspective cameras (height 256, width from the aspect ratio).
     pub cameras: Vec<super::world::Camera>,
     pub warnings: Vec<String>,
+    /// Every material of the file, in file order, whether used or not.
+    pub materials: Vec<MaterialInfo>,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum GltfError {
+    /// The document is malformed or refers to something missing or out of bounds.
     #[error("{0}")]
     Invalid(String),
+    /// The GLB container (header or chunks) is malformed, or the input is neither GLB nor JSON.
+    #[error("invalid GLB: {0}")]
+    Glb(String),
+    /// A buffer or image URI was refused or could not be read.
+    #[error("{what}: URI '{uri}' refused: {reason}")]
+    Uri {
+        what: String,
+        uri: String,
+        reason: String,
+    },
+    /// A [`GltfLimits`] cap was exceeded.
+    #[error("limit exceeded: {0}")]
+    Limit(String),
+    /// The `gltf` crate (or a decoder) panicked on this input.
+    #[error("glTF import panicked (malformed input): {0}")]
+    Panic(String),
+}
+
+fn invalid(m: impl Into<String>) -> GltfError {
+    GltfError::Invalid(m.into())
+}
+
+fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".into()
+    }
+}
+
+/// An [`AssetSource`] that resolves names relative to a folder of another source, so that a
+/// `.gltf` in `assets/model/` finds its `model.bin` as `assets/model/model.bin`.
+pub struct PrefixedSource<'a> {
+    pub inner: &'a dyn AssetSource,
+    /// Folder prefix ending in `/`, or empty.
+    pub prefix: String,
+}
+
+impl<'a> PrefixedSource<'a> {
+    /// A source for the files next to `file` (a relative path as written in a scene).
+    pub fn beside(inner: &'a dyn AssetSource, file: &str) -> Self {
+        let prefix = match file.rfind('/') {
+            Some(i) => file[..=i].to_string(),
+            None => String::new(),
+        };
+        PrefixedSource { inner, prefix }
+    }
+}
+
+impl AssetSource for PrefixedSource<'_> {
+    fn read(&self, name: &str, max_bytes: usize) -> Result<Vec<u8>, String> {
+        self.inner
+            .read(&format!("{}{name}", self.prefix), max_bytes)
+    }
 }
 
 /// Import a glTF from bytes. Relative URIs are read through `assets` (None: only embedded
 /// data is allowed); absolute, `file:` and network URIs are refused.
 pub fn import_gltf(
-    _bytes: &[u8],
-    _limits: &GltfLimits,
-    _assets: Option<&dyn super::AssetSource>,
+    bytes: &[u8],
+    limits: &GltfLimits,
+    assets: Option<&dyn AssetSource>,
 ) -> Result<GltfImport, GltfError> {
-    Err(GltfError::Invalid("glTF import is not built yet".into()))
+    catch_unwind(AssertUnwindSafe(|| import_inner(bytes, limits, assets)))
+        .unwrap_or_else(|p| Err(GltfError::Panic(panic_message(p))))
+}
+
+/// Mutable state of one import: warnings and the decode budget.
+struct State<'a> {
+    limits: &'a GltfLimits,
+    assets: Option<&'a dyn AssetSource>,
+    warnings: Vec<String>,
+    suppressed: usize,
+    /// Vertex attribute / index elements decoded so far.
+    decoded: usize,
+}
+
+impl State<'_> {
+    fn warn(&mut self, w: String) {
+        if self.warnings.len() < MAX_WARNINGS {
+            self.warnings.push(w);
+        } else {
+            self.suppressed += 1;
+        }
+    }
+
+    /// Account for `n` elements about to be decoded.
+    fn decode_budget(&mut self, n: usize, what: &str) -> Result<(), GltfError> {
+        let cap = self
+            .limits
+            .max_vertices
+            .saturating_mul(2)
+            .saturating_add(self.limits.max_triangles.saturating_mul(6));
+        self.decoded = self.decoded.saturating_add(n);
+        if self.decoded > cap {
+            return Err(GltfError::Limit(format!(
+                "{what}: more than {cap} vertex and index elements decoded in total"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The parsed document and its buffers' bytes.
+struct Doc<'a> {
+    root: &'a json::Root,
+    buffers: Vec<Cow<'a, [u8]>>,
+}
+
+fn import_inner(
+    bytes: &[u8],
+    limits: &GltfLimits,
+    assets: Option<&dyn AssetSource>,
+) -> Result<GltfImport, GltfError> {
+    let mut st = State {
+        limits,
+        assets,
+        warnings: Vec::new(),
+        suppressed: 0,
+        decoded: 0,
+    };
+    let (json_bytes, bin) = split_container(bytes, &mut st)?;
+    let gltf = catch_unwind(AssertUnwindSafe(|| {
+        gltf::Gltf::from_slice_without_validation(json_bytes)
+    }))
+    .map_err(|p| GltfError::Panic(panic_message(p)))?
+    .map_err(|e| invalid(format!("invalid glTF JSON: {e}")))?;
+    let root = gltf.document.into_json();
+    if !root.asset.version.starts_with("2.") {
+        return Err(invalid(format!(
+            "asset.version is '{}'; only glTF 2.x is supported",
+            root.asset.version
+        )));
+    }
+    check_extensions(&root, &mut st)?;
+    if root.nodes.len() > limits.max_nodes {
+        return Err(GltfError::Limit(format!(
+            "{} nodes, the limit is {}",
+            root.nodes.len(),
+            limits.max_nodes
+        )));
+    }
+    let buffers = load_buffers(&root, bin, &mut st)?;
+    let doc = Doc {
+        root: &root,
+        buffers,
+    };
+    check_views(&doc)?;
+    for i in 0..root.accessors.len() {
+        check_accessor(&doc, i, &mut st)?;
+    }
+    let materials = convert_materials(&doc, &mut st);
+    let mut out = walk_scene(&doc, &materials, &mut st)?;
+    out.materials = materials;
+    if !root.animations.is_empty() {
+        st.warn(format!("{} animation(s) ignored", root.animations.len()));
+    }
+    if !root.skins.is_empty() {
+        st.warn(format!(
+            "{} skin(s) ignored (meshes are left in bind pose)",
+            root.skins.len()
+        ));
+    }
+    if st.suppressed > 0 {
+        let n = st.suppressed;
+        st.warnings.push(format!("... and {n} more warnings"));
+    }
+    out.warnings = st.warnings;
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Container: GLB framing or JSON
+
+const GLB_MAGIC: &[u8; 4] = b"glTF";
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// The JSON text and the BIN chunk, if any.
+fn split_container<'a>(
+    bytes: &'a [u8],
+    st: &mut State,
+) -> Result<(&'a [u8], Option<&'a [u8]>), GltfError> {
+    if bytes.starts_with(GLB_MAGIC) {
+        return parse_glb(bytes, st);
+    }
+    let mut j = bytes;
+    if let Some(rest) = j.strip_prefix(&[0xEF, 0xBB, 0xBF]) {
+        st.warn("JSON starts with a byte order mark (not allowed by glTF); ignored".into());
+        j = rest;
+    }
+    match j.iter().find(|b| !b.is_ascii_whitespace()) {
+        Some(b'{') => Ok((j, None)),
+        None if bytes.is_empty() => Err(GltfError::Glb(
+            "the input is empty (0 bytes): neither a GLB nor glTF JSON".into(),
+        )),
+        None => Err(GltfError::Glb(
+            "the input is blank: neither a GLB nor glTF JSON".into(),
+        )),
+        Some(_) => Err(GltfError::Glb(format!(
+            "magic is {:02x?}, not 'glTF', and the input is not glTF JSON either",
+            &bytes[..bytes.len().min(4)]
+        ))),
+    }
+}
+
+fn u32_at(b: &[u8], o: usize) -> u32 {
+    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+
+/// Check the GLB header and chunk table; nothing here allocates from a declared length.
+fn parse_glb<'a>(b: &'a [u8], st: &mut State) -> Result<(&'a [u8], Option<&'a [u8]>), GltfError> {
+    let glb = |m: String| GltfError::Glb(m);
+    if b.len() < 12 {
+        return Err(glb(format!(
+            "{} bytes is shorter than the 12-byte header",
+            b.len()
+        )));
+    }
+    let version = u32_at(b, 4);
+    if version != 2 {
+        return Err(glb(format!(
+            "version {version}, only version 2 is supported"
+        )));
+    }
+    let declared = u32_at(b, 8) as u64;
+    if declared != b.len() as u64 {
+        return Err(glb(format!(
+            "header declares {declared} bytes but the file has {}",
+            b.len()
+        )));
+    }
+    if b.len() < 20 {
+        return Err(glb(
+            "no chunks after the header (a JSON chunk is required)".into()
+        ));
+    }
+    let mut pos = 12usize;
+    let mut json: Option<&[u8]> = None;
+    let mut bin: Option<&[u8]> = None;
+    let mut idx = 0usize;
+    while pos < b.len() {
+        if b.len() - pos < 8 {
+            return Err(glb(format!(
+                "chunk {idx} at byte {pos}: truncated chunk header ({} bytes left)",
+                b.len() - pos
+            )));
+        }
+        let len = u32_at(b, pos) as u64;
+        let ty = u32_at(b, pos + 4);
+        let start = pos + 8;
+        let end = start as u64 + len;
+        if end > b.len() as u64 {
+            return Err(glb(format!(
+                "chunk {idx} (type {ty:#010x}) declares {len} bytes but only {} remain",
+                b.len() - start
+            )));
+        }
+        if !len.is_multiple_of(4) {
+            return Err(glb(format!(
+                "chunk {idx} (type {ty:#010x}) length {len} is not a multiple of 4"
+            )));
+        }
+        let end = end as usize;
+        let data = &b[start..end];
+        match ty {
+            CHUNK_JSON if idx == 0 => json = Some(data),
+            CHUNK_JSON => return Err(glb(format!("chunk {idx}: a second JSON chunk"))),
+            _ if idx == 0 => {
+                return Err(glb(format!(
+                    "the first chunk must be JSON, found type {ty:#010x}"
+                )));
+            }
+            CHUNK_BIN if bin.is_some() => {
+                return Err(glb(format!("chunk {idx}: a second BIN chunk")));
+            }
+            CHUNK_BIN if idx == 1 => bin = Some(data),
+            CHUNK_BIN => return Err(glb(format!("chunk {idx}: BIN must directly follow JSON"))),
+            _ => st.warn(format!(
+                "GLB chunk {idx} of unknown type {ty:#010x} ignored"
+            )),
+        }
+        pos = end;
+        idx += 1;
+    }
+    match json {
+        Some(j) => Ok((j, bin)),
+        None => Err(glb("no JSON chunk".into())),
+    }
+}
+
+fn check_extensions(root: &json::Root, st: &mut State) -> Result<(), GltfError> {
+    const SUPPORTED: [&str; 4] = [
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+        "KHR_lights_punctual",
+    ];
+    for e in &root.extensions_required {
+        if SUPPORTED.contains(&e.as_str()) {
+            continue;
+        }
+        if e.starts_with("KHR_materials_") || e.starts_with("KHR_texture_") {
+            st.warn(format!(
+                "required extension {e} is not supported; materials are approximated"
+            ));
+        } else {
+            return Err(invalid(format!(
+                "the file requires extension {e}, which is not supported"
+            )));
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// URIs and buffers
+
+fn short(uri: &str) -> String {
+    if uri.len() <= 80 {
+        uri.to_string()
+    } else {
+        let mut end = 60;
+        while !uri.is_char_boundary(end) {
+            end -= 1;
+        }
+        format!("{}... ({} bytes)", &uri[..end], uri.len())
+    }
+}
+
+fn decode_base64(s: &[u8]) -> Result<Vec<u8>, String> {
+    let mut s = s;
+    for _ in 0..2 {
+        if let Some(r) = s.strip_suffix(b"=") {
+            s = r;
+        }
+    }
+    let mut out = Vec::with_capacity(s.len() / 4 * 3 + 3);
+    let mut acc: u32 = 0;
+    let mut bits = 0u32;
+    for (i, &c) in s.iter().enumerate() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            _ => return Err(format!("invalid base64 character at offset {i}")),
+        };
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    if bits >= 6 {
+        return Err("truncated base64 data".into());
+    }
+    Ok(out)
+}
+
+fn hex(c: u8) -> Option<u8> {
+    (c as char).to_digit(16).map(|d| d as u8)
+}
+
+fn percent_decode(s: &str) -> Result<String, String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let h = b.get(i + 1).copied().and_then(hex);
+            let l = b.get(i + 2).copied().and_then(hex);
+            match (h, l) {
+                (Some(h), Some(l)) => out.push(h * 16 + l),
+                _ => return Err(format!("bad percent-encoding at byte {i}")),
+            }
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).map_err(|_| "not UTF-8 after percent-decoding".to_string())
+}
+
+/// The relative path a URI names, or why it is refused.
+fn relative_path(uri: &str) -> Result<String, String> {
+    if uri.is_empty() {
+        return Err("empty URI".into());
+    }
+    if let Some(colon) = uri.find(':') {
+        let before = &uri[..colon];
+        if !before.contains(['/', '?', '#']) {
+            return Err(format!(
+                "the scheme or drive '{before}:' is not allowed (only relative paths and data: URIs)"
+            ));
+        }
+    }
+    if uri.starts_with('/') || uri.starts_with('\\') {
+        return Err("absolute paths are not allowed".into());
+    }
+    if uri.contains('\\') {
+        return Err("backslashes are not allowed in URIs".into());
+    }
+    if uri.contains(['?', '#']) {
+        return Err("queries and fragments are not allowed in URIs".into());
+    }
+    let path = percent_decode(uri)?;
+    if path.starts_with('/') || path.contains(['\\', '\0']) {
+        return Err("absolute paths, backslashes and NUL are not allowed".into());
+    }
+    for (k, seg) in path.split('/').enumerate() {
+        if seg == ".." {
+            return Err("'..' segments are not allowed".into());
+        }
+        if seg.is_empty() {
+            return Err("empty path segments are not allowed".into());
+        }
+        if k == 0 && seg.contains(':') {
+            return Err("a ':' in the first path segment is not allowed".into());
+        }
+    }
+    Ok(path)
+}
+
+/// Bytes named by a buffer or image URI (`what`: "buffer 2", "image 0").
+fn read_uri(uri: &str, what: &str, max_bytes: usize, st: &State) -> Result<Vec<u8>, GltfError> {
+    let refuse = |reason: String| GltfError::Uri {
+        what: what.to_string(),
+        uri: short(uri),
+        reason,
+    };
+    if uri.len() >= 5 && uri[..5].eq_ignore_ascii_case("data:") {
+        let comma = uri
+            .find(',')
+            .ok_or_else(|| refuse("data URI without ','".into()))?;
+        let header = &uri[5..comma];
+        if !header.to_ascii_lowercase().ends_with(";base64") {
+            return Err(refuse("only base64 data URIs are supported".into()));
+        }
+        let payload = &uri.as_bytes()[comma + 1..];
+        let estimate = payload.len() / 4 * 3;
+        if estimate > max_bytes.saturating_add(3) {
+            return Err(GltfError::Limit(format!(
+                "{what}: data URI holds about {estimate} bytes, the limit is {max_bytes}"
+            )));
+        }
+        return decode_base64(payload).map_err(refuse);
+    }
+    let path = relative_path(uri).map_err(refuse)?;
+    let assets = st.assets.ok_or_else(|| {
+        refuse(
+            "external files are not allowed here (no asset source: use a GLB or data: URIs)".into(),
+        )
+    })?;
+    assets
+        .read(&path, max_bytes)
+        .map_err(|e| refuse(format!("cannot read '{path}': {e}")))
+}
+
+fn load_buffers<'a>(
+    root: &json::Root,
+    bin: Option<&'a [u8]>,
+    st: &mut State,
+) -> Result<Vec<Cow<'a, [u8]>>, GltfError> {
+    let max = st.limits.max_buffer_bytes;
+    let mut total: u64 = 0;
+    let mut out = Vec::with_capacity(root.buffers.len().min(1024));
+    for (i, b) in root.buffers.iter().enumerate() {
+        let declared = b.byte_length.0;
+        total = total.saturating_add(declared);
+        if total > max as u64 {
+            return Err(GltfError::Limit(format!(
+                "buffers declare more than {max} bytes in total (buffer {i}: {declared})"
+            )));
+        }
+        let left = max - (total - declared) as usize;
+        let data: Cow<'a, [u8]> = match (&b.uri, bin) {
+            (Some(uri), _) => Cow::Owned(read_uri(uri, &format!("buffer {i}"), left, st)?),
+            (None, Some(bin)) if i == 0 => Cow::Borrowed(bin),
+            (None, _) => {
+                return Err(invalid(format!(
+                    "buffer {i} has no uri and is not the GLB BIN chunk (no data)"
+                )));
+            }
+        };
+        let actual = data.len() as u64;
+        if actual < declared {
+            return Err(invalid(format!(
+                "buffer {i}: byteLength is {declared} but only {actual} bytes of data exist"
+            )));
+        }
+        let padding = if b.uri.is_none() { 3 } else { 0 };
+        if actual > declared + padding {
+            st.warn(format!(
+                "buffer {i}: {actual} bytes of data, byteLength says {declared}; the rest is ignored"
+            ));
+        }
+        out.push(match data {
+            Cow::Borrowed(s) => Cow::Borrowed(&s[..declared as usize]),
+            Cow::Owned(mut v) => {
+                v.truncate(declared as usize);
+                Cow::Owned(v)
+            }
+        });
+    }
+    Ok(out)
+}
+
+/// Offset and length of buffer view `v` within its buffer (already checked by `check_views`).
+fn view_bytes<'d>(doc: &'d Doc, v: usize) -> Result<(&'d [u8], Option<usize>), GltfError> {
+    let view = doc
+        .root
+        .buffer_views
+        .get(v)
+        .ok_or_else(|| invalid(format!("bufferView {v} does not exist")))?;
+    let buf = doc.buffers.get(view.buffer.value()).ok_or_else(|| {
+        invalid(format!(
+            "bufferView {v}: buffer {} does not exist",
+            view.buffer.value()
+        ))
+    })?;
+    let off = view.byte_offset.map_or(0, |o| o.0);
+    let len = view.byte_length.0;
+    let end = off.checked_add(len).filter(|&e| e <= buf.len() as u64);
+    match end {
+        Some(end) => Ok((
+            &buf[off as usize..end as usize],
+            view.byte_stride.map(|s| s.0),
+        )),
+        None => Err(invalid(format!(
+            "bufferView {v}: bytes {off}..{} lie outside buffer {} ({} bytes): out of bounds",
+            off as u128 + len as u128,
+            view.buffer.value(),
+            buf.len()
+        ))),
+    }
+}
+
+fn check_views(doc: &Doc) -> Result<(), GltfError> {
+    for (i, view) in doc.root.buffer_views.iter().enumerate() {
+        view_bytes(doc, i)?;
+        if let Some(s) = view.byte_stride
+            && (s.0 < 4 || s.0 > 252 || !s.0.is_multiple_of(4))
+        {
+            return Err(invalid(format!(
+                "bufferView {i}: byteStride {} must be a multiple of 4 in 4..=252",
+                s.0
+            )));
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Accessors
+
+fn comp_size(c: ComponentType) -> usize {
+    match c {
+        ComponentType::I8 | ComponentType::U8 => 1,
+        ComponentType::I16 | ComponentType::U16 => 2,
+        ComponentType::U32 | ComponentType::F32 => 4,
+    }
+}
+
+/// Bytes of one element, with the column padding glTF requires for small matrices.
+fn elem_size(c: ComponentType, t: Type) -> usize {
+    let cs = comp_size(c);
+    match t {
+        Type::Scalar => cs,
+        Type::Vec2 => 2 * cs,
+        Type::Vec3 => 3 * cs,
+        Type::Vec4 => 4 * cs,
+        // Matrix columns start on 4-byte boundaries.
+        Type::Mat2 => 2 * (2 * cs).next_multiple_of(4),
+        Type::Mat3 => 3 * (3 * cs).next_multiple_of(4),
+        Type::Mat4 => 16 * cs,
+    }
+}
+
+fn layout<'a>(
+    doc: &Doc<'a>,
+    i: usize,
+) -> Result<(&'a json::Accessor, ComponentType, Type), GltfError> {
+    let a = doc
+        .root
+        .accessors
+        .get(i)
+        .ok_or_else(|| invalid(format!("accessor {i} does not exist")))?;
+    match (&a.component_type, &a.type_) {
+        (Checked::Valid(c), Checked::Valid(t)) => Ok((a, c.0, *t)),
+        _ => Err(invalid(format!(
+            "accessor {i}: unknown componentType or type"
+        ))),
+    }
+}
+
+/// `offset + stride·(count-1) + elem ≤ len`, in u128 so nothing overflows.
+fn fits(offset: u64, stride: usize, count: u64, elem: usize, len: usize) -> bool {
+    count == 0
+        || offset as u128 + stride as u128 * (count as u128 - 1) + elem as u128 <= len as u128
+}
+
+/// Structural checks of accessor `i` (types, bounds, sparse layout); reads no data.
+fn check_accessor(doc: &Doc, i: usize, st: &mut State) -> Result<(), GltfError> {
+    let (a, c, t) = layout(doc, i)?;
+    let elem = elem_size(c, t);
+    let count = a.count.0;
+    if count == 0 {
+        return Err(invalid(format!("accessor {i}: count must be at least 1")));
+    }
+    if let Some(v) = a.buffer_view {
+        let (data, stride) =
+            view_bytes(doc, v.value()).map_err(|e| invalid(format!("accessor {i}: {e}")))?;
+        let stride = stride.unwrap_or(elem);
+        if stride < elem {
+            return Err(invalid(format!(
+                "accessor {i}: byteStride {stride} is smaller than the element size {elem}"
+            )));
+        }
+        let off = a.byte_offset.map_or(0, |o| o.0);
+        if !fits(off, stride, count, elem, data.len()) {
+            return Err(invalid(format!(
+                "accessor {i}: offset {off} + stride {stride} × ({count} - 1) + {elem} bytes is out of bounds of bufferView {} ({} bytes)",
+                v.value(),
+                data.len()
+            )));
+        }
+        if !off.is_multiple_of(comp_size(c) as u64) {
+            st.warn(format!(
+                "accessor {i}: byteOffset {off} is not a multiple of the component size"
+            ));
+        }
+    }
+    if let Some(s) = &a.sparse {
+        let sc = s.count.0;
+        if sc == 0 || sc > count {
+            return Err(invalid(format!(
+                "accessor {i}: sparse count {sc} must lie in 1..={count}"
+            )));
+        }
+        let ic = match &s.indices.component_type {
+            Checked::Valid(ic) => ic.0,
+            Checked::Invalid => {
+                return Err(invalid(format!(
+                    "accessor {i}: sparse indices componentType must be an unsigned integer"
+                )));
+            }
+        };
+        for (what, view, off, size) in [
+            (
+                "indices",
+                s.indices.buffer_view,
+                s.indices.byte_offset.0,
+                comp_size(ic),
+            ),
+            ("values", s.values.buffer_view, s.values.byte_offset.0, elem),
+        ] {
+            let (data, stride) = view_bytes(doc, view.value())
+                .map_err(|e| invalid(format!("accessor {i}: sparse {what}: {e}")))?;
+            if stride.is_some() {
+                return Err(invalid(format!(
+                    "accessor {i}: sparse {what} bufferView {} must not have a byteStride",
+                    view.value()
+                )));
+            }
+            if !fits(off, size, sc, size, data.len()) {
+                return Err(invalid(format!(
+                    "accessor {i}: sparse {what} ({sc} × {size} bytes at offset {off}) are out of bounds of bufferView {} ({} bytes)",
+                    view.value(),
+                    data.len()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn f32_at(d: &[u8], o: usize) -> Option<f32> {
+    d.get(o..o + 4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+fn uint_at(d: &[u8], o: usize, c: ComponentType) -> Option<u32> {
+    match c {
+        ComponentType::U8 => d.get(o).map(|&b| u32::from(b)),
+        ComponentType::U16 => d
+            .get(o..o + 2)
+            .map(|b| u32::from(u16::from_le_bytes([b[0], b[1]]))),
+        ComponentType::U32 => d
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+        _ => None,
+    }
+}
+
+fn oob(what: &str) -> GltfError {
+    invalid(format!("{what}: read out of bounds"))
+}
+
+/// Count of accessor `a`, checked against `cap` before anything is allocated.
+fn checked_count(a: &json::Accessor, cap: usize, what: &str) -> Result<usize, GltfError> {
+    let n = a.count.0;
+    if n > cap as u64 {
+        return Err(GltfError::Limit(format!(
+            "{what}: accessor count {n} exceeds the limit {cap}"
+        )));
+    }
+    Ok(n as usize)
+}
+
+/// Sparse indices of `a` (each < `count`).
+fn sparse_indices(
+    doc: &Doc,
+    s: &json::accessor::sparse::Sparse,
+    count: usize,
+    what: &str,
+) -> Result<Vec<usize>, GltfError> {
+    let ic = match &s.indices.component_type {
+        Checked::Valid(ic) => ic.0,
+        Checked::Invalid => return Err(invalid(format!("{what}: bad sparse index type"))),
+    };
+    let (data, _) = view_bytes(doc, s.indices.buffer_view.value())?;
+    let base = s.indices.byte_offset.0 as usize;
+    let n = s.count.0 as usize; // checked ≤ accessor count by check_accessor
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let ix = uint_at(data, base + k * comp_size(ic), ic).ok_or_else(|| oob(what))? as usize;
+        if ix >= count {
+            return Err(invalid(format!(
+                "{what}: sparse index {ix} is out of bounds (count {count})"
+            )));
+        }
+        out.push(ix);
+    }
+    Ok(out)
+}
+
+/// A VEC3 FLOAT accessor (positions, normals).
+fn read_vec3(doc: &Doc, st: &mut State, i: usize, what: &str) -> Result<Vec<Vec3>, GltfError> {
+    let (a, c, t) = layout(doc, i)?;
+    if c != ComponentType::F32 || t != Type::Vec3 || a.normalized {
+        return Err(invalid(format!(
+            "{what}: accessor {i} must be VEC3 FLOAT (not normalized), found {t:?} {c:?}"
+        )));
+    }
+    let count = checked_count(a, st.limits.max_vertices, what)?;
+    st.decode_budget(count, what)?;
+    let mut out = vec![Vec3::ZERO; count];
+    let read = |d: &[u8], o: usize| -> Option<Vec3> {
+        Some(Vec3::new(
+            f32_at(d, o)?,
+            f32_at(d, o + 4)?,
+            f32_at(d, o + 8)?,
+        ))
+    };
+    if let Some(v) = a.buffer_view {
+        let (data, stride) = view_bytes(doc, v.value())?;
+        let stride = stride.unwrap_or(12);
+        let base = a.byte_offset.map_or(0, |o| o.0) as usize;
+        for (k, p) in out.iter_mut().enumerate() {
+            *p = read(data, base + k * stride).ok_or_else(|| oob(what))?;
+        }
+    }
+    if let Some(s) = &a.sparse {
+        let idx = sparse_indices(doc, s, count, what)?;
+        let (data, _) = view_bytes(doc, s.values.buffer_view.value())?;
+        let base = s.values.byte_offset.0 as usize;
+        for (k, ix) in idx.into_iter().enumerate() {
+            out[ix] = read(data, base + k * 12).ok_or_else(|| oob(what))?;
+        }
+    }
+    Ok(out)
+}
+
+/// A SCALAR unsigned byte/short/int accessor (indices).
+fn read_indices(doc: &Doc, st: &mut State, i: usize, what: &str) -> Result<Vec<u32>, GltfError> {
+    let (a, c, t) = layout(doc, i)?;
+    if t != Type::Scalar
+        || !matches!(
+            c,
+            ComponentType::U8 | ComponentType::U16 | ComponentType::U32
+        )
+        || a.normalized
+    {
+        return Err(invalid(format!(
+            "{what}: accessor {i} must be SCALAR unsigned byte/short/int, found {t:?} {c:?}"
+        )));
+    }
+    let cap = st.limits.max_triangles.saturating_mul(3).saturating_add(2);
+    let count = checked_count(a, cap, what)?;
+    st.decode_budget(count, what)?;
+    let mut out = vec![0u32; count];
+    let cs = comp_size(c);
+    if let Some(v) = a.buffer_view {
+        let (data, stride) = view_bytes(doc, v.value())?;
+        let stride = stride.unwrap_or(cs);
+        let base = a.byte_offset.map_or(0, |o| o.0) as usize;
+        for (k, x) in out.iter_mut().enumerate() {
+            *x = uint_at(data, base + k * stride, c).ok_or_else(|| oob(what))?;
+        }
+    }
+    if let Some(s) = &a.sparse {
+        let idx = sparse_indices(doc, s, count, what)?;
+        let (data, _) = view_bytes(doc, s.values.buffer_view.value())?;
+        let base = s.values.byte_offset.0 as usize;
+        for (k, ix) in idx.into_iter().enumerate() {
+            out[ix] = uint_at(data, base + k * cs, c).ok_or_else(|| oob(what))?;
+        }
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Meshes
+
+/// One decoded primitive in the mesh's local frame.
+struct Prim {
+    mesh: Mesh,
+    material: Option<usize>,
+}
+
+fn triangulate(mode: Mode, idx: &[u32], what: &str, st: &mut State) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => {
+            if !idx.len().is_multiple_of(3) {
+                st.warn(format!(
+                    "{what}: {} indices is not a multiple of 3; the last {} ignored",
+                    idx.len(),
+                    idx.len() % 3
+                ));
+            }
+            idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i], idx[i + 2], idx[i + 1]]
+                }
+            })
+            // Repeated indices stitch strips together; they are not triangles.
+            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+            .collect(),
+        Mode::TriangleFan => (0..idx.len().saturating_sub(2))
+            .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn decode_primitive(
+    doc: &Doc,
+    st: &mut State,
+    m: usize,
+    p: usize,
+    prim: &json::mesh::Primitive,
+) -> Result<Option<Prim>, GltfError> {
+    let what = format!("mesh {m} primitive {p}");
+    let mode = match &prim.mode {
+        Checked::Valid(md) => *md,
+        Checked::Invalid => {
+            st.warn(format!("{what}: unknown mode; skipped"));
+            return Ok(None);
+        }
+    };
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        st.warn(format!("{what}: mode {mode:?} has no surface; skipped"));
+        return Ok(None);
+    }
+    if prim.targets.as_ref().is_some_and(|t| !t.is_empty()) {
+        st.warn(format!("{what}: morph targets ignored"));
+    }
+    if let Some(mat) = prim.material
+        && mat.value() >= doc.root.materials.len()
+    {
+        return Err(invalid(format!(
+            "{what}: material {} does not exist",
+            mat.value()
+        )));
+    }
+    let Some(pos) = prim.attributes.get(&Checked::Valid(Semantic::Positions)) else {
+        st.warn(format!("{what}: no POSITION attribute; skipped"));
+        return Ok(None);
+    };
+    let positions = read_vec3(doc, st, pos.value(), &format!("{what} POSITION"))?;
+    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(invalid(format!(
+            "{what}: POSITION of vertex {k} is not finite"
+        )));
+    }
+    let n = positions.len();
+    let idx: Vec<u32> = match prim.indices {
+        Some(i) => {
+            let idx = read_indices(doc, st, i.value(), &format!("{what} indices"))?;
+            if let Some(k) = idx.iter().position(|&x| x as usize >= n) {
+                return Err(invalid(format!(
+                    "{what}: index value {} at position {k} is out of bounds: the primitive has {n} vertices",
+                    idx[k]
+                )));
+            }
+            idx
+        }
+        None => (0..n as u32).collect(),
+    };
+    let tris = triangulate(mode, &idx, &what, st);
+    drop(idx);
+    if tris.is_empty() {
+        st.warn(format!("{what}: no triangles; skipped"));
+        return Ok(None);
+    }
+    let degenerate = tris
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            (b - a).cross(c - a).length_squared() == 0.0
+        })
+        .count();
+    if degenerate == tris.len() {
+        return Err(invalid(format!(
+            "{what}: all {} triangles are degenerate (zero area)",
+            tris.len()
+        )));
+    }
+    if degenerate > 0 {
+        st.warn(format!(
+            "{what}: {degenerate} of {} triangles are degenerate (zero area)",
+            tris.len()
+        ));
+    }
+    let normals = match prim.attributes.get(&Checked::Valid(Semantic::Normals)) {
+        Some(acc) => {
+            let nr = read_vec3(doc, st, acc.value(), &format!("{what} NORMAL"))?;
+            if nr.len() != n {
+                return Err(invalid(format!(
+                    "{what}: NORMAL has {} entries but POSITION has {n}",
+                    nr.len()
+                )));
+            }
+            if nr
+                .iter()
+                .all(|v| v.is_finite() && v.length_squared() > 1e-12)
+            {
+                Some(nr.into_iter().map(Vec3::normalize).collect())
+            } else {
+                st.warn(format!(
+                    "{what}: NORMAL has zero or non-finite vectors; normals recomputed"
+                ));
+                None
+            }
+        }
+        None => None,
+    };
+    let mut mesh = Mesh {
+        positions,
+        normals: normals.clone().unwrap_or_default(),
+        indices: tris,
+    };
+    if normals.is_none() {
+        mesh.compute_normals();
+    }
+    Ok(Some(Prim {
+        mesh,
+        material: prim.material.map(|i| i.value()),
+    }))
+}
+
+fn decode_mesh(doc: &Doc, st: &mut State, m: usize) -> Result<Vec<Prim>, GltfError> {
+    let mesh = doc
+        .root
+        .meshes
+        .get(m)
+        .ok_or_else(|| invalid(format!("mesh {m} does not exist")))?;
+    let mut out = Vec::new();
+    for (p, prim) in mesh.primitives.iter().enumerate() {
+        if let Some(d) = decode_primitive(doc, st, m, p, prim)? {
+            out.push(d);
+        }
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Mean linear RGB of texture `t`'s image.
+fn texture_mean(
+    doc: &Doc,
+    st: &State,
+    t: usize,
+    cache: &mut HashMap<usize, Result<Vec3, String>>,
+) -> Result<Vec3, String> {
+    let tex = doc
+        .root
+        .textures
+        .get(t)
+        .ok_or_else(|| format!("texture {t} does not exist"))?;
+    let i = tex.source.value();
+    if let Some(r) = cache.get(&i) {
+        return r.clone();
+    }
+    let r = image_mean(doc, st, i);
+    cache.insert(i, r.clone());
+    r
+}
+
+fn image_mean(doc: &Doc, st: &State, i: usize) -> Result<Vec3, String> {
+    let img = doc
+        .root
+        .images
+        .get(i)
+        .ok_or_else(|| format!("image {i} does not exist"))?;
+    let bytes: Cow<[u8]> = match (&img.buffer_view, &img.uri) {
+        (Some(v), _) => Cow::Borrowed(view_bytes(doc, v.value()).map_err(|e| e.to_string())?.0),
+        (None, Some(uri)) => Cow::Owned(
+            read_uri(uri, &format!("image {i}"), st.limits.max_buffer_bytes, st)
+                .map_err(|e| e.to_string())?,
+        ),
+        (None, None) => return Err(format!("image {i} has neither bufferView nor uri")),
+    };
+    let max_side = st.limits.max_texture_side;
+    let decoded = catch_unwind(AssertUnwindSafe(|| {
+        crate::encode::decode_image_limited(&bytes, max_side)
+    }))
+    .map_err(|p| format!("image decoder panicked: {}", panic_message(p)))?
+    .map_err(|e| format!("image {i}: {e}"))?;
+    let rgb = decoded.to_rgb8();
+    let lut: Vec<f32> = (0..256).map(|v| srgb_to_linear(v as f32 / 255.0)).collect();
+    let mut sum = [0f64; 3];
+    for p in rgb.pixels() {
+        for (s, &c) in sum.iter_mut().zip(&p.0) {
+            *s += f64::from(lut[c as usize]);
+        }
+    }
+    let n = (rgb.width() as f64 * rgb.height() as f64).max(1.0);
+    Ok(Vec3::new(
+        (sum[0] / n) as f32,
+        (sum[1] / n) as f32,
+        (sum[2] / n) as f32,
+    ))
+}
+
+/// `v` clamped into [lo, hi] (non-finite: `default`), with a warning when it changed.
+fn clamp_warn(
+    st: &mut State,
+    label: &str,
+    field: &str,
+    v: f32,
+    lo: f32,
+    hi: f32,
+    default: f32,
+) -> f32 {
+    if !v.is_finite() {
+        st.warn(format!(
+            "{label}: {field} {v} is not finite; {default} used"
+        ));
+        return default;
+    }
+    let c = v.clamp(lo, hi);
+    if c != v {
+        st.warn(format!(
+            "{label}: {field} {v} clamped to {c} (range [{lo}, {hi}])"
+        ));
+    }
+    c
+}
+
+fn clamp3_warn(
+    st: &mut State,
+    label: &str,
+    field: &str,
+    v: [f32; 3],
+    lo: f32,
+    hi: f32,
+    default: f32,
+) -> Vec3 {
+    let out = v.map(|x| {
+        if x.is_finite() {
+            x.clamp(lo, hi)
+        } else {
+            default
+        }
+    });
+    if out != v {
+        st.warn(format!(
+            "{label}: {field} {v:?} clamped to {out:?} (range [{lo}, {hi}])"
+        ));
+    }
+    Vec3::from(out)
+}
+
+fn convert_material(
+    doc: &Doc,
+    st: &mut State,
+    i: usize,
+    m: &json::Material,
+    cache: &mut HashMap<usize, Result<Vec3, String>>,
+) -> MaterialInfo {
+    let label = match &m.name {
+        Some(n) => format!("material {i} '{}'", short(n)),
+        None => format!("material {i}"),
+    };
+    let pbr = &m.pbr_metallic_roughness;
+    let f = pbr.base_color_factor.0;
+    let mut base = clamp3_warn(
+        st,
+        &label,
+        "baseColorFactor",
+        [f[0], f[1], f[2]],
+        0.0,
+        1.0,
+        1.0,
+    );
+    let metallic = clamp_warn(
+        st,
+        &label,
+        "metallicFactor",
+        pbr.metallic_factor.0,
+        0.0,
+        1.0,
+        1.0,
+    );
+    let roughness = clamp_warn(
+        st,
+        &label,
+        "roughnessFactor",
+        pbr.roughness_factor.0,
+        0.0,
+        1.0,
+        1.0,
+    );
+    if let Some(info) = &pbr.base_color_texture {
+        match texture_mean(doc, st, info.index.value(), cache) {
+            Ok(mean) => base *= mean,
+            Err(e) => st.warn(format!(
+                "{label}: base colour texture not used ({e}); the factor alone is used"
+            )),
+        }
+    }
+    let ext = m.extensions.as_ref();
+    let transmission = match ext.and_then(|e| e.transmission.as_ref()) {
+        Some(t) => {
+            if t.transmission_texture.is_some() {
+                st.warn(format!("{label}: transmissionTexture ignored"));
+            }
+            clamp_warn(
+                st,
+                &label,
+                "transmissionFactor",
+                t.transmission_factor.0,
+                0.0,
+                1.0,
+                0.0,
+            )
+        }
+        None => 0.0,
+    };
+    let ior = match ext.and_then(|e| e.ior.as_ref()) {
+        Some(x) => clamp_warn(st, &label, "KHR_materials_ior ior", x.ior.0, 1.0, 4.0, 1.5),
+        None => 1.5,
+    };
+    let mut absorption = Vec3::ZERO;
+    if let Some(v) = ext.and_then(|e| e.volume.as_ref()) {
+        let color = clamp3_warn(
+            st,
+            &label,
+            "KHR_materials_volume attenuationColor",
+            v.attenuation_color.0,
+            1e-4,
+            1.0,
+            1.0,
+        );
+        let d = v.attenuation_distance.0;
+        if d.is_nan() || d <= 0.0 {
+            st.warn(format!(
+                "{label}: KHR_materials_volume attenuationDistance {d} must be > 0; no absorption used"
+            ));
+        } else if d.is_finite() {
+            absorption = Vec3::new(-color.x.ln(), -color.y.ln(), -color.z.ln()) / d;
+        }
+        if v.thickness_factor.0.is_nan() || v.thickness_factor.0 < 0.0 {
+            st.warn(format!(
+                "{label}: KHR_materials_volume thicknessFactor {} must be >= 0 (unused here)",
+                v.thickness_factor.0
+            ));
+        }
+    }
+    let resolved = if transmission >= 0.5 {
+        Material::Dielectric { ior, absorption }
+    } else if metallic >= 0.9 && roughness <= 0.1 {
+        Material::Mirror { reflectance: base }
+    } else if roughness < 0.6 {
+        Material::Glossy {
+            albedo: base * (1.0 - metallic),
+            specular: Vec3::splat(0.04).lerp(base, metallic),
+            roughness: roughness.max(0.02),
+        }
+    } else {
+        Material::Diffuse {
+            albedo: base * (1.0 - metallic),
+        }
+    };
+    MaterialInfo {
+        label,
+        base_color: base,
+        metallic,
+        roughness,
+        transmission,
+        ior,
+        absorption,
+        resolved,
+    }
+}
+
+fn convert_materials(doc: &Doc, st: &mut State) -> Vec<MaterialInfo> {
+    let mut cache = HashMap::new();
+    doc.root
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| convert_material(doc, st, i, m, &mut cache))
+        .collect()
+}
+
+/// Material of primitives without one.
+pub const DEFAULT_MATERIAL: Material = Material::Diffuse {
+    albedo: Vec3::splat(0.8),
+};
+
+// ---------------------------------------------------------------------------------------------
+// Scene graph
+
+fn node_matrix(i: usize, node: &json::Node, st: &mut State) -> Result<Mat4, GltfError> {
+    if let Some(m) = node.matrix {
+        if m.iter().any(|x| !x.is_finite()) {
+            return Err(invalid(format!("node {i}: matrix is not finite")));
+        }
+        if node.translation.is_some() || node.rotation.is_some() || node.scale.is_some() {
+            st.warn(format!("node {i}: has both matrix and TRS; TRS ignored"));
+        }
+        return Ok(Mat4::from_cols_array(&m));
+    }
+    let t = node.translation.unwrap_or([0.0; 3]);
+    let r = node.rotation.map_or([0.0, 0.0, 0.0, 1.0], |q| q.0);
+    let s = node.scale.unwrap_or([1.0; 3]);
+    if t.iter().chain(&r).chain(&s).any(|x| !x.is_finite()) {
+        return Err(invalid(format!(
+            "node {i}: translation, rotation or scale is not finite"
+        )));
+    }
+    let q = Quat::from_array(r);
+    let len = q.length();
+    let q = if len < 1e-6 {
+        st.warn(format!("node {i}: zero rotation quaternion; identity used"));
+        Quat::IDENTITY
+    } else {
+        if (len - 1.0).abs() > 1e-3 {
+            st.warn(format!(
+                "node {i}: rotation quaternion of length {len} normalised"
+            ));
+        }
+        q / len
+    };
+    Ok(Mat4::from_scale_rotation_translation(
+        Vec3::from(s),
+        q,
+        Vec3::from(t),
+    ))
+}
+
+fn convert_light(
+    doc: &Doc,
+    st: &mut State,
+    node: usize,
+    li: usize,
+    world: Mat4,
+) -> Result<Option<Light>, GltfError> {
+    use json::extensions::scene::khr_lights_punctual::Type as LightType;
+    let light = doc
+        .root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.khr_lights_punctual.as_ref())
+        .and_then(|l| l.lights.get(li))
+        .ok_or_else(|| {
+            invalid(format!(
+                "node {node}: KHR_lights_punctual light {li} does not exist"
+            ))
+        })?;
+    let label = format!("light {li} (node {node})");
+    let ty = match &light.type_ {
+        Checked::Valid(t) => *t,
+        Checked::Invalid => {
+            st.warn(format!("{label}: unknown type; skipped"));
+            return Ok(None);
+        }
+    };
+    let color = clamp3_warn(st, &label, "color", light.color, 0.0, f32::MAX, 1.0);
+    let intensity = clamp_warn(st, &label, "intensity", light.intensity, 0.0, f32::MAX, 1.0);
+    // Photometric (cd or lx) to radiometric (W/sr or W/m²).
+    let radiometric = color * intensity / LUMENS_PER_WATT;
+    let position = world.transform_point3(Vec3::ZERO);
+    let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    if !position.is_finite() || (ty != LightType::Point && direction == Vec3::ZERO) {
+        st.warn(format!("{label}: degenerate node transform; skipped"));
+        return Ok(None);
+    }
+    if light.range.is_some() {
+        st.warn(format!(
+            "{label}: range ignored (inverse-square falloff is used)"
+        ));
+    }
+    Ok(Some(match ty {
+        LightType::Directional => Light::Directional {
+            direction,
+            irradiance: radiometric,
+        },
+        LightType::Point => Light::Point {
+            position,
+            intensity: radiometric,
+        },
+        LightType::Spot => {
+            let (inner, outer) = match &light.spot {
+                Some(s) => (s.inner_cone_angle, s.outer_cone_angle),
+                None => {
+                    st.warn(format!("{label}: spot without cone angles; 0 and π/4 used"));
+                    (0.0, std::f32::consts::FRAC_PI_4)
+                }
+            };
+            let half_pi = std::f32::consts::FRAC_PI_2;
+            let outer = clamp_warn(
+                st,
+                &label,
+                "outerConeAngle",
+                outer,
+                1e-3,
+                half_pi,
+                std::f32::consts::FRAC_PI_4,
+            );
+            let inner = clamp_warn(st, &label, "innerConeAngle", inner, 0.0, outer, 0.0);
+            Light::Spot {
+                position,
+                direction,
+                intensity: radiometric,
+                cutoff: outer,
+                beam_width: inner,
+            }
+        }
+    }))
+}
+
+fn convert_camera(
+    doc: &Doc,
+    st: &mut State,
+    node: usize,
+    ci: usize,
+    world: Mat4,
+) -> Result<Option<Camera>, GltfError> {
+    let cam = doc
+        .root
+        .cameras
+        .get(ci)
+        .ok_or_else(|| invalid(format!("node {node}: camera {ci} does not exist")))?;
+    let label = format!("camera {ci} (node {node})");
+    let Some(p) = &cam.perspective else {
+        st.warn(format!("{label}: not perspective; skipped"));
+        return Ok(None);
+    };
+    let fov_y = clamp_warn(
+        st,
+        &label,
+        "yfov (degrees)",
+        p.yfov.to_degrees(),
+        1.0,
+        178.0,
+        40.0,
+    );
+    let height = 256u32;
+    let width = match p.aspect_ratio {
+        Some(a) if a.is_finite() && a > 0.0 => (256.0 * a).round().clamp(1.0, 8192.0) as u32,
+        Some(a) => {
+            st.warn(format!("{label}: aspectRatio {a} ignored"));
+            256
+        }
+        None => 256,
+    };
+    let eye = world.transform_point3(Vec3::ZERO);
+    let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+    if !eye.is_finite()
+        || forward == Vec3::ZERO
+        || up == Vec3::ZERO
+        || forward.cross(up).length() < 1e-4
+    {
+        st.warn(format!("{label}: degenerate node transform; skipped"));
+        return Ok(None);
+    }
+    Ok(Some(Camera {
+        eye,
+        target: eye + forward,
+        up,
+        fov_y,
+        width,
+        height,
+    }))
+}
+
+/// Root nodes of the default scene, scene 0, or every parentless node.
+fn scene_roots(root: &json::Root) -> Result<Vec<usize>, GltfError> {
+    if let Some(s) = root.scene {
+        let scene = root
+            .scenes
+            .get(s.value())
+            .ok_or_else(|| invalid(format!("default scene {} does not exist", s.value())))?;
+        return Ok(scene.nodes.iter().map(|n| n.value()).collect());
+    }
+    if let Some(scene) = root.scenes.first() {
+        return Ok(scene.nodes.iter().map(|n| n.value()).collect());
+    }
+    let mut has_parent = vec![false; root.nodes.len()];
+    for n in &root.nodes {
+        for c in n.children.iter().flatten() {
+            if let Some(h) = has_parent.get_mut(c.value()) {
+                *h = true;
+            }
+        }
+    }
+    Ok((0..root.nodes.len()).filter(|&i| !has_parent[i]).collect())
+}
+
+fn walk_scene(
+    doc: &Doc,
+    materials: &[MaterialInfo],
+    st: &mut State,
+) -> Result<GltfImport, GltfError> {
+    let root = doc.root;
+    let limits = st.limits;
+    let mut out = GltfImport::default();
+    let mut visited = vec![false; root.nodes.len()];
+    let mut visits = 0usize;
+    let mut stack: Vec<(usize, Mat4, usize)> = scene_roots(root)?
+        .into_iter()
+        .rev()
+        .map(|n| (n, Mat4::IDENTITY, 1))
+        .collect();
+    // Every mesh is decoded (and so checked) once, used or not; instances share it.
+    let meshes = (0..root.meshes.len())
+        .map(|m| decode_mesh(doc, st, m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (mut triangles, mut vertices) = (0usize, 0usize);
+    while let Some((ni, parent, depth)) = stack.pop() {
+        let node = root
+            .nodes
+            .get(ni)
+            .ok_or_else(|| invalid(format!("node {ni} does not exist")))?;
+        if visited[ni] {
+            return Err(invalid(format!(
+                "node {ni} is reached twice: the node hierarchy has a loop or a node with two parents"
+            )));
+        }
+        visited[ni] = true;
+        visits += 1;
+        if visits > limits.max_nodes {
+            return Err(GltfError::Limit(format!(
+                "more than {} nodes visited",
+                limits.max_nodes
+            )));
+        }
+        if depth > limits.max_depth {
+            return Err(GltfError::Limit(format!(
+                "node {ni} is nested {depth} deep, the limit is {}",
+                limits.max_depth
+            )));
+        }
+        let world = parent * node_matrix(ni, node, st)?;
+        if !world.is_finite() {
+            return Err(invalid(format!("node {ni}: world transform is not finite")));
+        }
+        if let Some(m) = node.mesh {
+            let m = m.value();
+            let prims = meshes
+                .get(m)
+                .ok_or_else(|| invalid(format!("node {ni}: mesh {m} does not exist")))?;
+            let det = world.determinant();
+            if !prims.is_empty() && (!det.is_finite() || det.abs() < 1e-20) {
+                st.warn(format!(
+                    "node {ni}: singular transform; its mesh {m} is skipped"
+                ));
+            } else {
+                for prim in prims.iter() {
+                    triangles += prim.mesh.triangle_count();
+                    vertices += prim.mesh.positions.len();
+                    if triangles > limits.max_triangles {
+                        return Err(GltfError::Limit(format!(
+                            "more than {} triangles after instancing (at node {ni})",
+                            limits.max_triangles
+                        )));
+                    }
+                    if vertices > limits.max_vertices {
+                        return Err(GltfError::Limit(format!(
+                            "more than {} vertices after instancing (at node {ni})",
+                            limits.max_vertices
+                        )));
+                    }
+                    let mesh = if world == Mat4::IDENTITY {
+                        prim.mesh.clone()
+                    } else {
+                        prim.mesh.transformed(world)
+                    };
+                    if mesh.positions.iter().any(|p| !p.is_finite()) {
+                        return Err(invalid(format!(
+                            "node {ni}: transformed positions of mesh {m} are not finite"
+                        )));
+                    }
+                    let material = prim
+                        .material
+                        .and_then(|k| materials.get(k))
+                        .map_or(DEFAULT_MATERIAL, |mi| mi.resolved);
+                    out.parts.push((mesh, material));
+                }
+            }
+        }
+        if let Some(c) = node.camera
+            && let Some(cam) = convert_camera(doc, st, ni, c.value(), world)?
+        {
+            out.cameras.push(cam);
+        }
+        if let Some(l) = node
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+            && let Some(light) = convert_light(doc, st, ni, l.light.value(), world)?
+        {
+            out.lights.push(light);
+        }
+        if node.skin.is_some() {
+            st.warn(format!("node {ni}: skin ignored"));
+        }
+        for c in node.children.iter().flatten().rev() {
+            stack.push((c.value(), world, depth + 1));
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_round_trip() {
+        assert_eq!(decode_base64(b"AAECAw==").unwrap(), vec![0, 1, 2, 3]);
+        assert_eq!(decode_base64(b"AAECAwQ").unwrap(), vec![0, 1, 2, 3, 4]);
+        assert!(decode_base64(b"AA*A").is_err());
+        assert!(decode_base64(b"AAECA").is_err());
+    }
+
+    #[test]
+    fn uris_are_checked() {
+        assert_eq!(relative_path("a%20b.bin").unwrap(), "a b.bin");
+        assert_eq!(relative_path("dir/x.bin").unwrap(), "dir/x.bin");
+        for bad in [
+            "../x.bin",
+            "a/../../x",
+            "%2E%2E/x",
+            "/etc/passwd",
+            "file:///etc/passwd",
+            "http://example.com/a.bin",
+            "C:\\x.bin",
+            "%zz.bin",
+            "a%",
+            "%2Fetc%2Fpasswd",
+            "",
+        ] {
+            assert!(relative_path(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn glb_framing() {
+        let mut st = State {
+            limits: &GltfLimits::default(),
+            assets: None,
+            warnings: vec![],
+            suppressed: 0,
+            decoded: 0,
+        };
+        let json = br#"{"asset":{"version":"2.0"}} "#; // 28 bytes
+        let mut glb = b"glTF".to_vec();
+        glb.extend(2u32.to_le_bytes());
+        glb.extend((20 + json.len() as u32).to_le_bytes());
+        glb.extend((json.len() as u32).to_le_bytes());
+        glb.extend(CHUNK_JSON.to_le_bytes());
+        glb.extend(json);
+        let (j, bin) = parse_glb(&glb, &mut st).unwrap();
+        assert_eq!(j, json);
+        assert!(bin.is_none());
+        let mut huge = glb.clone();
+        huge[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(parse_glb(&huge, &mut st).is_err());
+        let mut big_chunk = glb.clone();
+        big_chunk[12..16].copy_from_slice(&(u32::MAX - 3).to_le_bytes());
+        assert!(parse_glb(&big_chunk, &mut st).is_err());
+    }
+
+    #[test]
+    fn strips_and_fans() {
+        let mut st = State {
+            limits: &GltfLimits::default(),
+            assets: None,
+            warnings: vec![],
+            suppressed: 0,
+            decoded: 0,
+        };
+        let strip = triangulate(Mode::TriangleStrip, &[0, 1, 2, 3], "t", &mut st);
+        assert_eq!(strip, vec![[0, 1, 2], [1, 3, 2]]);
+        let fan = triangulate(Mode::TriangleFan, &[0, 1, 2, 3], "t", &mut st);
+        assert_eq!(fan, vec![[1, 2, 0], [2, 3, 0]]);
+    }
 }

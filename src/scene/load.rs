@@ -544,7 +544,9 @@ pub fn resolve(
                         file: file.clone(),
                         message,
                     })?;
-                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(assets))
+                // Relative URIs inside a .gltf resolve next to it, not next to the scene.
+                let beside = gltf_import::PrefixedSource::beside(assets, file);
+                let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(&beside))
                     .map_err(|e| SceneError::Asset {
                         path: sp("path"),
                         file: file.clone(),
@@ -556,10 +558,20 @@ pub fn resolve(
                 for l in imported.lights {
                     lights.push(transform_light(l, m));
                 }
+                // glTF absorption is per unit of the file; the object's scale changes the
+                // distances light travels inside, so rescale it to per metre.
+                let scale = m.determinant().abs().cbrt().max(1e-6);
                 imported
                     .parts
                     .into_iter()
                     .map(|(mesh, mat)| {
+                        let mat = match mat {
+                            Material::Dielectric { ior, absorption } => Material::Dielectric {
+                                ior,
+                                absorption: absorption / scale,
+                            },
+                            other => other,
+                        };
                         let id = material.unwrap_or_else(|| {
                             materials.push(mat);
                             materials.len() as u32 - 1
