@@ -2,7 +2,9 @@
 
 use anyhow::{Context, Result, bail};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
+use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
+use caustica::render::{RenderOptions, Renderer};
 use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use clap::{Parser, Subcommand, ValueEnum};
@@ -23,7 +25,8 @@ struct Cli {
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
 enum Method {
-    /// GPU direct lighting with shadow maps; glass and mirrors drawn from the environment.
+    /// GPU direct lighting with shadow maps; glass and mirrors drawn from the environment
+    /// (no caustics).
     Direct,
     /// CPU ground truth: photon tracing + camera paths.
     Reference,
@@ -164,9 +167,26 @@ fn main() -> Result<()> {
                         .map(|n| (n, c.get(n).expect("known component")))
                         .collect()
                 }
-                Method::Direct => bail!(
-                    "method 'direct' needs the GPU renderer, which this build does not have yet"
-                ),
+                Method::Direct => {
+                    let t = Instant::now();
+                    let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
+                    let mut renderer = Renderer::new(ctx)?;
+                    timings.push(("gpu init".into(), t.elapsed()));
+                    let out = renderer.render(&world, &RenderOptions::default())?;
+                    eprintln!("adapter: {}", out.adapter);
+                    timings.extend(out.timings.iter().cloned());
+                    let black = Frame::new(out.direct.width, out.direct.height);
+                    vec![
+                        ("total", out.total()),
+                        ("direct", out.direct.clone()),
+                        (
+                            "caustics",
+                            out.caustics.clone().unwrap_or_else(|| black.clone()),
+                        ),
+                        ("specular", out.specular.clone()),
+                        ("indirect", black),
+                    ]
+                }
             };
             let main = frames
                 .iter()

@@ -1,0 +1,108 @@
+//! The command line contract: `caustica render SCENE --method M --out FILE` writes an image of
+//! the asked size in the format of the extension, with the right numbers in it.
+
+use caustica::encode::decode_frame;
+use std::process::Command;
+
+fn caustica(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+#[test]
+fn render_writes_exr_and_png_of_the_asked_size() {
+    let dir = std::env::temp_dir().join(format!("caustica-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let exr = dir.join("sphere.exr");
+    let out = caustica(&[
+        "render",
+        "scenes/glass-sphere-directional.json",
+        "--method",
+        "reference",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--photons",
+        "20000",
+        "--spp",
+        "1",
+        "--component",
+        "direct",
+        "--out",
+        exr.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("photons") && stderr.contains("camera"),
+        "timings: {stderr}"
+    );
+    let f = decode_frame(&std::fs::read(&exr).unwrap()).unwrap();
+    assert_eq!((f.width, f.height), (64, 48));
+    // Lit floor far from the sphere: ρ/π·E·cosθ = 0.6/π·3·1.2/√2.44.
+    let expect = 0.6 / std::f32::consts::PI * 3.0 * 1.2 / 2.44f32.sqrt();
+    let v = f.at(2, 45).x;
+    assert!((v / expect - 1.0).abs() < 0.01, "{v} vs {expect}");
+
+    let png = dir.join("sphere.png");
+    let out = caustica(&[
+        "render",
+        "scenes/glass-sphere-directional.json",
+        "--method",
+        "direct",
+        "--width",
+        "33",
+        "--height",
+        "17",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (33, 17));
+    // sRGB of 0.44 (clamp tone map) is 176.
+    let p = img.get_pixel(1, 15).0[0];
+    assert!((174..=178).contains(&p), "{p}");
+}
+
+#[test]
+fn bad_inputs_fail_with_a_message_naming_the_problem() {
+    let out = caustica(&["render", "no-such.json", "--out", "x.png"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such.json"));
+    let dir = std::env::temp_dir().join(format!("caustica-cli-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("bad.json");
+    std::fs::write(
+        &scene,
+        r#"{"camera": {"eye": [0,1,1], "target": [0,0,0]},
+            "materials": {"m": {"type": "diffuse", "albedo": 2}},
+            "objects": []}"#,
+    )
+    .unwrap();
+    let out = caustica(&["render", scene.to_str().unwrap(), "--out", "x.png"]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("materials.m.albedo"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = caustica(&[
+        "render",
+        "scenes/glass-sphere-point.json",
+        "--out",
+        dir.join("x.tiff").to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains(".png or .exr"));
+}
