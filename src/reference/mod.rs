@@ -713,11 +713,12 @@ fn camera_pixel(
     let spp = params.spp.max(1);
     // Stratified jitter on a k×k grid (k² ≥ spp; extra cells wrap).
     let k = (spp as f32).sqrt().ceil() as u32;
+    let rays = cam.rays();
     let (mut direct, mut spec) = (Vec3::ZERO, Vec3::ZERO);
     for s in 0..spp {
         let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
         let j = (cell + rng.vec2()) / k as f32;
-        let d = cam.ray_dir(x as f32 + j.x, y as f32 + j.y);
+        let d = rays.dir(x as f32 + j.x, y as f32 + j.y);
         let Some(hit) = accel.intersect(cam.eye, d, f32::INFINITY) else {
             direct += background(world, d);
             continue;

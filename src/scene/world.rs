@@ -43,11 +43,19 @@ impl Camera {
     /// Unit direction through image position (x, y) in pixels; (0,0) is the top-left corner
     /// of the image, pixel centres are at i + 0.5.
     pub fn ray_dir(&self, x: f32, y: f32) -> Vec3 {
+        self.rays().dir(x, y)
+    }
+
+    /// The basis and scale factors of [`Camera::ray_dir`] computed once, for generating many
+    /// rays.
+    pub fn rays(&self) -> RayGen {
         let (r, u, f) = self.basis();
         let t = self.tan_half_fov();
-        let sx = (2.0 * x / self.width as f32 - 1.0) * t * self.aspect();
-        let sy = (1.0 - 2.0 * y / self.height as f32) * t;
-        (f + r * sx + u * sy).normalize()
+        RayGen {
+            right: r * (2.0 * t * self.aspect() / self.width as f32),
+            down: u * (-2.0 * t / self.height as f32),
+            corner: f - r * (t * self.aspect()) + u * t,
+        }
     }
 
     /// Image position (pixels, same convention as [`Camera::ray_dir`]) of a world point and the
@@ -79,6 +87,22 @@ impl Camera {
             near,
             far,
         )
+    }
+}
+
+/// Camera ray directions without recomputing the camera basis per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct RayGen {
+    right: Vec3,
+    down: Vec3,
+    corner: Vec3,
+}
+
+impl RayGen {
+    /// Unit direction through image position (x, y) in pixels, as [`Camera::ray_dir`].
+    #[inline]
+    pub fn dir(&self, x: f32, y: f32) -> Vec3 {
+        (self.corner + self.right * x + self.down * y).normalize()
     }
 }
 
@@ -308,5 +332,33 @@ impl World {
 
     pub fn object(&self, name: &str) -> Option<&Object> {
         self.objects.iter().find(|o| o.name == name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_dir_and_project_are_inverse() {
+        let c = Camera {
+            eye: Vec3::new(0.0, 3.2, 3.2),
+            target: Vec3::new(0.35, 0.0, 0.0),
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 320,
+            height: 200,
+        };
+        for (x, y) in [(0.5, 0.5), (160.0, 100.0), (319.5, 12.25)] {
+            let p = c.eye + c.ray_dir(x, y) * 3.0;
+            let (px, py, _) = c.project(p).unwrap();
+            assert!(
+                (px - x).abs() < 1e-3 && (py - y).abs() < 1e-3,
+                "{x},{y} -> {px},{py}"
+            );
+        }
+        // The centre ray looks at the target; row 0 is the top.
+        assert!((c.ray_dir(160.0, 100.0) - (c.target - c.eye).normalize()).length() < 1e-6);
+        assert!(c.ray_dir(160.0, 0.0).y > c.ray_dir(160.0, 200.0).y);
     }
 }

@@ -70,7 +70,7 @@ pub struct Accel {
 impl Accel {
     /// Build over every object of the world.
     pub fn build(world: &World) -> Accel {
-        Self::build_with(world, |_| true, BvhBuildParams::medium_build())
+        Self::build_with(world, |_| true, BvhBuildParams::slow_build())
     }
 
     /// Build over the objects for which `keep(object index)` holds, with `params`.
@@ -155,7 +155,7 @@ impl Accel {
         let mut hit = RayHit::none();
         if !self
             .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r))
+            .ray_traverse(ray, &mut hit, |r, id| tri_t(&self.tris[id], r))
         {
             return None;
         }
@@ -196,12 +196,40 @@ impl Accel {
         let ray = make_ray(origin, dir, tmax);
         !self
             .bvh
-            .ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+            .ray_traverse_miss(ray, |r, id| tri_t(&self.tris[id], r))
     }
 
     /// The material of a hit.
     pub fn material(&self, hit: &Hit) -> &Material {
         &self.materials[hit.material as usize]
+    }
+}
+
+/// Ray-triangle distance (∞ on a miss): Möller-Trumbore in Embree's arrangement, which tests
+/// the edges before dividing and divides only on a hit (about 20% more coherent rays/s here than
+/// `RtTriangle::intersect`). obvhs's own `intersect_embree` returns t scaled by the determinant,
+/// which breaks closest-hit ordering; this one returns the true distance.
+#[inline(always)]
+fn tri_t(tri: &RtTriangle, ray: &Ray) -> f32 {
+    const SIGN: u32 = 0x8000_0000;
+    let c = tri.v0 - ray.origin;
+    let r = c.cross(ray.direction);
+    let den = -tri.ng.dot(ray.direction);
+    let abs_den = den.abs();
+    let sgn = den.to_bits() & SIGN;
+    let u = f32::from_bits(r.dot(tri.e2).to_bits() ^ sgn);
+    let v = f32::from_bits(r.dot(tri.e1).to_bits() ^ sgn);
+    let w = abs_den - u - v;
+    // `< 0.0` rather than sign bits: a ray through a shared edge or vertex (u, v or w = -0.0)
+    // must hit one of the triangles, or it would leak through the mesh.
+    if den == 0.0 || u < 0.0 || v < 0.0 || w < 0.0 {
+        return f32::INFINITY;
+    }
+    let t = f32::from_bits((-tri.ng).dot(c).to_bits() ^ sgn);
+    if abs_den * ray.tmin < t && t <= abs_den * ray.tmax {
+        t / abs_den
+    } else {
+        f32::INFINITY
     }
 }
 
