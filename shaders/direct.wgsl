@@ -1,11 +1,11 @@
 // Direct pass: one forward pass over all geometry that writes two HDR layers of linear
 // radiance W/(m²·sr). `direct`: receivers (diffuse, glossy) lit by every delta light with PCF
 // shadows from the shadow map array, plus unshadowed environment irradiance from spherical
-// harmonics (diffuse lobe only). `specular`: the specular objects themselves, mirror = reflectance
+// harmonics (diffuse lobe only), and the visible environment behind everything (fullscreen
+// background draw). `specular`: the specular objects themselves, mirror = reflectance
 // × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
-// the reflected and (first-interface) refracted directions; and the visible environment behind
-// everything (fullscreen background draw). Specular objects are 0 in `direct`, receivers 0 in
-// `specular`. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
+// the reflected and (first-interface) refracted directions. Specular objects are 0 in `direct`,
+// receivers 0 in `specular`. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
 // behind, they get nothing.
 
 #include "common.inc.wgsl"
@@ -196,7 +196,9 @@ fn fs_background(@builtin(position) frag: vec4<f32>) -> FsOut {
     let far = g.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
     let d = normalize(far.xyz / far.w - g.eye.xyz);
     var out: FsOut;
-    out.direct = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    out.specular = vec4<f32>(env_radiance(d), 1.0);
+    // The environment seen directly is emitted light reaching the camera with no bounce: it
+    // belongs to `direct`, as in the reference renderer.
+    out.direct = vec4<f32>(env_radiance(d), 1.0);
+    out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     return out;
 }

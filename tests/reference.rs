@@ -251,3 +251,42 @@ fn line_light_matches_numerical_integration() {
     let v = c.direct.at(1, 1).x;
     assert!((v / expect - 1.0).abs() < 0.01, "{v} vs {expect}");
 }
+
+#[test]
+fn environment_map_file_is_loaded_scaled_and_oriented() {
+    // An equirectangular HDR: the upper half (v < 0.5, +Y) has radiance 2, the lower half 0.
+    let dir = std::env::temp_dir().join(format!("caustica-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (16u32, 8u32);
+    let img = image::Rgb32FImage::from_fn(w, h, |_, y| {
+        image::Rgb(if y < h / 2 { [2.0; 3] } else { [0.0; 3] })
+    });
+    img.save_with_format(dir.join("sky.hdr"), image::ImageFormat::Hdr)
+        .unwrap();
+    std::fs::write(
+        dir.join("scene.json"),
+        r#"{
+        "camera": {"eye": [0, 1, 0.001], "target": [0, 0, 0], "fov_y": 2, "width": 4, "height": 4},
+        "lights": [{"type": "environment", "path": "sky.hdr", "scale": 1.5}],
+        "materials": {"floor": {"type": "diffuse", "albedo": 0.5}},
+        "objects": [{"name": "floor", "shape": {"type": "plane", "size": [100, 100]}, "material": "floor"}]
+        }"#,
+    )
+    .unwrap();
+    let world = scene::load_scene_file(&dir.join("scene.json"), &Default::default()).unwrap();
+    let c = render(&world, 1000, 64, 1);
+    // The floor sees only the bright upper hemisphere: radiance ρ·L = 0.5·2·1.5.
+    let v = c.direct.at(1, 1).x;
+    assert!((v / 1.5 - 1.0).abs() < 0.01, "{v}");
+    // Looking down past the floor's edge would see 0; looking up sees 3.
+    let mut up = world.clone();
+    up.camera.eye = glam::Vec3::new(0.0, 1.0, 0.0);
+    up.camera.target = glam::Vec3::new(0.0, 2.0, 0.0);
+    up.camera.up = glam::Vec3::Z;
+    let c = render(&up, 1000, 4, 1);
+    assert!(
+        (c.direct.at(2, 2).x - 3.0).abs() < 1e-4,
+        "{}",
+        c.direct.at(2, 2)
+    );
+}

@@ -765,7 +765,7 @@ fn background(world: &World, d: Vec3) -> Vec3 {
         .iter()
         .map(|l| match l {
             Light::Environment { map, radiance } => {
-                *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.lookup(-d))
+                *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.lookup(d))
             }
             _ => Vec3::ZERO,
         })
