@@ -133,8 +133,12 @@ fn occluded(p: Vec3, to_light: Vec3, max_t: f32, spheres: &[(Vec3, f32)]) -> boo
 
 /// Renders with a fresh context and renderer.
 fn render(w: &World) -> caustica::render::RenderOutput {
+    render_with(w, &RenderOptions::default())
+}
+
+fn render_with(w: &World, opts: &RenderOptions) -> caustica::render::RenderOutput {
     let mut r = Renderer::new(context()).expect("renderer");
-    let out = r.render(w, &RenderOptions::default()).expect("render");
+    let out = r.render(w, opts).expect("render");
     eprintln!("timings: {:?}", out.timings);
     out
 }
@@ -449,23 +453,35 @@ fn line_light_of_zero_length_is_a_point_light() {
     let mat = Material::Diffuse {
         albedo: Vec3::splat(0.5),
     };
-    let a = render(&world(
-        mat,
-        &spheres,
-        vec![Light::Point {
-            position: p,
-            intensity: Vec3::splat(2.0),
-        }],
-    ));
-    let b = render(&world(
-        mat,
-        &spheres,
-        vec![Light::Line {
-            start: p,
-            end: p,
-            intensity: Vec3::splat(2.0),
-        }],
-    ));
+    // The line light's 48 cube faces at 1024² fit the shadow budget, so both renders use the
+    // same shadow resolution (at the default 2048 the line light's would be scaled down).
+    let opts = RenderOptions {
+        shadow_resolution: 1024,
+        ..Default::default()
+    };
+    let a = render_with(
+        &world(
+            mat,
+            &spheres,
+            vec![Light::Point {
+                position: p,
+                intensity: Vec3::splat(2.0),
+            }],
+        ),
+        &opts,
+    );
+    let b = render_with(
+        &world(
+            mat,
+            &spheres,
+            vec![Light::Line {
+                start: p,
+                end: p,
+                intensity: Vec3::splat(2.0),
+            }],
+        ),
+        &opts,
+    );
     let max_diff = a
         .direct
         .pixels

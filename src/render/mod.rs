@@ -97,6 +97,9 @@ pub enum RenderError {
     Limit(String),
 }
 
+/// Most memory all shadow maps of one frame may take (32-bit depth texels).
+pub const SHADOW_BUDGET_BYTES: u64 = 256 << 20;
+
 /// Resources tied to one device generation.
 struct DeviceCache {
     generation: u64,
@@ -175,7 +178,7 @@ impl Renderer {
                 "image size {width}×{height} over the adapter's {max2d}"
             )));
         }
-        let res = opts.shadow_resolution;
+        let mut res = opts.shadow_resolution;
         if !(256..=8192).contains(&res) || res > max2d {
             return Err(RenderError::Options(format!(
                 "shadow_resolution {res}: expected 256..=8192 (adapter max {max2d})"
@@ -185,6 +188,20 @@ impl Renderer {
         // Prepare: pack the scene, plan the lights, upload.
         let scene = scene::PackedScene::pack(world);
         let mut plan = lights::LightPlan::new(world, res);
+        // Every layer shares one depth array: many lights (a line light alone is 48 cube faces)
+        // would need gigabytes at full resolution, so halve it until the array fits the budget.
+        let bytes = |res: u32, n: usize| u64::from(res) * u64::from(res) * 4 * n as u64;
+        if bytes(res, plan.layers.len()) > SHADOW_BUDGET_BYTES {
+            while res > 256 && bytes(res, plan.layers.len()) > SHADOW_BUDGET_BYTES {
+                res /= 2;
+            }
+            tracing::debug!(
+                res,
+                layers = plan.layers.len(),
+                "shadow maps scaled to the budget"
+            );
+            plan = lights::LightPlan::new(world, res);
+        }
         if !opts.components.direct {
             // The specular layer needs no shadows.
             plan.layers.clear();
