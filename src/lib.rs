@@ -8,6 +8,31 @@
 //! - [`gpu`]: headless wgpu device, adapter choice, error scopes, device-loss recovery, readback.
 //! - [`render`]: the GPU renderer: pipelines, passes per method, composition, tone mapping.
 //! - [`encode`]: PNG and EXR.
+//!
+//! ```
+//! use caustica::scene::{self, MapSource};
+//! use caustica::trace::Accel;
+//! use glam::Vec3;
+//!
+//! let json = r#"{
+//!     "camera": {"eye": [0, 2, 2], "target": [0, 0, 0]},
+//!     "lights": [{"type": "point", "position": [0, 2, 0], "intensity": 10}],
+//!     "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+//!     "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5},
+//!                  "material": "glass"}]
+//! }"#;
+//! let desc = scene::parse_scene(json.as_bytes()).unwrap();
+//! let world = scene::resolve(&desc, &MapSource::default(), &Default::default()).unwrap();
+//! let hit = Accel::build(&world)
+//!     .intersect(Vec3::new(0.0, 2.0, 0.0), Vec3::NEG_Y, f32::INFINITY)
+//!     .unwrap();
+//! assert!((hit.t - 1.5).abs() < 1e-3);
+//!
+//! // Errors name the field at fault.
+//! let bad = scene::parse_scene(json.replace("1.5", "0.5").as_bytes()).unwrap();
+//! let err = scene::resolve(&bad, &MapSource::default(), &Default::default()).unwrap_err();
+//! assert_eq!(err.field(), "materials.glass.ior");
+//! ```
 
 pub mod encode;
 pub mod gpu;
