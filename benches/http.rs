@@ -23,7 +23,11 @@ fn bench(c: &mut Criterion) {
         let state = AppState::start(JobConfig::new(&dir), HttpConfig::default()).unwrap();
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let base = format!("http://{}", listener.local_addr().unwrap());
-        tokio::spawn(caustica::http::serve(listener, state, std::future::pending()));
+        tokio::spawn(caustica::http::serve(
+            listener,
+            state,
+            std::future::pending(),
+        ));
         let c = reqwest::Client::new();
         let v: serde_json::Value = c
             .post(format!("{base}/v1/scenes"))

@@ -40,7 +40,11 @@ async fn main() {
             .unwrap();
             let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
             let base = format!("http://{}", listener.local_addr().unwrap());
-            tokio::spawn(caustica::http::serve(listener, state, std::future::pending()));
+            tokio::spawn(caustica::http::serve(
+                listener,
+                state,
+                std::future::pending(),
+            ));
             base
         }
     };
@@ -60,7 +64,12 @@ async fn main() {
         "photons": 20000, "spp": 1,
     }));
     // Warm-up: the GPU worker creates its device on first use.
-    let r = c.post(format!("{base}/v1/renders")).json(&*body).send().await.unwrap();
+    let r = c
+        .post(format!("{base}/v1/renders"))
+        .json(&*body)
+        .send()
+        .await
+        .unwrap();
     assert_eq!(r.status(), 200, "{}", r.text().await.unwrap());
     let next = Arc::new(AtomicUsize::new(0));
     let deadline = Instant::now() + Duration::from_secs(seconds);
@@ -73,7 +82,11 @@ async fn main() {
             let mut errors = 0usize;
             while next.fetch_add(1, Ordering::SeqCst) < requests && Instant::now() < deadline {
                 let t = Instant::now();
-                let r = c.post(format!("{base}/v1/renders")).json(&*body).send().await;
+                let r = c
+                    .post(format!("{base}/v1/renders"))
+                    .json(&*body)
+                    .send()
+                    .await;
                 match r {
                     Ok(r) if r.status() == 200 => {
                         let _ = r.bytes().await;

@@ -36,7 +36,11 @@ async fn the_malformed_corpus_gets_problems_and_the_server_keeps_serving() {
     let mut accepted = Vec::new();
     for f in &files {
         let rel = f.strip_prefix(&root).unwrap().display().to_string();
-        let ct = if rel.ends_with(".glb") { "model/gltf-binary" } else { "model/gltf+json" };
+        let ct = if rel.ends_with(".glb") {
+            "model/gltf-binary"
+        } else {
+            "model/gltf+json"
+        };
         let t = Instant::now();
         let r = srv
             .client
@@ -49,10 +53,17 @@ async fn the_malformed_corpus_gets_problems_and_the_server_keeps_serving() {
         let status = r.status().as_u16();
         let ctype = r.headers()["content-type"].to_str().unwrap().to_string();
         let body: serde_json::Value = r.json().await.unwrap();
-        assert!(t.elapsed() < Duration::from_secs(5), "{rel}: {:?}", t.elapsed());
+        assert!(
+            t.elapsed() < Duration::from_secs(5),
+            "{rel}: {:?}",
+            t.elapsed()
+        );
         if status == 201 {
             // Accepted: the importer clamps out-of-range values and says so.
-            assert!(!body["warnings"].as_array().unwrap().is_empty(), "{rel}: {body}");
+            assert!(
+                !body["warnings"].as_array().unwrap().is_empty(),
+                "{rel}: {body}"
+            );
             accepted.push(rel);
         } else {
             assert!((400..500).contains(&status), "{rel}: {status} {body}");
@@ -63,7 +74,9 @@ async fn the_malformed_corpus_gets_problems_and_the_server_keeps_serving() {
         healthy(&srv).await;
     }
     println!("accepted with warnings: {accepted:?}");
-    assert!(accepted.len() <= 3, "{accepted:?}");
+    // One file of the corpus is a usable triangle (only an accessor `max` of the wrong arity,
+    // which the importer ignores): it is accepted with warnings about the added camera and light.
+    assert_eq!(accepted, ["gltf-rs/minimal_accessor_invalid.gltf"]);
     srv.stop().await;
 }
 
@@ -130,12 +143,36 @@ async fn limits_media_types_and_fields() {
             .body(body)
             .send()
     };
-    let p = problem(post(SCENE.replace("\"radius\": 0.5", "\"radius\": -1")).await.unwrap(), 422).await;
+    let p = problem(
+        post(SCENE.replace("\"radius\": 0.5", "\"radius\": -1"))
+            .await
+            .unwrap(),
+        422,
+    )
+    .await;
     assert_eq!(p["field"], "objects[1].shape.radius", "{p}");
-    assert!(p["detail"].as_str().unwrap().contains("objects[1].shape.radius"), "{p}");
-    let p = problem(post(SCENE.replace("\"fov_y\": 40", "\"fov_y\": 40, \"zoom\": 2")).await.unwrap(), 422).await;
+    assert!(
+        p["detail"]
+            .as_str()
+            .unwrap()
+            .contains("objects[1].shape.radius"),
+        "{p}"
+    );
+    let p = problem(
+        post(SCENE.replace("\"fov_y\": 40", "\"fov_y\": 40, \"zoom\": 2"))
+            .await
+            .unwrap(),
+        422,
+    )
+    .await;
     assert!(p["detail"].as_str().unwrap().contains("zoom"), "{p}");
-    let p = problem(post(SCENE.replace("\"width\": 256", "\"width\": 100000")).await.unwrap(), 422).await;
+    let p = problem(
+        post(SCENE.replace("\"width\": 256", "\"width\": 100000"))
+            .await
+            .unwrap(),
+        422,
+    )
+    .await;
     assert_eq!(p["field"], "camera.width", "{p}");
     problem(post("{\"camera\": ".into()).await.unwrap(), 422).await;
     // Deeply nested JSON: an error, not a stack overflow.
@@ -151,32 +188,74 @@ async fn limits_media_types_and_fields() {
     problem(r, 400).await;
     // Render fields.
     let p = problem(
-        srv.post_json("/v1/renders", &serde_json::json!({"scene": scene_sized(8, 8), "width": 0})).await,
+        srv.post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "width": 0}),
+        )
+        .await,
         422,
     )
     .await;
     assert_eq!(p["field"], "width", "{p}");
     let p = problem(
-        srv.post_json("/v1/renders", &serde_json::json!({"scene": scene_sized(8, 8), "method": "magic"})).await,
+        srv.post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "magic"}),
+        )
+        .await,
         422,
     )
     .await;
     assert_eq!(p["field"], "method", "{p}");
     let mut bad = scene_sized(8, 8);
     bad["lights"][0]["irradiance"] = serde_json::json!([1, -2, 3]);
-    let p = problem(srv.post_json("/v1/renders", &serde_json::json!({"scene": bad})).await, 422).await;
+    let p = problem(
+        srv.post_json("/v1/renders", &serde_json::json!({"scene": bad}))
+            .await,
+        422,
+    )
+    .await;
     assert_eq!(p["field"], "scene.lights[0].irradiance", "{p}");
     let p = problem(
-        srv.post_json("/v1/renders", &serde_json::json!({"scene": "0".repeat(64)})).await,
+        srv.post_json("/v1/renders", &serde_json::json!({"scene": "0".repeat(64)}))
+            .await,
         422,
     )
     .await;
     assert_eq!(p["field"], "scene", "{p}");
     // Unknown ids and routes.
-    problem(srv.client.get(srv.url("/v1/scenes/nope")).send().await.unwrap(), 404).await;
-    problem(srv.client.get(srv.url("/v1/bakes/bk_0123")).send().await.unwrap(), 404).await;
-    problem(srv.client.get(srv.url("/v2/anything")).send().await.unwrap(), 404).await;
-    problem(srv.client.put(srv.url("/v1/scenes")).send().await.unwrap(), 405).await;
+    problem(
+        srv.client
+            .get(srv.url("/v1/scenes/nope"))
+            .send()
+            .await
+            .unwrap(),
+        404,
+    )
+    .await;
+    problem(
+        srv.client
+            .get(srv.url("/v1/bakes/bk_0123"))
+            .send()
+            .await
+            .unwrap(),
+        404,
+    )
+    .await;
+    problem(
+        srv.client
+            .get(srv.url("/v2/anything"))
+            .send()
+            .await
+            .unwrap(),
+        404,
+    )
+    .await;
+    problem(
+        srv.client.put(srv.url("/v1/scenes")).send().await.unwrap(),
+        405,
+    )
+    .await;
 
     // glTF naming an external file or a file: URI: refused, nothing read from disk.
     let gltf = r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "file:///etc/passwd", "byteLength": 10}]}"#;
@@ -194,15 +273,32 @@ async fn limits_media_types_and_fields() {
     let mut with_gltf: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     with_gltf["objects"][1]["shape"] = serde_json::json!({"type": "gltf", "path": "box.glb"});
     let form = reqwest::multipart::Form::new().text("scene", with_gltf.to_string());
-    let r = srv.client.post(srv.url("/v1/scenes")).multipart(form).send().await.unwrap();
+    let r = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .multipart(form)
+        .send()
+        .await
+        .unwrap();
     let p = problem(r, 422).await;
     assert_eq!(p["field"], "objects[1].shape.path", "{p}");
     assert!(p["detail"].as_str().unwrap().contains("box.glb"), "{p}");
-    let glb = std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/assets/Box.glb")).unwrap();
+    let glb =
+        std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/assets/Box.glb"))
+            .unwrap();
     let form = reqwest::multipart::Form::new()
         .text("scene", with_gltf.to_string())
-        .part("box.glb", reqwest::multipart::Part::bytes(glb.clone()).file_name("whatever.glb"));
-    let r = srv.client.post(srv.url("/v1/scenes")).multipart(form).send().await.unwrap();
+        .part(
+            "box.glb",
+            reqwest::multipart::Part::bytes(glb.clone()).file_name("whatever.glb"),
+        );
+    let r = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .multipart(form)
+        .send()
+        .await
+        .unwrap();
     assert_eq!(r.status(), 201);
     let v: serde_json::Value = r.json().await.unwrap();
     assert_eq!(v["files"], serde_json::json!(["box.glb"]));
@@ -211,7 +307,16 @@ async fn limits_media_types_and_fields() {
     let form = reqwest::multipart::Form::new()
         .text("scene", with_gltf.to_string())
         .part("box.glb", reqwest::multipart::Part::bytes(glb.clone()));
-    let v2: serde_json::Value = srv.client.post(srv.url("/v1/scenes")).multipart(form).send().await.unwrap().json().await.unwrap();
+    let v2: serde_json::Value = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .multipart(form)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
     assert_eq!(v["id"], v2["id"]);
     // A GLB as a whole scene: default camera and light, with warnings.
     let r = srv
@@ -226,12 +331,20 @@ async fn limits_media_types_and_fields() {
     let v: serde_json::Value = r.json().await.unwrap();
     assert_eq!(v["objects"][0]["name"], "model");
     assert_eq!(v["warnings"].as_array().unwrap().len(), 2, "{v}");
-    let (s, got) = srv.get_json(&format!("/v1/scenes/{}", v["id"].as_str().unwrap())).await;
+    let (s, got) = srv
+        .get_json(&format!("/v1/scenes/{}", v["id"].as_str().unwrap()))
+        .await;
     assert_eq!(s, 200);
     assert_eq!(got["id"], v["id"]);
     // Multipart without a scene part.
     let form = reqwest::multipart::Form::new().text("other", "x");
-    let r = srv.client.post(srv.url("/v1/scenes")).multipart(form).send().await.unwrap();
+    let r = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .multipart(form)
+        .send()
+        .await
+        .unwrap();
     assert_eq!(problem(r, 422).await["field"], "scene");
     healthy(&srv).await;
     srv.stop().await;
@@ -264,9 +377,25 @@ async fn a_full_queue_answers_429_with_retry_after() {
     assert_eq!(r.headers()["retry-after"], "5");
     problem(r, 429).await;
     // Cancel a queued job: dropped at once.
-    let v: serde_json::Value = srv.client.delete(srv.url(&b)).send().await.unwrap().json().await.unwrap();
+    let v: serde_json::Value = srv
+        .client
+        .delete(srv.url(&b))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
     assert_eq!(v["state"], "canceled");
-    let v: serde_json::Value = srv.client.delete(srv.url(&a)).send().await.unwrap().json().await.unwrap();
+    let v: serde_json::Value = srv
+        .client
+        .delete(srv.url(&a))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
     assert_eq!(v["state"], "canceled");
     srv.stop().await;
 }

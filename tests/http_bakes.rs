@@ -15,9 +15,12 @@ fn bake(scene: &serde_json::Value, photons: u64) -> serde_json::Value {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn progress_rises_and_delete_cancels_a_running_bake() {
-    let srv = Server::start("bake-cancel", |_, _| {}).await;
+    // One CPU worker: the render after the cancel can only run once the bake really stopped.
+    let srv = Server::start("bake-cancel", |j, _| j.cpu_workers = 1).await;
     // Far more photons than the test will wait for.
-    let r = srv.post_json("/v1/bakes", &bake(&scene_sized(16, 16), 1_000_000_000)).await;
+    let r = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(16, 16), 1_000_000_000))
+        .await;
     assert_eq!(r.status(), 202);
     let loc = r.headers()["location"].to_str().unwrap().to_string();
     let first = poll("progress > 0", Duration::from_secs(60), || async {
@@ -49,10 +52,26 @@ async fn progress_rises_and_delete_cancels_a_running_bake() {
     let (_, b) = srv.get_json(&loc).await;
     assert_eq!(a["progress"], b["progress"]);
     assert_eq!(b["state"], "canceled");
-    let m = srv.client.get(srv.url("/metrics")).send().await.unwrap().text().await.unwrap();
-    assert!(m.contains("caustica_jobs_total{kind=\"bake\",state=\"canceled\"} 1"), "{m}");
+    let m = srv
+        .client
+        .get(srv.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        m.contains("caustica_jobs_total{kind=\"bake\",state=\"canceled\"} 1"),
+        "{m}"
+    );
     // The artifact of a canceled bake is a 409 problem.
-    let r = srv.client.get(srv.url(&format!("{loc}/artifact"))).send().await.unwrap();
+    let r = srv
+        .client
+        .get(srv.url(&format!("{loc}/artifact")))
+        .send()
+        .await
+        .unwrap();
     problem(r, 409).await;
     srv.stop().await;
 }
@@ -67,18 +86,33 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
     // Same inputs, written differently (defaults spelled out): same job.
     let mut body2 = body.clone();
     body2["params"]["seed"] = 1.into();
-    let v2: serde_json::Value = srv.post_json("/v1/bakes", &body2).await.json().await.unwrap();
+    let v2: serde_json::Value = srv
+        .post_json("/v1/bakes", &body2)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(v1["id"], v2["id"]);
     // By scene id too.
     let mut body3 = body.clone();
     body3.as_object_mut().unwrap().remove("scene");
     body3["scene_id"] = v1["scene_id"].clone();
-    let v3: serde_json::Value = srv.post_json("/v1/bakes", &body3).await.json().await.unwrap();
+    let v3: serde_json::Value = srv
+        .post_json("/v1/bakes", &body3)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(v1["id"], v3["id"]);
     // Another seed: another job.
     let mut other = body.clone();
     other["params"]["seed"] = 2.into();
-    let v4: serde_json::Value = srv.post_json("/v1/bakes", &other).await.json().await.unwrap();
+    let v4: serde_json::Value = srv
+        .post_json("/v1/bakes", &other)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_ne!(v1["id"], v4["id"]);
     // Idempotency-Key: the first job it named, and a reuse for another request is refused.
     let send = |b: &serde_json::Value, key: &str| {
@@ -93,7 +127,10 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
     let k2: serde_json::Value = send(&other, "key-1").await.unwrap().json().await.unwrap();
     assert_eq!(k2["id"], v4["id"]);
     let p = problem(send(&body, "key-1").await.unwrap(), 422).await;
-    assert!(p["detail"].as_str().unwrap().contains("Idempotency-Key"), "{p}");
+    assert!(
+        p["detail"].as_str().unwrap().contains("Idempotency-Key"),
+        "{p}"
+    );
 
     let id = v1["id"].as_str().unwrap();
     let done = poll("bake to succeed", Duration::from_secs(120), || async {
@@ -110,7 +147,10 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
         .map(|t| t["stage"].as_str().unwrap())
         .collect();
     assert_eq!(stages[0], "queue");
-    assert!(stages.contains(&"photons") && stages.contains(&"encode"), "{stages:?}");
+    assert!(
+        stages.contains(&"photons") && stages.contains(&"encode"),
+        "{stages:?}"
+    );
     let r = srv
         .client
         .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
@@ -134,9 +174,17 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
         .iter()
         .map(|l| l.attributes.layer_name.as_ref().unwrap().to_string())
         .collect();
-    assert_eq!(names, ["total", "direct", "caustics", "specular", "indirect"]);
+    assert_eq!(
+        names,
+        ["total", "direct", "caustics", "specular", "indirect"]
+    );
     // Asking again after success: still the same job, no new work.
-    let again: serde_json::Value = srv.post_json("/v1/bakes", &body).await.json().await.unwrap();
+    let again: serde_json::Value = srv
+        .post_json("/v1/bakes", &body)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(again["state"], "succeeded");
     // A bad object and a bad param name the field.
     let mut bad = body.clone();

@@ -30,7 +30,11 @@ async fn thirty_two_clients_three_renders_each() {
             let c = common::client();
             let mut ids = Vec::new();
             for k in 0..3u32 {
-                let method = if (client + k) % 2 == 0 { "direct" } else { "reference" };
+                let method = if (client + k) % 2 == 0 {
+                    "direct"
+                } else {
+                    "reference"
+                };
                 let r = c
                     .post(format!("{base}/v1/renders"))
                     .json(&serde_json::json!({"scene": id, "method": method,
@@ -46,7 +50,10 @@ async fn thirty_two_clients_three_renders_each() {
                         assert_eq!(img.width(), 8 + client % 4);
                     }
                     202 => {}
-                    s => panic!("client {client} render {k}: {s} {}", r.text().await.unwrap()),
+                    s => panic!(
+                        "client {client} render {k}: {s} {}",
+                        r.text().await.unwrap()
+                    ),
                 }
                 ids.push(loc);
             }
@@ -58,16 +65,35 @@ async fn thirty_two_clients_three_renders_each() {
         all.extend(t.await.unwrap());
     }
     assert_eq!(all.len(), 96);
-    assert_eq!(all.iter().collect::<HashSet<_>>().len(), 96, "ids are unique");
+    assert_eq!(
+        all.iter().collect::<HashSet<_>>().len(),
+        96,
+        "ids are unique"
+    );
     for loc in &all {
-        poll("every render to succeed", Duration::from_secs(120), || async {
-            let (_, v) = srv.get_json(loc).await;
-            assert_ne!(v["state"], "failed", "{v}");
-            (v["state"] == "succeeded").then_some(())
-        })
+        poll(
+            "every render to succeed",
+            Duration::from_secs(120),
+            || async {
+                let (_, v) = srv.get_json(loc).await;
+                assert_ne!(v["state"], "failed", "{v}");
+                (v["state"] == "succeeded").then_some(())
+            },
+        )
         .await;
     }
-    let m = srv.client.get(srv.url("/metrics")).send().await.unwrap().text().await.unwrap();
-    assert!(m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 96"), "{m}");
+    let m = srv
+        .client
+        .get(srv.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 96"),
+        "{m}"
+    );
     srv.stop().await;
 }

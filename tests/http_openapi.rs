@@ -31,7 +31,10 @@ async fn the_spec_matches_the_router_and_its_examples_are_accepted() {
         .iter()
         .map(|(m, p)| (m.to_string(), p.to_string()))
         .collect();
-    assert_eq!(served, in_spec, "routes served vs routes in api/openapi.yaml");
+    assert_eq!(
+        served, in_spec,
+        "routes served vs routes in api/openapi.yaml"
+    );
 
     let srv = Server::start("openapi", |_, _| {}).await;
     // Every route is really served.
@@ -55,7 +58,9 @@ async fn the_spec_matches_the_router_and_its_examples_are_accepted() {
     // Request examples.
     let mut n = 0;
     for (path, item) in spec["paths"].as_object().unwrap() {
-        let Some(post) = item.get("post") else { continue };
+        let Some(post) = item.get("post") else {
+            continue;
+        };
         let Some(ex) = post["requestBody"]["content"]["application/json"].get("example") else {
             continue;
         };

@@ -64,13 +64,20 @@ async fn reference_render_matches_the_library_and_puts_the_caustic_there() {
     assert_eq!(got.dimensions(), (64, 64));
 
     // Same numbers as the library (the reference is deterministic for a seed).
-    let c = tokio::task::spawn_blocking(library_components).await.unwrap();
+    let c = tokio::task::spawn_blocking(library_components)
+        .await
+        .unwrap();
     let want = encode::encode_png(&c.total(), PngSettings::default()).unwrap();
     let want = image::load_from_memory(&want).unwrap().to_rgb8();
     let diff = got
         .pixels()
         .zip(want.pixels())
-        .map(|(a, b)| (0..3).map(|k| a.0[k].abs_diff(b.0[k]) as u32).max().unwrap())
+        .map(|(a, b)| {
+            (0..3)
+                .map(|k| a.0[k].abs_diff(b.0[k]) as u32)
+                .max()
+                .unwrap()
+        })
         .max()
         .unwrap();
     assert!(diff <= 1, "PNG differs from the library render by {diff}");
@@ -87,7 +94,10 @@ async fn reference_render_matches_the_library_and_puts_the_caustic_there() {
     assert_eq!(brightest(&caustic), (x, y));
     // It is a caustic: brighter there than the lit floor around it in the total image.
     let floor = got.get_pixel(2, 60).0[0];
-    assert!(got.get_pixel(x, y).0[0] > floor, "caustic at {x},{y} not above the floor");
+    assert!(
+        got.get_pixel(x, y).0[0] > floor,
+        "caustic at {x},{y} not above the floor"
+    );
 
     // The record.
     let (s, rec) = srv.get_json(&loc).await;
@@ -95,7 +105,12 @@ async fn reference_render_matches_the_library_and_puts_the_caustic_there() {
     assert_eq!(rec["state"], "succeeded");
     assert_eq!(rec["method"], "reference");
     assert_eq!(rec["info"]["width"], 64);
-    assert!(rec["info"]["statistics"]["photons_traced"].as_u64().unwrap() >= PHOTONS);
+    assert!(
+        rec["info"]["statistics"]["photons_traced"]
+            .as_u64()
+            .unwrap()
+            >= PHOTONS
+    );
     assert!(rec["timings"].as_array().unwrap().len() >= 4, "{rec}");
     let img = srv
         .client
@@ -175,8 +190,14 @@ async fn direct_render_gives_a_png_and_exr_from_the_gpu_worker() {
         .text()
         .await
         .unwrap();
-    assert!(m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 2"), "{m}");
-    assert!(m.contains("caustica_render_latency_seconds_count{method=\"direct\"} 2"), "{m}");
+    assert!(
+        m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 2"),
+        "{m}"
+    );
+    assert!(
+        m.contains("caustica_render_latency_seconds_count{method=\"direct\"} 2"),
+        "{m}"
+    );
     assert!(m.contains("caustica_queue_depth{lane=\"gpu\"}"), "{m}");
     srv.stop().await;
 }

@@ -39,8 +39,10 @@ async fn a_bake_interrupted_by_kill_9_completes_after_restart() {
     // A render that finishes before the kill.
     let r = c
         .post(format!("{base}/v1/renders"))
-        .json(&serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
-                                  "photons": 2000, "spp": 1}))
+        .json(
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                  "photons": 2000, "spp": 1}),
+        )
         .send()
         .await
         .unwrap();

@@ -11,8 +11,13 @@ use axum::response::{IntoResponse, Response};
 /// Base of the problem type URIs; each type is documented in `api/openapi.yaml`.
 pub const TYPE_BASE: &str = "https://caustica.invalid/problems/";
 
+/// An error answer; boxed so that `Result<_, AppError>` stays small.
 #[derive(Debug)]
-pub struct AppError {
+pub struct AppError(Box<Problem>);
+
+/// The fields of a problem answer.
+#[derive(Debug)]
+pub struct Problem {
     pub status: StatusCode,
     /// Slug appended to [`TYPE_BASE`].
     pub kind: &'static str,
@@ -31,7 +36,7 @@ impl AppError {
         title: &'static str,
         detail: impl Into<String>,
     ) -> Self {
-        AppError {
+        AppError(Box::new(Problem {
             status,
             kind,
             title,
@@ -39,7 +44,7 @@ impl AppError {
             field: None,
             retry_after: None,
             instance: None,
-        }
+        }))
     }
 
     pub fn field(mut self, f: impl Into<String>) -> Self {
@@ -114,6 +119,19 @@ impl AppError {
     }
 }
 
+impl std::ops::Deref for AppError {
+    type Target = Problem;
+    fn deref(&self) -> &Problem {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for AppError {
+    fn deref_mut(&mut self) -> &mut Problem {
+        &mut self.0
+    }
+}
+
 impl IntoResponse for AppError {
     fn into_response(self) -> Response {
         let mut body = serde_json::json!({
@@ -134,7 +152,8 @@ impl IntoResponse for AppError {
             HeaderValue::from_static("application/problem+json"),
         );
         if let Some(s) = self.retry_after {
-            r.headers_mut().insert(header::RETRY_AFTER, HeaderValue::from(s));
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(s));
         }
         r
     }
@@ -174,9 +193,10 @@ impl From<JobError> for AppError {
             JobError::UnknownScene(id) => {
                 AppError::invalid("scene_id", format!("scene_id: no stored scene '{id}'"))
             }
-            JobError::UnknownObject(o) => {
-                AppError::invalid("object", format!("object: no object named '{o}' in the scene"))
-            }
+            JobError::UnknownObject(o) => AppError::invalid(
+                "object",
+                format!("object: no object named '{o}' in the scene"),
+            ),
             JobError::Params(m) => {
                 let field = m.split(':').next().unwrap_or("params").to_string();
                 AppError::invalid(&field, m)

@@ -24,7 +24,13 @@ fn media_type(headers: &HeaderMap) -> String {
     headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
-        .map(|v| v.split(';').next().unwrap_or("").trim().to_ascii_lowercase())
+        .map(|v| {
+            v.split(';')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_ascii_lowercase()
+        })
         .unwrap_or_default()
 }
 
@@ -116,7 +122,12 @@ async fn read_multipart(st: &AppState, req: Request) -> Result<SceneInput, AppEr
             Err(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
                 return Err(AppError::too_large(st.cfg.max_body));
             }
-            Err(e) => return Err(AppError::bad_request(format!("multipart: {}", e.body_text()))),
+            Err(e) => {
+                return Err(AppError::bad_request(format!(
+                    "multipart: {}",
+                    e.body_text()
+                )));
+            }
         };
         let name = field.name().unwrap_or("").to_string();
         if name.is_empty() || name.len() > 255 || name.contains('\0') {
@@ -151,7 +162,10 @@ async fn read_multipart(st: &AppState, req: Request) -> Result<SceneInput, AppEr
         }
     }
     let scene = scene.ok_or_else(|| {
-        AppError::invalid("scene", "multipart: a part named 'scene' with the scene JSON is required")
+        AppError::invalid(
+            "scene",
+            "multipart: a part named 'scene' with the scene JSON is required",
+        )
     })?;
     Ok(SceneInput::Json { scene, files })
 }
@@ -192,12 +206,7 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
     };
     let info = ingest(&st, input).await?;
     let loc = format!("/v1/scenes/{}", info.id);
-    Ok((
-        StatusCode::CREATED,
-        [(header::LOCATION, loc)],
-        Json(info),
-    )
-        .into_response())
+    Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())
 }
 
 pub async fn get_scene(
@@ -210,7 +219,8 @@ pub async fn get_scene(
     let jobs = st.jobs.clone();
     let id2 = id.clone();
     let info = blocking(move || Ok(jobs.scenes.info(&id2)?)).await?;
-    info.map(Json).ok_or_else(|| AppError::not_found("scene", &id))
+    info.map(Json)
+        .ok_or_else(|| AppError::not_found("scene", &id))
 }
 
 /// A scene given inline (object) or by id (string): the stored id.
@@ -237,7 +247,7 @@ async fn scene_ref(st: &AppState, v: &serde_json::Value, field: &str) -> Result<
             .await
             .map_err(|mut e| {
                 // Name the field inside the request: scene.objects[1]...
-                if let Some(f) = &e.field {
+                if let Some(f) = e.field.clone() {
                     e.detail = format!("{field}.{}", e.detail);
                     e.field = Some(format!("{field}.{f}"));
                 }
@@ -376,8 +386,10 @@ fn canonical_bake_params(
 ) -> Result<serde_json::Value, AppError> {
     let v = params.unwrap_or_else(|| serde_json::json!({}));
     match method {
-        "reference" => Ok(serde_json::to_value(ReferenceBakeParams::from_value(&v)?)
-            .expect("params serialise")),
+        "reference" => {
+            Ok(serde_json::to_value(ReferenceBakeParams::from_value(&v)?)
+                .expect("params serialise"))
+        }
         m => Err(AppError::invalid(
             "method",
             format!("method: unknown bake method '{m}' (available: reference)"),
@@ -393,12 +405,16 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
         .transpose()
         .map_err(|_| AppError::bad_request("Idempotency-Key must be visible ASCII"))?;
     if key.as_ref().is_some_and(|k| k.is_empty() || k.len() > 255) {
-        return Err(AppError::bad_request("Idempotency-Key must be 1..=255 characters"));
+        return Err(AppError::bad_request(
+            "Idempotency-Key must be 1..=255 characters",
+        ));
     }
     let b: BakeRequest = json_body(&st, req).await?;
     let scene_id = match (&b.scene, &b.scene_id) {
         (Some(s), None) => scene_ref(&st, s, "scene").await?,
-        (None, Some(id)) => scene_ref(&st, &serde_json::Value::String(id.clone()), "scene_id").await?,
+        (None, Some(id)) => {
+            scene_ref(&st, &serde_json::Value::String(id.clone()), "scene_id").await?
+        }
         _ => {
             return Err(AppError::invalid(
                 "scene",
@@ -492,7 +508,10 @@ fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError>
     let mut resp = (
         [
             (header::CONTENT_TYPE, ty.clone()),
-            (header::CACHE_CONTROL, "public, max-age=31536000, immutable".into()),
+            (
+                header::CACHE_CONTROL,
+                "public, max-age=31536000, immutable".into(),
+            ),
         ],
         bytes,
     )
@@ -608,22 +627,34 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
             if let Ok(v) = HeaderValue::from_str(&v) {
                 resp.headers_mut().insert("server-timing", v);
             }
-            resp.headers_mut()
-                .insert(header::LOCATION, HeaderValue::from_str(&loc).expect("ascii id"));
+            resp.headers_mut().insert(
+                header::LOCATION,
+                HeaderValue::from_str(&loc).expect("ascii id"),
+            );
             st.jobs.metrics.render_latency(&method, t0.elapsed());
             Ok(resp)
         }
         _ => {
             let err = r.error.clone().unwrap_or_default();
-            let code = r.info.get("error_code").and_then(|c| c.as_str()).unwrap_or("");
+            let code = r
+                .info
+                .get("error_code")
+                .and_then(|c| c.as_str())
+                .unwrap_or("");
             let (status, kind, title) = match code {
                 "no_gpu" => (StatusCode::SERVICE_UNAVAILABLE, "no-gpu", "No GPU"),
                 "timeout" => (StatusCode::GATEWAY_TIMEOUT, "job-timeout", "Job time limit"),
                 "canceled" => (StatusCode::CONFLICT, "canceled", "Canceled"),
-                _ => (StatusCode::INTERNAL_SERVER_ERROR, "render-failed", "Render failed"),
+                _ => (
+                    StatusCode::INTERNAL_SERVER_ERROR,
+                    "render-failed",
+                    "Render failed",
+                ),
             };
-            Err(AppError::new(status, kind, title, format!("render {id} failed: {err}"))
-                .instance(loc))
+            Err(
+                AppError::new(status, kind, title, format!("render {id} failed: {err}"))
+                    .instance(loc),
+            )
         }
     }
 }
@@ -678,7 +709,10 @@ pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value
 pub async fn metrics(State(st): State<AppState>) -> Response {
     let body = st.jobs.metrics.render(st.jobs.queue_depth());
     (
-        [(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")],
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
         body,
     )
         .into_response()

@@ -38,7 +38,11 @@ impl Histogram {
             let c = self.counts.get(i).copied().unwrap_or(0);
             let _ = writeln!(out, "{name}_bucket{{{labels}{sep}le=\"{b}\"}} {c}");
         }
-        let _ = writeln!(out, "{name}_bucket{{{labels}{sep}le=\"+Inf\"}} {}", self.count);
+        let _ = writeln!(
+            out,
+            "{name}_bucket{{{labels}{sep}le=\"+Inf\"}} {}",
+            self.count
+        );
         let braces = if labels.is_empty() {
             String::new()
         } else {
@@ -96,7 +100,11 @@ impl Metrics {
     }
 
     pub fn request(&self, route: &str, status: u16) {
-        *self.lock().requests.entry((route.into(), status)).or_default() += 1;
+        *self
+            .lock()
+            .requests
+            .entry((route.into(), status))
+            .or_default() += 1;
     }
 
     /// The exposition, given the current queue depths (cpu, gpu).
@@ -115,7 +123,11 @@ impl Metrics {
         s.push_str("# HELP caustica_job_duration_seconds Run time of succeeded jobs.\n");
         s.push_str("# TYPE caustica_job_duration_seconds histogram\n");
         for (k, h) in &m.job_seconds {
-            h.write(&mut s, "caustica_job_duration_seconds", &format!("kind=\"{k}\""));
+            h.write(
+                &mut s,
+                "caustica_job_duration_seconds",
+                &format!("kind=\"{k}\""),
+            );
         }
         s.push_str(
             "# HELP caustica_render_latency_seconds POST /v1/renders answered with an image, \

@@ -477,8 +477,15 @@ impl JobSystem {
                     sys.enqueue(rec.id.clone(), job);
                 }
                 Err(e) => {
-                    sys.store
-                        .finish(&rec.id, "failed", 0.0, &[], &rec.info, Some(&e.to_string()), None)?;
+                    sys.store.finish(
+                        &rec.id,
+                        "failed",
+                        0.0,
+                        &[],
+                        &rec.info,
+                        Some(&e.to_string()),
+                        None,
+                    )?;
                 }
             }
         }
@@ -650,9 +657,17 @@ impl JobSystem {
             before != qs.len()
         };
         if removed {
-            self.store
-                .finish(id, "canceled", h.progress().0, &[], &serde_json::json!({}), Some("canceled"), None)?;
-            self.metrics.job_finished("canceled", h.job_kind_hint(), Duration::ZERO);
+            self.store.finish(
+                id,
+                "canceled",
+                h.progress().0,
+                &[],
+                &serde_json::json!({}),
+                Some("canceled"),
+                None,
+            )?;
+            self.metrics
+                .job_finished("canceled", h.job_kind_hint(), Duration::ZERO);
             self.retire(&h, JobState::Canceled);
         }
         Ok(true)
@@ -733,17 +748,20 @@ impl JobSystem {
                     .map(|(_, d)| ms(*d))
                     .sum();
                 self.metrics.gpu_time(gpu_ms / 1e3);
-                let r = self.store.write_artifact(&id, a.ext, &a.bytes).and_then(|path| {
-                    self.store.finish(
-                        &id,
-                        "succeeded",
-                        1.0,
-                        &timings,
-                        &a.info,
-                        None,
-                        Some((a.content_type, &path)),
-                    )
-                });
+                let r = self
+                    .store
+                    .write_artifact(&id, a.ext, &a.bytes)
+                    .and_then(|path| {
+                        self.store.finish(
+                            &id,
+                            "succeeded",
+                            1.0,
+                            &timings,
+                            &a.info,
+                            None,
+                            Some((a.content_type, &path)),
+                        )
+                    });
                 match r {
                     Ok(()) => (JobState::Succeeded, Ok(())),
                     Err(e) => {
@@ -782,7 +800,10 @@ impl JobSystem {
                     &id,
                     "canceled",
                     progress,
-                    &[("queue".into(), ms(queue_wait)), ("run".into(), ms(run_time))],
+                    &[
+                        ("queue".into(), ms(queue_wait)),
+                        ("run".into(), ms(run_time)),
+                    ],
                     &serde_json::json!({}),
                     Some("canceled"),
                     None,
@@ -796,7 +817,10 @@ impl JobSystem {
                         &id,
                         "failed",
                         progress,
-                        &[("queue".into(), ms(queue_wait)), ("run".into(), ms(run_time))],
+                        &[
+                            ("queue".into(), ms(queue_wait)),
+                            ("run".into(), ms(run_time)),
+                        ],
                         &serde_json::json!({ "error_code": e.code() }),
                         Some(&e.to_string()),
                         None,
@@ -807,7 +831,11 @@ impl JobSystem {
         if let Err(e) = rec {
             tracing::error!(error = %e, "cannot record the job's end");
         }
-        tracing::info!(state = state.as_str(), run_ms = ms(run_time), "job finished");
+        tracing::info!(
+            state = state.as_str(),
+            run_ms = ms(run_time),
+            "job finished"
+        );
         self.metrics.job_finished(state.as_str(), kind, run_time);
         self.retire(&h, state);
     }
@@ -815,12 +843,10 @@ impl JobSystem {
     /// Stops taking jobs and waits up to `grace` for running ones; past it, running jobs are
     /// interrupted and left queued for the next start. Queued jobs stay queued in the store.
     pub fn shutdown(&self, grace: Duration) {
-        self.queues
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .closed = true;
+        self.queues.lock().unwrap_or_else(|e| e.into_inner()).closed = true;
         self.wake.notify_all();
-        let threads: Vec<_> = std::mem::take(&mut *self.threads.lock().unwrap_or_else(|e| e.into_inner()));
+        let threads: Vec<_> =
+            std::mem::take(&mut *self.threads.lock().unwrap_or_else(|e| e.into_inner()));
         let deadline = Instant::now() + grace;
         while threads.iter().any(|t| !t.is_finished()) && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(20));
@@ -834,7 +860,11 @@ impl JobSystem {
 
 impl JobHandle {
     fn job_kind_hint(&self) -> &'static str {
-        if self.id.starts_with("bk_") { "bake" } else { "render" }
+        if self.id.starts_with("bk_") {
+            "bake"
+        } else {
+            "render"
+        }
     }
 }
 

@@ -50,7 +50,9 @@ impl ReferenceBakeParams {
             JobError::Params(format!("{path}: {}", e.into_inner()))
         })?;
         if !(1..=1_000_000_000).contains(&p.photons) {
-            return Err(JobError::Params("params.photons: must lie in 1..=1e9".into()));
+            return Err(JobError::Params(
+                "params.photons: must lie in 1..=1e9".into(),
+            ));
         }
         if !(1..=1024).contains(&p.spp) {
             return Err(JobError::Params("params.spp: must lie in 1..=1024".into()));
@@ -78,7 +80,10 @@ impl ReferenceBake {
         }
         let mut world = (*world).clone();
         let limits = crate::scene::Limits::default();
-        for (name, v) in [("params.width", params.width), ("params.height", params.height)] {
+        for (name, v) in [
+            ("params.width", params.width),
+            ("params.height", params.height),
+        ] {
             if let Some(v) = v
                 && (v == 0 || v > limits.max_image_side)
             {

@@ -77,6 +77,9 @@ impl RenderParams {
     }
 }
 
+/// The component frames of one render and what it reports (adapter, statistics).
+type Frames = (Vec<(&'static str, Frame)>, serde_json::Value);
+
 pub struct RenderJob {
     world: World,
     method: &'static str,
@@ -154,7 +157,7 @@ impl RenderJob {
         &self,
         r: &mut Renderer,
         timings: &mut Vec<(String, Duration)>,
-    ) -> Result<(Vec<(&'static str, Frame)>, serde_json::Value), JobError> {
+    ) -> Result<Frames, JobError> {
         let out = r
             .render(&self.world, &RenderOptions::default())
             .map_err(|e| JobError::Render(e.to_string()))?;
@@ -165,7 +168,10 @@ impl RenderJob {
             vec![
                 ("total", out.total()),
                 ("direct", out.direct.clone()),
-                ("caustics", out.caustics.clone().unwrap_or_else(|| black.clone())),
+                (
+                    "caustics",
+                    out.caustics.clone().unwrap_or_else(|| black.clone()),
+                ),
                 ("specular", out.specular.clone()),
                 ("indirect", black),
             ],
@@ -177,7 +183,7 @@ impl RenderJob {
         &self,
         ctx: &JobCtx<'_>,
         timings: &mut Vec<(String, Duration)>,
-    ) -> Result<(Vec<(&'static str, Frame)>, serde_json::Value), JobError> {
+    ) -> Result<Frames, JobError> {
         let t = Instant::now();
         let accel = Accel::build(&self.world);
         timings.push(("bvh".into(), t.elapsed()));

@@ -228,12 +228,7 @@ impl Scenes {
 
     /// The resolved world of a stored scene.
     pub fn world(&self, id: &str) -> Result<Arc<World>, JobError> {
-        if let Some(w) = self
-            .cache
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .get(id)
-        {
+        if let Some(w) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get(id) {
             return Ok(w.clone());
         }
         let s = self
@@ -309,5 +304,9 @@ pub fn probe_world() -> Result<World, SceneError> {
         "materials": {"m": {"type": "diffuse", "albedo": 0.5}},
         "objects": [{"name": "p", "shape": {"type": "plane", "size": [2, 2]}, "material": "m"}]
     }"#;
-    resolve(&parse_scene(json)?, &MapSource::default(), &Limits::default())
+    resolve(
+        &parse_scene(json)?,
+        &MapSource::default(),
+        &Limits::default(),
+    )
 }

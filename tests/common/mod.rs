@@ -95,7 +95,10 @@ pub async fn get_json(c: &reqwest::Client, url: &str) -> (u16, serde_json::Value
     let r = c.get(url).send().await.unwrap();
     let s = r.status().as_u16();
     let b = r.bytes().await.unwrap();
-    (s, serde_json::from_slice(&b).unwrap_or(serde_json::Value::Null))
+    (
+        s,
+        serde_json::from_slice(&b).unwrap_or(serde_json::Value::Null),
+    )
 }
 
 /// Polls `f` until it returns Some, at most `limit`; panics with `what` past it.
@@ -109,7 +112,10 @@ where
         if let Some(v) = f().await {
             return v;
         }
-        assert!(t.elapsed() < limit, "timed out after {limit:?} waiting for {what}");
+        assert!(
+            t.elapsed() < limit,
+            "timed out after {limit:?} waiting for {what}"
+        );
         // Yield between polls (a short pause, not synchronisation: the state decides).
         tokio::time::sleep(Duration::from_millis(25)).await;
     }
