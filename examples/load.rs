@@ -71,6 +71,16 @@ async fn main() {
         .await
         .unwrap();
     assert_eq!(r.status(), 200, "{}", r.text().await.unwrap());
+    let r = c
+        .post(format!("{base}/v1/renders"))
+        .json(&*body)
+        .send()
+        .await
+        .unwrap();
+    println!(
+        "Server-Timing of one render: {:?}",
+        r.headers()["server-timing"]
+    );
     let next = Arc::new(AtomicUsize::new(0));
     let deadline = Instant::now() + Duration::from_secs(seconds);
     let t0 = Instant::now();
