@@ -197,3 +197,94 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
     assert!(p["detail"].as_str().unwrap().contains("photonz"), "{p}");
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn renders_run_before_queued_bakes_and_a_canceled_bake_can_run_again() {
+    let srv = Server::start("bake-priority", |j, _| j.cpu_workers = 1).await;
+    let long = |seed: u64| {
+        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
+    };
+    let a = srv.post_json("/v1/bakes", &long(1)).await;
+    let a = a.headers()["location"].to_str().unwrap().to_string();
+    poll("bake A to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&a).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    // B (a bake) is queued before R (a render); R must still run first.
+    let b = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(8, 8), 20_000))
+        .await;
+    let b = b.headers()["location"].to_str().unwrap().to_string();
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                "photons": 2000, "spp": 1, "wait": false}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let r = r.headers()["location"].to_str().unwrap().to_string();
+    let (_, v) = srv.get_json(&b).await;
+    assert_eq!(v["state"], "queued");
+    srv.client.delete(srv.url(&a)).send().await.unwrap();
+    let rv = poll("the render", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&r).await;
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    let bv = poll("bake B", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&b).await;
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    assert!(
+        rv["started_at"].as_i64().unwrap() <= bv["started_at"].as_i64().unwrap(),
+        "render {rv} / bake {bv}"
+    );
+    // Asking for the canceled bake again runs it again, under the same id.
+    let again = srv.post_json("/v1/bakes", &long(1)).await;
+    assert_eq!(again.headers()["location"].to_str().unwrap(), a);
+    let v: serde_json::Value = again.json().await.unwrap();
+    assert!(
+        ["queued", "running"].contains(&v["state"].as_str().unwrap()),
+        "{v}"
+    );
+    assert_eq!(v["error"], serde_json::Value::Null);
+    srv.client.delete(srv.url(&a)).send().await.unwrap();
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_it() {
+    let srv = Server::start("bake-shutdown", |j, h| {
+        j.cpu_workers = 1;
+        h.shutdown_grace = Duration::ZERO;
+    })
+    .await;
+    let dir = srv.dir.clone();
+    let r = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(16, 16), 3_000_000))
+        .await;
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    poll("the bake to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    srv.stop().await;
+    let srv = Server::start_in(dir, |_, _| {}).await;
+    let (s, v) = srv.get_json(&loc).await;
+    assert_eq!(s, 200);
+    assert!(
+        ["queued", "running"].contains(&v["state"].as_str().unwrap()),
+        "{v}"
+    );
+    poll("the bake to complete", Duration::from_secs(300), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["state"] == "succeeded").then_some(())
+    })
+    .await;
+    srv.stop().await;
+}

@@ -222,3 +222,28 @@ async fn a_render_past_the_wait_answers_202_and_completes() {
     assert_eq!(rec["artifact"], format!("{loc}/image"));
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_past_its_job_time_limit_is_a_504_problem() {
+    let srv = Server::start("render-timeout", |j, _| {
+        j.render_timeout = Duration::from_millis(300)
+    })
+    .await;
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(16, 16), "method": "reference",
+                                "photons": 1_000_000_000u64, "spp": 1}),
+        )
+        .await;
+    let p = problem(r, 504).await;
+    assert!(p["detail"].as_str().unwrap().contains("time limit"), "{p}");
+    assert!(
+        p["instance"]
+            .as_str()
+            .unwrap()
+            .starts_with("/v1/renders/rn_"),
+        "{p}"
+    );
+    srv.stop().await;
+}

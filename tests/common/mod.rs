@@ -34,7 +34,14 @@ pub struct Server {
 impl Server {
     /// Starts a server in this process on 127.0.0.1:0 with its own data directory.
     pub async fn start(name: &str, tune: impl FnOnce(&mut JobConfig, &mut HttpConfig)) -> Server {
-        let dir = temp_dir(name);
+        Server::start_in(temp_dir(name), tune).await
+    }
+
+    /// Starts a server on an existing data directory (a restart).
+    pub async fn start_in(
+        dir: PathBuf,
+        tune: impl FnOnce(&mut JobConfig, &mut HttpConfig),
+    ) -> Server {
         let mut jc = JobConfig::new(&dir);
         let mut hc = HttpConfig::default();
         tune(&mut jc, &mut hc);
