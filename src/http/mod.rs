@@ -19,6 +19,9 @@ use axum::routing::get;
 use std::future::Future;
 use std::sync::Arc;
 use std::time::Duration;
+use tower_http::catch_panic::CatchPanicLayer;
+use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse};
+use tracing::Level;
 
 /// Every route served, as (method, path template): checked against `api/openapi.yaml`.
 pub const ROUTES: &[(&str, &str)] = &[
@@ -106,6 +109,13 @@ async fn count_requests(State(st): State<AppState>, req: Request, next: Next) ->
     r
 }
 
+fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
+    use axum::response::IntoResponse;
+    let msg = crate::jobs::panic_message(p);
+    tracing::error!(panic = %msg, "handler panicked");
+    AppError::internal("the server hit an internal error handling this request").into_response()
+}
+
 /// The application: every route, the body limit, request logging and metrics.
 pub fn app(state: AppState) -> Router {
     use routes::*;
@@ -130,7 +140,13 @@ pub fn app(state: AppState) -> Router {
         ))
         // The explicit check in the handlers answers with a problem; this is the backstop.
         .layer(DefaultBodyLimit::max(state.cfg.max_body))
-        .layer(tower_http::trace::TraceLayer::new_for_http())
+        .layer(
+            tower_http::trace::TraceLayer::new_for_http()
+                .make_span_with(DefaultMakeSpan::new().level(Level::INFO))
+                .on_response(DefaultOnResponse::new().level(Level::INFO)),
+        )
+        // A panic in a handler becomes a 500 problem instead of a dropped connection.
+        .layer(CatchPanicLayer::custom(panic_problem))
         .with_state(state)
 }
 

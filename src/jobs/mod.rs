@@ -336,7 +336,8 @@ impl JobCtx<'_> {
 #[derive(Clone, Debug)]
 pub struct JobConfig {
     pub data_dir: PathBuf,
-    /// Threads taking CPU jobs (each job may use rayon's pool inside).
+    /// Threads taking CPU jobs (each job may use rayon's pool inside). With more than one,
+    /// the first is kept for renders.
     pub cpu_workers: usize,
     /// Most jobs waiting in the queues together; past it submissions are refused.
     pub max_queued: usize,
@@ -490,12 +491,16 @@ impl JobSystem {
             }
         }
         let mut threads = Vec::new();
-        for i in 0..sys.cfg.cpu_workers.max(1) {
+        let n = sys.cfg.cpu_workers.max(1);
+        for i in 0..n {
             let s = sys.clone();
+            // With more than one CPU worker, the first takes only renders, so that an
+            // interactive reference render never waits behind long bakes.
+            let renders_only = n > 1 && i == 0;
             threads.push(
                 std::thread::Builder::new()
                     .name(format!("caustica-cpu-{i}"))
-                    .spawn(move || s.worker(Lane::Cpu, None))
+                    .spawn(move || s.worker(Lane::Cpu, None, renders_only))
                     .expect("spawn worker"),
             );
         }
@@ -508,7 +513,7 @@ impl JobSystem {
                     if s.cfg.probe_gpu {
                         s.probe(&slot);
                     }
-                    s.worker(Lane::Gpu, Some(&slot));
+                    s.worker(Lane::Gpu, Some(&slot), false);
                 })
                 .expect("spawn GPU worker"),
         );
@@ -681,7 +686,9 @@ impl JobSystem {
         h.state.send_replace(state);
     }
 
-    fn next(&self, lane: Lane) -> Option<Queued> {
+    /// The next job of `lane` (highest priority, then oldest); with `renders_only`, only a
+    /// render. None once the queues are closed.
+    fn next(&self, lane: Lane, renders_only: bool) -> Option<Queued> {
         let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
         loop {
             if qs.closed {
@@ -691,15 +698,18 @@ impl JobSystem {
                 Lane::Cpu => &mut qs.cpu,
                 Lane::Gpu => &mut qs.gpu,
             };
-            if let Some(q) = heap.pop() {
+            let take = heap
+                .peek()
+                .is_some_and(|q| !renders_only || q.priority == Priority::Render);
+            if take && let Some(q) = heap.pop() {
                 return Some(q);
             }
             qs = self.wake.wait(qs).unwrap_or_else(|e| e.into_inner());
         }
     }
 
-    fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>) {
-        while let Some(q) = self.next(lane) {
+    fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, renders_only: bool) {
+        while let Some(q) = self.next(lane, renders_only) {
             self.run_one(q, gpu);
         }
     }
@@ -879,7 +889,8 @@ pub fn spec_of(r: &JobRecord) -> JobSpec {
     }
 }
 
-pub(crate) fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
+/// The text of a caught panic.
+pub fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
     if let Some(s) = p.downcast_ref::<&str>() {
         (*s).to_string()
     } else if let Some(s) = p.downcast_ref::<String>() {
