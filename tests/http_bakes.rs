@@ -288,3 +288,37 @@ async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_
     .await;
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_bakes_do_not_block_renders() {
+    let srv = Server::start("bake-busy", |j, _| j.cpu_workers = 2).await;
+    let long = |seed: u64| {
+        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
+    };
+    let mut locs = Vec::new();
+    for seed in [1, 2] {
+        let r = srv.post_json("/v1/bakes", &long(seed)).await;
+        locs.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    poll("a bake to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&locs[0]).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    // The second bake waits; the render does not.
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                "photons": 2000, "spp": 1}),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let (_, v) = srv.get_json(&locs[1]).await;
+    assert_eq!(v["state"], "queued");
+    for l in &locs {
+        srv.client.delete(srv.url(l)).send().await.unwrap();
+    }
+    srv.stop().await;
+}
