@@ -197,6 +197,17 @@ async fn limits_media_types_and_fields() {
     )
     .await;
     assert_eq!(p["field"], "width", "{p}");
+    // Past the service's image cap (memory: a reference frame is ~100 bytes a pixel).
+    let p = problem(
+        srv.post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "width": 5000}),
+        )
+        .await,
+        422,
+    )
+    .await;
+    assert!(p["detail"].as_str().unwrap().contains("4096"), "{p}");
     let p = problem(
         srv.post_json(
             "/v1/renders",

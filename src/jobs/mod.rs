@@ -176,17 +176,23 @@ pub struct JobSpec {
 }
 
 /// Builds the job for a spec: the one registry of job types.
-pub fn build_job(spec: &JobSpec, world: Arc<World>) -> Result<Box<dyn Job>, JobError> {
+pub fn build_job(
+    spec: &JobSpec,
+    world: Arc<World>,
+    limits: &crate::scene::Limits,
+) -> Result<Box<dyn Job>, JobError> {
     match (spec.kind.as_str(), spec.method.as_str()) {
         ("bake", "reference") => Ok(Box::new(reference_bake::ReferenceBake::new(
             world,
             spec.object.as_deref(),
             &spec.params,
+            limits,
         )?)),
         ("render", _) => Ok(Box::new(render::RenderJob::new(
             world,
             &spec.method,
             &spec.params,
+            limits,
         )?)),
         ("bake", m) => Err(JobError::Params(format!(
             "method: unknown bake method '{m}' (available: reference)"
@@ -359,7 +365,12 @@ impl JobConfig {
             max_queued: 256,
             bake_timeout: Duration::from_secs(3600),
             render_timeout: Duration::from_secs(300),
-            limits: crate::scene::Limits::default(),
+            // Image side capped below the library's 8192: a reference frame holds several
+            // float layers (~100 bytes a pixel), so 4096² is already ~1.7 GB.
+            limits: crate::scene::Limits {
+                max_image_side: 4096,
+                ..Default::default()
+            },
             probe_gpu: true,
         }
     }
@@ -471,7 +482,7 @@ impl JobSystem {
             let r = sys
                 .scenes
                 .world(&rec.scene_id)
-                .and_then(|w| build_job(&spec, w));
+                .and_then(|w| build_job(&spec, w, &sys.cfg.limits));
             match r {
                 Ok(job) => {
                     sys.store.set_queued(&rec.id)?;
@@ -597,7 +608,7 @@ impl JobSystem {
             }
         }
         let world = self.scenes.world(&spec.scene_id)?;
-        let job = build_job(spec, world)?;
+        let job = build_job(spec, world, &self.cfg.limits)?;
         if existing.is_some() {
             self.store.requeue(id)?;
         } else {

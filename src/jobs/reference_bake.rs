@@ -72,6 +72,7 @@ impl ReferenceBake {
         world: Arc<World>,
         object: Option<&str>,
         params: &serde_json::Value,
+        limits: &crate::scene::Limits,
     ) -> Result<Self, JobError> {
         let params = ReferenceBakeParams::from_value(params)?;
         let object = object.ok_or_else(|| JobError::Params("object: required".into()))?;
@@ -79,7 +80,6 @@ impl ReferenceBake {
             return Err(JobError::UnknownObject(object.into()));
         }
         let mut world = (*world).clone();
-        let limits = crate::scene::Limits::default();
         for (name, v) in [
             ("params.width", params.width),
             ("params.height", params.height),

@@ -88,7 +88,12 @@ pub struct RenderJob {
 
 impl RenderJob {
     /// Checks the parameters and applies the camera and light overrides.
-    pub fn new(world: Arc<World>, method: &str, v: &serde_json::Value) -> Result<Self, JobError> {
+    pub fn new(
+        world: Arc<World>,
+        method: &str,
+        v: &serde_json::Value,
+        limits: &Limits,
+    ) -> Result<Self, JobError> {
         let method = match method {
             "direct" => "direct",
             "reference" => "reference",
@@ -99,7 +104,6 @@ impl RenderJob {
             }
         };
         let p = RenderParams::from_value(v)?;
-        let limits = Limits::default();
         if !COMPONENTS.contains(&p.component.as_str()) {
             return Err(JobError::Params(format!(
                 "component: '{}' is not one of {COMPONENTS:?}",
@@ -120,7 +124,7 @@ impl RenderJob {
         }
         let mut world = (*world).clone();
         if let Some(c) = &p.camera {
-            world.camera = crate::scene::load::resolve_camera(c, &limits)?;
+            world.camera = crate::scene::load::resolve_camera(c, limits)?;
         }
         for (name, v) in [("width", p.width), ("height", p.height)] {
             if let Some(v) = v
@@ -146,7 +150,7 @@ impl RenderJob {
                 .iter()
                 .enumerate()
                 .map(|(i, l)| {
-                    crate::scene::load::resolve_light(&format!("lights[{i}]"), l, &none, &limits)
+                    crate::scene::load::resolve_light(&format!("lights[{i}]"), l, &none, limits)
                 })
                 .collect::<Result<_, _>>()?;
         }
