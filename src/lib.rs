@@ -8,6 +8,8 @@
 //! - [`gpu`]: headless wgpu device, adapter choice, error scopes, device-loss recovery, readback.
 //! - [`render`]: the GPU renderer: pipelines, passes per method, composition, tone mapping.
 //! - [`encode`]: PNG and EXR.
+//! - [`jobs`]: queue, workers, progress, cancellation, persistence (SQLite + artifact files).
+//! - [`http`]: the axum API v1; errors as RFC 9457 problem+json.
 //!
 //! ```
 //! use caustica::scene::{self, MapSource};
@@ -36,6 +38,8 @@
 
 pub mod encode;
 pub mod gpu;
+pub mod http;
+pub mod jobs;
 pub mod reference;
 pub mod render;
 pub mod scene;

@@ -100,6 +100,20 @@ enum Cmd {
         #[arg(long, default_value = "floor")]
         object: String,
     },
+    /// Run the HTTP service (API v1; see api/openapi.yaml).
+    Serve {
+        /// Address to listen on [env: CAUSTICA_ADDR] (default 127.0.0.1:8080; port 0 picks a
+        /// free one). The bound address is printed on stdout.
+        #[arg(long)]
+        addr: Option<String>,
+        /// Where scenes, job records and artifacts live [env: CAUSTICA_DATA_DIR] (default
+        /// ./caustica-data).
+        #[arg(long)]
+        data_dir: Option<PathBuf>,
+        /// JSON logs (also CAUSTICA_LOG_FORMAT=json).
+        #[arg(long)]
+        log_json: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -110,8 +124,12 @@ enum ToneMapArg {
 }
 
 fn main() -> Result<()> {
-    init_logging();
-    match Cli::parse().cmd {
+    let cli = Cli::parse();
+    let json_logs = matches!(cli.cmd, Cmd::Serve { log_json: true, .. })
+        || std::env::var("CAUSTICA_LOG_FORMAT").is_ok_and(|v| v.eq_ignore_ascii_case("json"));
+    init_logging(json_logs);
+    match cli.cmd {
+        Cmd::Serve { addr, data_dir, .. } => serve(addr, data_dir),
         Cmd::Render {
             scene,
             method,
@@ -309,13 +327,69 @@ fn progress_bar(what: &str) -> ProgressBar {
     bar
 }
 
-fn init_logging() {
+fn init_logging(json: bool) {
     use tracing_subscriber::EnvFilter;
     let filter = EnvFilter::try_from_env("CAUSTICA_LOG").unwrap_or_else(|_| {
         EnvFilter::new("info,wgpu_hal::gles::egl=off,wgpu_core=warn,naga=warn")
     });
-    tracing_subscriber::fmt()
+    let b = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .init();
+        .with_writer(std::io::stderr);
+    if json {
+        b.json().init();
+    } else {
+        b.init();
+    }
+}
+
+/// `caustica serve`: flags, then environment, then defaults.
+fn serve(addr: Option<String>, data_dir: Option<PathBuf>) -> Result<()> {
+    use caustica::http::{AppState, HttpConfig};
+    use caustica::jobs::JobConfig;
+    let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
+    let addr = addr
+        .or_else(|| env("CAUSTICA_ADDR"))
+        .unwrap_or_else(|| "127.0.0.1:8080".into());
+    let data_dir = data_dir
+        .or_else(|| env("CAUSTICA_DATA_DIR").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("caustica-data"));
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()?;
+    rt.block_on(async move {
+        let state = AppState::start(JobConfig::new(&data_dir), HttpConfig::default())
+            .with_context(|| format!("starting the job system in {}", data_dir.display()))?;
+        let listener = tokio::net::TcpListener::bind(&addr)
+            .await
+            .with_context(|| format!("binding {addr}"))?;
+        let bound = listener.local_addr()?;
+        // Tests and scripts read this line to find the port.
+        println!("caustica listening on http://{bound}");
+        use std::io::Write;
+        std::io::stdout().flush()?;
+        tracing::info!(%bound, data_dir = %data_dir.display(), "serving");
+        caustica::http::serve(listener, state, shutdown_signal()).await?;
+        Ok(())
+    })
+}
+
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => tracing::info!("ctrl-c"),
+        _ = term => tracing::info!("SIGTERM"),
+    }
 }

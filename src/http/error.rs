@@ -1,0 +1,237 @@
+//! [`AppError`]: every error the API answers, as RFC 9457 `application/problem+json`. This is
+//! the one place where domain errors become status codes.
+
+use crate::jobs::scenes::IngestError;
+use crate::jobs::store::StoreError;
+use crate::jobs::{JobError, SubmitError};
+use crate::scene::SceneError;
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+
+/// Base of the problem type URIs; each type is documented in `api/openapi.yaml`.
+pub const TYPE_BASE: &str = "https://caustica.invalid/problems/";
+
+/// An error answer; boxed so that `Result<_, AppError>` stays small.
+#[derive(Debug)]
+pub struct AppError(Box<Problem>);
+
+/// The fields of a problem answer.
+#[derive(Debug)]
+pub struct Problem {
+    pub status: StatusCode,
+    /// Slug appended to [`TYPE_BASE`].
+    pub kind: &'static str,
+    pub title: &'static str,
+    pub detail: String,
+    /// The request field at fault, when there is one.
+    pub field: Option<String>,
+    pub retry_after: Option<u64>,
+    pub instance: Option<String>,
+}
+
+impl AppError {
+    pub fn new(
+        status: StatusCode,
+        kind: &'static str,
+        title: &'static str,
+        detail: impl Into<String>,
+    ) -> Self {
+        AppError(Box::new(Problem {
+            status,
+            kind,
+            title,
+            detail: detail.into(),
+            field: None,
+            retry_after: None,
+            instance: None,
+        }))
+    }
+
+    pub fn field(mut self, f: impl Into<String>) -> Self {
+        self.field = Some(f.into());
+        self
+    }
+
+    pub fn instance(mut self, i: impl Into<String>) -> Self {
+        self.instance = Some(i.into());
+        self
+    }
+
+    pub fn retry_after(mut self, s: u64) -> Self {
+        self.retry_after = Some(s);
+        self
+    }
+
+    pub fn not_found(what: &str, id: &str) -> Self {
+        AppError::new(
+            StatusCode::NOT_FOUND,
+            "not-found",
+            "Not found",
+            format!("no {what} with id '{id}'"),
+        )
+    }
+
+    pub fn bad_request(detail: impl Into<String>) -> Self {
+        AppError::new(
+            StatusCode::BAD_REQUEST,
+            "bad-request",
+            "Malformed request",
+            detail,
+        )
+    }
+
+    /// 422 about one field of the request.
+    pub fn invalid(field: &str, detail: impl Into<String>) -> Self {
+        AppError::new(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "invalid-request",
+            "Invalid request",
+            detail,
+        )
+        .field(field)
+    }
+
+    pub fn unsupported_media(detail: impl Into<String>) -> Self {
+        AppError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "unsupported-media-type",
+            "Unsupported media type",
+            detail,
+        )
+    }
+
+    pub fn too_large(limit: usize) -> Self {
+        AppError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "payload-too-large",
+            "Request body too large",
+            format!("the request body is over the limit of {limit} bytes"),
+        )
+    }
+
+    pub fn internal(detail: impl Into<String>) -> Self {
+        AppError::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "internal",
+            "Internal error",
+            detail,
+        )
+    }
+}
+
+impl std::ops::Deref for AppError {
+    type Target = Problem;
+    fn deref(&self) -> &Problem {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for AppError {
+    fn deref_mut(&mut self) -> &mut Problem {
+        &mut self.0
+    }
+}
+
+impl IntoResponse for AppError {
+    fn into_response(self) -> Response {
+        let mut body = serde_json::json!({
+            "type": format!("{TYPE_BASE}{}", self.kind),
+            "title": self.title,
+            "status": self.status.as_u16(),
+            "detail": self.detail,
+        });
+        if let Some(f) = &self.field {
+            body["field"] = f.clone().into();
+        }
+        if let Some(i) = &self.instance {
+            body["instance"] = i.clone().into();
+        }
+        let mut r = (self.status, body.to_string()).into_response();
+        r.headers_mut().insert(
+            header::CONTENT_TYPE,
+            HeaderValue::from_static("application/problem+json"),
+        );
+        if let Some(s) = self.retry_after {
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(s));
+        }
+        r
+    }
+}
+
+impl From<SceneError> for AppError {
+    fn from(e: SceneError) -> Self {
+        let field = e.field().to_string();
+        let (kind, title) = match &e {
+            SceneError::Limit { .. } => ("limit-exceeded", "A limit was exceeded"),
+            _ => ("invalid-scene", "Invalid scene"),
+        };
+        AppError::new(StatusCode::UNPROCESSABLE_ENTITY, kind, title, e.to_string()).field(field)
+    }
+}
+
+impl From<StoreError> for AppError {
+    fn from(e: StoreError) -> Self {
+        tracing::error!(error = %e, "storage error");
+        AppError::internal(format!("storage: {e}"))
+    }
+}
+
+impl From<IngestError> for AppError {
+    fn from(e: IngestError) -> Self {
+        match e {
+            IngestError::Scene(s) => s.into(),
+            IngestError::Store(s) => s.into(),
+        }
+    }
+}
+
+impl From<JobError> for AppError {
+    fn from(e: JobError) -> Self {
+        match e {
+            JobError::Scene(s) => s.into(),
+            JobError::UnknownScene(id) => {
+                AppError::invalid("scene_id", format!("scene_id: no stored scene '{id}'"))
+            }
+            JobError::UnknownObject(o) => AppError::invalid(
+                "object",
+                format!("object: no object named '{o}' in the scene"),
+            ),
+            JobError::Params(m) => {
+                let field = m.split(':').next().unwrap_or("params").to_string();
+                AppError::invalid(&field, m)
+            }
+            JobError::NoGpu(m) => AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "no-gpu",
+                "No GPU",
+                format!("no usable GPU adapter: {m}"),
+            ),
+            JobError::Store(s) => s.into(),
+            other => AppError::internal(other.to_string()),
+        }
+    }
+}
+
+impl From<SubmitError> for AppError {
+    fn from(e: SubmitError) -> Self {
+        match e {
+            SubmitError::QueueFull(n) => AppError::new(
+                StatusCode::TOO_MANY_REQUESTS,
+                "queue-full",
+                "Queue full",
+                format!("the job queue is full ({n} jobs waiting, the limit); retry later"),
+            )
+            .retry_after(5),
+            SubmitError::ShuttingDown => AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "shutting-down",
+                "Shutting down",
+                "the server is shutting down and takes no new jobs",
+            )
+            .retry_after(10),
+            SubmitError::Job(j) => j.into(),
+            SubmitError::Store(s) => s.into(),
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! The HTTP API (v1): axum routes and DTOs. Handlers validate, talk to [`crate::jobs`] and
+//! shape answers; they never trace rays or touch wgpu. Errors are [`AppError`]s, answered as
+//! RFC 9457 problem+json.
+//!
+//! [`app`] builds the router from an [`AppState`] (testable without a socket); [`serve`] runs
+//! it on a listener with graceful shutdown.
+
+pub mod error;
+pub mod routes;
+
+pub use error::AppError;
+
+use crate::jobs::{JobConfig, JobSystem};
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
+use axum::middleware::Next;
+use axum::response::Response;
+use axum::routing::get;
+use std::future::Future;
+use std::sync::Arc;
+use std::time::Duration;
+use tower_http::catch_panic::CatchPanicLayer;
+use tower_http::trace::{DefaultMakeSpan, DefaultOnResponse};
+use tracing::Level;
+
+/// Every route served, as (method, path template): checked against `api/openapi.yaml`.
+pub const ROUTES: &[(&str, &str)] = &[
+    ("POST", "/v1/scenes"),
+    ("GET", "/v1/scenes/{id}"),
+    ("POST", "/v1/bakes"),
+    ("GET", "/v1/bakes/{id}"),
+    ("DELETE", "/v1/bakes/{id}"),
+    ("GET", "/v1/bakes/{id}/artifact"),
+    ("POST", "/v1/renders"),
+    ("GET", "/v1/renders/{id}"),
+    ("GET", "/v1/renders/{id}/image"),
+    ("GET", "/healthz"),
+    ("GET", "/readyz"),
+    ("GET", "/metrics"),
+    ("GET", "/openapi.json"),
+];
+
+/// HTTP settings.
+#[derive(Clone, Debug)]
+pub struct HttpConfig {
+    /// Largest request body, bytes.
+    pub max_body: usize,
+    /// How long `POST /v1/renders` waits for the image before answering 202 with the job.
+    pub render_wait: Duration,
+    /// How long running jobs get to finish at shutdown before they are put back in the queue.
+    pub shutdown_grace: Duration,
+}
+
+impl Default for HttpConfig {
+    fn default() -> Self {
+        HttpConfig {
+            max_body: 64 << 20,
+            render_wait: Duration::from_secs(60),
+            shutdown_grace: Duration::from_secs(20),
+        }
+    }
+}
+
+/// What every handler sees.
+#[derive(Clone)]
+pub struct AppState {
+    pub jobs: Arc<JobSystem>,
+    pub cfg: Arc<HttpConfig>,
+    /// Flips to true when shutdown begins: waiting handlers answer at once.
+    pub shutdown: tokio::sync::watch::Receiver<bool>,
+    shutdown_tx: Arc<tokio::sync::watch::Sender<bool>>,
+}
+
+impl AppState {
+    pub fn new(jobs: Arc<JobSystem>, cfg: HttpConfig) -> AppState {
+        let (tx, rx) = tokio::sync::watch::channel(false);
+        AppState {
+            jobs,
+            cfg: Arc::new(cfg),
+            shutdown: rx,
+            shutdown_tx: Arc::new(tx),
+        }
+    }
+
+    /// Starts the job system on `data_dir` and wraps it.
+    pub fn start(jobs: JobConfig, http: HttpConfig) -> anyhow::Result<AppState> {
+        let sys = JobSystem::start(jobs)?;
+        Ok(AppState::new(sys, http))
+    }
+}
+
+/// The OpenAPI document, converted from `api/openapi.yaml` once.
+pub fn openapi() -> &'static serde_json::Value {
+    static DOC: std::sync::OnceLock<serde_json::Value> = std::sync::OnceLock::new();
+    DOC.get_or_init(|| {
+        serde_yaml_ng::from_str(include_str!("../../api/openapi.yaml"))
+            .expect("api/openapi.yaml parses (checked by tests/http_openapi.rs)")
+    })
+}
+
+async fn count_requests(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    let route = req
+        .extensions()
+        .get::<MatchedPath>()
+        .map(|m| m.as_str().to_string())
+        .unwrap_or_else(|| "unmatched".into());
+    let r = next.run(req).await;
+    st.jobs.metrics.request(&route, r.status().as_u16());
+    r
+}
+
+fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
+    use axum::response::IntoResponse;
+    let msg = crate::jobs::panic_message(p);
+    tracing::error!(panic = %msg, "handler panicked");
+    AppError::internal("the server hit an internal error handling this request").into_response()
+}
+
+/// The application: every route, the body limit, request logging and metrics.
+pub fn app(state: AppState) -> Router {
+    use routes::*;
+    Router::new()
+        .route("/v1/scenes", axum::routing::post(post_scene))
+        .route("/v1/scenes/{id}", get(get_scene))
+        .route("/v1/bakes", axum::routing::post(post_bake))
+        .route("/v1/bakes/{id}", get(get_bake).delete(delete_bake))
+        .route("/v1/bakes/{id}/artifact", get(get_bake_artifact))
+        .route("/v1/renders", axum::routing::post(post_render))
+        .route("/v1/renders/{id}", get(get_render))
+        .route("/v1/renders/{id}/image", get(get_render_image))
+        .route("/healthz", get(healthz))
+        .route("/readyz", get(readyz))
+        .route("/metrics", get(metrics))
+        .route("/openapi.json", get(openapi_json))
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            count_requests,
+        ))
+        // The explicit check in the handlers answers with a problem; this is the backstop.
+        .layer(DefaultBodyLimit::max(state.cfg.max_body))
+        .layer(
+            tower_http::trace::TraceLayer::new_for_http()
+                .make_span_with(DefaultMakeSpan::new().level(Level::INFO))
+                .on_response(DefaultOnResponse::new().level(Level::INFO)),
+        )
+        // A panic in a handler becomes a 500 problem instead of a dropped connection.
+        .layer(CatchPanicLayer::custom(panic_problem))
+        .with_state(state)
+}
+
+/// Serves `state` on `listener` until `shutdown` resolves; then stops accepting, lets
+/// requests in flight finish, and gives running jobs `shutdown_grace` before putting them
+/// back in the queue.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    state: AppState,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    let tx = state.shutdown_tx.clone();
+    let jobs = state.jobs.clone();
+    let grace = state.cfg.shutdown_grace;
+    let signal = async move {
+        shutdown.await;
+        tracing::info!("shutting down: no new connections, waiting for requests in flight");
+        tx.send_replace(true);
+    };
+    axum::serve(listener, app(state))
+        .with_graceful_shutdown(signal)
+        .await?;
+    tracing::info!(grace_s = grace.as_secs_f64(), "waiting for running jobs");
+    tokio::task::spawn_blocking(move || jobs.shutdown(grace))
+        .await
+        .map_err(std::io::Error::other)?;
+    tracing::info!("stopped");
+    Ok(())
+}

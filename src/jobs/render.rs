@@ -1,0 +1,296 @@
+//! Render jobs: `direct` on the GPU worker, `reference` on the CPU pool; one image out (PNG
+//! tone-mapped, or EXR linear, optionally with every component as a layer).
+
+use super::{Artifact, Job, JobCtx, JobError, Lane};
+use crate::encode::{self, Frame, PngSettings, ToneMap};
+use crate::reference::{self, ReferenceParams};
+use crate::render::{RenderOptions, Renderer};
+use crate::scene::types::{CameraDesc, LightDesc};
+use crate::scene::{Limits, MapSource, World};
+use crate::trace::Accel;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Format {
+    #[default]
+    Png,
+    Exr,
+}
+
+pub const COMPONENTS: &[&str] = &["total", "direct", "caustics", "specular", "indirect"];
+
+/// Render parameters (everything of a render request but the scene and method).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderParams {
+    /// Image size; the camera's when absent.
+    #[serde(default)]
+    pub width: Option<u32>,
+    #[serde(default)]
+    pub height: Option<u32>,
+    #[serde(default)]
+    pub format: Format,
+    /// The component written: total, direct, caustics, specular or indirect.
+    #[serde(default = "total")]
+    pub component: String,
+    /// EXR only: every component as a layer (the chosen one first).
+    #[serde(default)]
+    pub layers: bool,
+    /// PNG exposure in stops.
+    #[serde(default)]
+    pub exposure: f32,
+    /// PNG tone map (clamp by default, as the CLI).
+    #[serde(default)]
+    pub tone_map: Option<ToneMap>,
+    /// Replaces the scene's camera.
+    #[serde(default)]
+    pub camera: Option<CameraDesc>,
+    /// Replaces the scene's lights (lights inside glTF files stay).
+    #[serde(default)]
+    pub lights: Option<Vec<LightDesc>>,
+    /// Reference: photons, 1..=1e9.
+    #[serde(default)]
+    pub photons: Option<u64>,
+    /// Reference: camera samples per pixel, 1..=1024.
+    #[serde(default)]
+    pub spp: Option<u32>,
+    #[serde(default)]
+    pub seed: Option<u64>,
+}
+
+fn total() -> String {
+    "total".into()
+}
+
+impl RenderParams {
+    pub fn from_value(v: &serde_json::Value) -> Result<Self, JobError> {
+        serde_path_to_error::deserialize(v).map_err(|e| {
+            let path = match e.path().to_string() {
+                p if p == "." => "body".to_string(),
+                p => p,
+            };
+            JobError::Params(format!("{path}: {}", e.into_inner()))
+        })
+    }
+}
+
+/// The component frames of one render and what it reports (adapter, statistics).
+type Frames = (Vec<(&'static str, Frame)>, serde_json::Value);
+
+pub struct RenderJob {
+    world: World,
+    method: &'static str,
+    p: RenderParams,
+}
+
+impl RenderJob {
+    /// Checks the parameters and applies the camera and light overrides.
+    pub fn new(
+        world: Arc<World>,
+        method: &str,
+        v: &serde_json::Value,
+        limits: &Limits,
+    ) -> Result<Self, JobError> {
+        let method = match method {
+            "direct" => "direct",
+            "reference" => "reference",
+            m => {
+                return Err(JobError::Params(format!(
+                    "method: unknown render method '{m}' (available: direct, reference)"
+                )));
+            }
+        };
+        let p = RenderParams::from_value(v)?;
+        if !COMPONENTS.contains(&p.component.as_str()) {
+            return Err(JobError::Params(format!(
+                "component: '{}' is not one of {COMPONENTS:?}",
+                p.component
+            )));
+        }
+        if !p.exposure.is_finite() || p.exposure.abs() > 64.0 {
+            return Err(JobError::Params("exposure: must lie in [-64, 64]".into()));
+        }
+        if p.photons.is_some_and(|n| !(1..=1_000_000_000).contains(&n)) {
+            return Err(JobError::Params("photons: must lie in 1..=1e9".into()));
+        }
+        if p.spp.is_some_and(|n| !(1..=1024).contains(&n)) {
+            return Err(JobError::Params("spp: must lie in 1..=1024".into()));
+        }
+        if p.layers && p.format != Format::Exr {
+            return Err(JobError::Params("layers: only with format exr".into()));
+        }
+        let mut world = (*world).clone();
+        if let Some(c) = &p.camera {
+            world.camera = crate::scene::load::resolve_camera(c, limits)?;
+        }
+        for (name, v) in [("width", p.width), ("height", p.height)] {
+            if let Some(v) = v
+                && (v == 0 || v > limits.max_image_side)
+            {
+                return Err(JobError::Params(format!(
+                    "{name}: must lie in 1..={}",
+                    limits.max_image_side
+                )));
+            }
+        }
+        world.camera.width = p.width.unwrap_or(world.camera.width);
+        world.camera.height = p.height.unwrap_or(world.camera.height);
+        if let Some(ls) = &p.lights {
+            if ls.len() > limits.max_lights {
+                return Err(JobError::Params(format!(
+                    "lights: at most {}",
+                    limits.max_lights
+                )));
+            }
+            let none = MapSource::default();
+            world.lights = ls
+                .iter()
+                .enumerate()
+                .map(|(i, l)| {
+                    crate::scene::load::resolve_light(&format!("lights[{i}]"), l, &none, limits)
+                })
+                .collect::<Result<_, _>>()?;
+        }
+        Ok(RenderJob { world, method, p })
+    }
+
+    fn frames_direct(
+        &self,
+        r: &mut Renderer,
+        timings: &mut Vec<(String, Duration)>,
+    ) -> Result<Frames, JobError> {
+        let out = r
+            .render(&self.world, &RenderOptions::default())
+            .map_err(|e| JobError::Render(e.to_string()))?;
+        timings.extend(out.timings.iter().cloned());
+        let black = Frame::new(out.direct.width, out.direct.height);
+        let info = serde_json::json!({ "adapter": out.adapter });
+        Ok((
+            vec![
+                ("total", out.total()),
+                ("direct", out.direct.clone()),
+                (
+                    "caustics",
+                    out.caustics.clone().unwrap_or_else(|| black.clone()),
+                ),
+                ("specular", out.specular.clone()),
+                ("indirect", black),
+            ],
+            info,
+        ))
+    }
+
+    fn frames_reference(
+        &self,
+        ctx: &JobCtx<'_>,
+        timings: &mut Vec<(String, Duration)>,
+    ) -> Result<Frames, JobError> {
+        let t = Instant::now();
+        let accel = Accel::build(&self.world);
+        timings.push(("bvh".into(), t.elapsed()));
+        ctx.check()?;
+        let d = ReferenceParams::default();
+        let params = ReferenceParams {
+            seed: self.p.seed.unwrap_or(d.seed),
+            photons: self.p.photons.unwrap_or(d.photons),
+            spp: self.p.spp.unwrap_or(d.spp),
+            ..d
+        };
+        let (c, stats) = reference::render(&self.world, &accel, &params, &|f| {
+            ctx.progress(f, if f < 0.8 { "photons" } else { "camera" });
+            ctx.keep_going()
+        })
+        .map_err(|_| ctx.check().err().unwrap_or(JobError::Canceled))?;
+        timings.extend(stats.stages.iter().cloned());
+        let info = serde_json::json!({
+            "adapter": "cpu",
+            "statistics": {
+                "photons_traced": stats.photons_traced,
+                "caustic_photons_stored": stats.caustic_photons_stored,
+                "camera_samples": stats.camera_samples,
+            },
+        });
+        Ok((
+            COMPONENTS
+                .iter()
+                .map(|n| (*n, c.get(n).expect("known component")))
+                .collect(),
+            info,
+        ))
+    }
+}
+
+impl Job for RenderJob {
+    fn kind(&self) -> &'static str {
+        "render"
+    }
+    fn method(&self) -> &'static str {
+        self.method
+    }
+    fn lane(&self) -> Lane {
+        if self.method == "direct" {
+            Lane::Gpu
+        } else {
+            Lane::Cpu
+        }
+    }
+
+    fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
+        let mut timings = Vec::new();
+        ctx.progress(0.0, "render");
+        let (frames, mut info) = if self.method == "direct" {
+            ctx.with_renderer(|r| self.frames_direct(r, &mut timings))?
+        } else {
+            self.frames_reference(ctx, &mut timings)?
+        };
+        ctx.check()?;
+        ctx.progress(1.0, "encode");
+        let t = Instant::now();
+        let main = frames
+            .iter()
+            .find(|(n, _)| *n == self.p.component)
+            .map(|(_, f)| f)
+            .expect("component checked in new()");
+        let (content_type, ext, bytes) = match self.p.format {
+            Format::Png => (
+                "image/png",
+                "png",
+                encode::encode_png(
+                    main,
+                    PngSettings {
+                        exposure: self.p.exposure,
+                        tone_map: self.p.tone_map.unwrap_or(ToneMap::Clamp),
+                    },
+                )?,
+            ),
+            Format::Exr if self.p.layers => {
+                let mut list = vec![(self.p.component.as_str(), main)];
+                list.extend(
+                    frames
+                        .iter()
+                        .filter(|(n, _)| *n != self.p.component)
+                        .map(|(n, f)| (*n, f)),
+                );
+                ("image/x-exr", "exr", encode::encode_exr_layers(&list)?)
+            }
+            Format::Exr => ("image/x-exr", "exr", encode::encode_exr(main)?),
+        };
+        timings.push(("encode".into(), t.elapsed()));
+        if let Some(o) = info.as_object_mut() {
+            o.insert("method".into(), self.method.into());
+            o.insert("width".into(), self.world.camera.width.into());
+            o.insert("height".into(), self.world.camera.height.into());
+            o.insert("component".into(), self.p.component.clone().into());
+        }
+        Ok(Artifact {
+            content_type,
+            ext,
+            bytes,
+            timings,
+            info,
+        })
+    }
+}

@@ -1,0 +1,394 @@
+//! Persistence: scenes, job records and artifacts under the data directory.
+//!
+//! SQLite (bundled, WAL) keeps scenes, their uploaded files and job records; artifacts are
+//! files under `artifacts/`, written atomically (temp file, fsync, rename, fsync of the
+//! directory) before the record that points at them is marked succeeded, so a record never
+//! names a half-written file. One connection behind a mutex: every statement is short, and
+//! SQLite serialises writers anyway.
+
+use rusqlite::{Connection, OptionalExtension, params};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("database: {0}")]
+    Db(#[from] rusqlite::Error),
+    #[error("file system: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("corrupt record: {0}")]
+    Corrupt(String),
+}
+
+/// Schema migrations, applied in order; `PRAGMA user_version` records how many ran.
+const MIGRATIONS: &[&str] = &[r#"
+    CREATE TABLE scenes (
+        id TEXT PRIMARY KEY,
+        scene_json BLOB NOT NULL,
+        created_at INTEGER NOT NULL
+    );
+    CREATE TABLE scene_files (
+        scene_id TEXT NOT NULL REFERENCES scenes(id),
+        name TEXT NOT NULL,
+        bytes BLOB NOT NULL,
+        PRIMARY KEY (scene_id, name)
+    );
+    CREATE TABLE jobs (
+        id TEXT PRIMARY KEY,
+        kind TEXT NOT NULL,
+        method TEXT NOT NULL,
+        scene_id TEXT NOT NULL,
+        object TEXT,
+        params TEXT NOT NULL,
+        state TEXT NOT NULL,
+        progress REAL NOT NULL DEFAULT 0,
+        stage TEXT NOT NULL DEFAULT '',
+        timings TEXT NOT NULL DEFAULT '[]',
+        info TEXT NOT NULL DEFAULT '{}',
+        error TEXT,
+        artifact_type TEXT,
+        artifact_path TEXT,
+        created_at INTEGER NOT NULL,
+        started_at INTEGER,
+        finished_at INTEGER,
+        seq INTEGER NOT NULL DEFAULT 0
+    );
+    CREATE INDEX jobs_state ON jobs(state);
+    CREATE TABLE idempotency (
+        key TEXT PRIMARY KEY,
+        request_hash TEXT NOT NULL,
+        job_id TEXT NOT NULL
+    );
+"#];
+
+/// A stored scene: canonical JSON and the files it names.
+#[derive(Clone, Debug)]
+pub struct StoredScene {
+    pub id: String,
+    pub scene_json: Vec<u8>,
+    pub files: Vec<(String, Vec<u8>)>,
+    pub created_at: i64,
+}
+
+/// A job record, as persisted.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct JobRecord {
+    pub id: String,
+    /// "bake" or "render".
+    pub kind: String,
+    pub method: String,
+    pub scene_id: String,
+    pub object: Option<String>,
+    pub params: serde_json::Value,
+    pub state: String,
+    pub progress: f32,
+    pub stage: String,
+    /// Stage name and milliseconds, in order.
+    pub timings: Vec<(String, f64)>,
+    /// Adapter, statistics and whatever else the job reports.
+    pub info: serde_json::Value,
+    pub error: Option<String>,
+    pub artifact_type: Option<String>,
+    pub artifact_path: Option<String>,
+    pub created_at: i64,
+    pub started_at: Option<i64>,
+    pub finished_at: Option<i64>,
+}
+
+/// Milliseconds since the Unix epoch.
+pub fn now_ms() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_millis() as i64)
+        .unwrap_or(0)
+}
+
+pub struct Store {
+    conn: Mutex<Connection>,
+    artifacts: PathBuf,
+}
+
+impl Store {
+    /// Opens (creating if needed) the database and artifact folder under `dir` and runs the
+    /// migrations.
+    pub fn open(dir: &Path) -> Result<Store, StoreError> {
+        std::fs::create_dir_all(dir.join("artifacts"))?;
+        let conn = Connection::open(dir.join("caustica.sqlite3"))?;
+        conn.busy_timeout(std::time::Duration::from_secs(5))?;
+        conn.pragma_update(None, "journal_mode", "WAL")?;
+        // WAL + NORMAL: a committed transaction survives a process crash (kill -9); only a
+        // power loss may drop the last few, which re-run as bakes are deterministic.
+        conn.pragma_update(None, "synchronous", "NORMAL")?;
+        conn.pragma_update(None, "foreign_keys", "ON")?;
+        let version: i64 = conn.query_row("PRAGMA user_version", [], |r| r.get(0))?;
+        for (i, m) in MIGRATIONS.iter().enumerate().skip(version as usize) {
+            let tx = conn.unchecked_transaction()?;
+            tx.execute_batch(m)?;
+            tx.pragma_update(None, "user_version", (i + 1) as i64)?;
+            tx.commit()?;
+        }
+        Ok(Store {
+            conn: Mutex::new(conn),
+            artifacts: dir.join("artifacts"),
+        })
+    }
+
+    fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
+        self.conn.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Stores a scene unless one with this id exists (ids are content hashes).
+    pub fn put_scene(
+        &self,
+        id: &str,
+        scene_json: &[u8],
+        files: &[(String, Vec<u8>)],
+    ) -> Result<(), StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction()?;
+        let n = tx.execute(
+            "INSERT OR IGNORE INTO scenes (id, scene_json, created_at) VALUES (?1, ?2, ?3)",
+            params![id, scene_json, now_ms()],
+        )?;
+        if n == 1 {
+            for (name, bytes) in files {
+                tx.execute(
+                    "INSERT INTO scene_files (scene_id, name, bytes) VALUES (?1, ?2, ?3)",
+                    params![id, name, bytes],
+                )?;
+            }
+        }
+        tx.commit()?;
+        Ok(())
+    }
+
+    pub fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
+        let c = self.conn();
+        let Some((scene_json, created_at)) = c
+            .query_row(
+                "SELECT scene_json, created_at FROM scenes WHERE id = ?1",
+                [id],
+                |r| Ok((r.get::<_, Vec<u8>>(0)?, r.get::<_, i64>(1)?)),
+            )
+            .optional()?
+        else {
+            return Ok(None);
+        };
+        let mut st =
+            c.prepare("SELECT name, bytes FROM scene_files WHERE scene_id = ?1 ORDER BY name")?;
+        let files = st
+            .query_map([id], |r| Ok((r.get(0)?, r.get(1)?)))?
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Some(StoredScene {
+            id: id.into(),
+            scene_json,
+            files,
+            created_at,
+        }))
+    }
+
+    pub fn insert_job(&self, r: &JobRecord) -> Result<(), StoreError> {
+        self.conn().execute(
+            "INSERT INTO jobs (id, kind, method, scene_id, object, params, state, progress, stage,
+                               created_at, seq)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, 0, '', ?8,
+                     (SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs))",
+            params![
+                r.id,
+                r.kind,
+                r.method,
+                r.scene_id,
+                r.object,
+                r.params.to_string(),
+                r.state,
+                r.created_at
+            ],
+        )?;
+        Ok(())
+    }
+
+    /// Puts a finished (failed or canceled) job back in the queue.
+    pub fn requeue(&self, id: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "UPDATE jobs SET state = 'queued', progress = 0, stage = '', error = NULL,
+                 started_at = NULL, finished_at = NULL, timings = '[]'
+             WHERE id = ?1",
+            [id],
+        )?;
+        Ok(())
+    }
+
+    pub fn get_job(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
+        let c = self.conn();
+        let r = c
+            .query_row(
+                "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
+                        timings, info, error, artifact_type, artifact_path, created_at,
+                        started_at, finished_at
+                 FROM jobs WHERE id = ?1",
+                [id],
+                row_to_record,
+            )
+            .optional()?;
+        r.transpose()
+    }
+
+    /// Jobs left queued or running by a previous process, oldest first.
+    pub fn unfinished_jobs(&self) -> Result<Vec<JobRecord>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
+                    timings, info, error, artifact_type, artifact_path, created_at,
+                    started_at, finished_at
+             FROM jobs WHERE state IN ('queued', 'running') ORDER BY seq",
+        )?;
+        let rows = st
+            .query_map([], row_to_record)?
+            .collect::<Result<Vec<_>, _>>()?;
+        rows.into_iter().collect()
+    }
+
+    pub fn set_running(&self, id: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "UPDATE jobs SET state = 'running', started_at = ?2 WHERE id = ?1",
+            params![id, now_ms()],
+        )?;
+        Ok(())
+    }
+
+    pub fn set_progress(&self, id: &str, progress: f32, stage: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "UPDATE jobs SET progress = ?2, stage = ?3 WHERE id = ?1",
+            params![id, progress, stage],
+        )?;
+        Ok(())
+    }
+
+    /// Records the end of a job. `artifact`: content type and path of its written artifact.
+    #[allow(clippy::too_many_arguments)]
+    pub fn finish(
+        &self,
+        id: &str,
+        state: &str,
+        progress: f32,
+        timings: &[(String, f64)],
+        info: &serde_json::Value,
+        error: Option<&str>,
+        artifact: Option<(&str, &str)>,
+    ) -> Result<(), StoreError> {
+        let timings = serde_json::to_string(timings).expect("timings serialise");
+        self.conn().execute(
+            "UPDATE jobs SET state = ?2, progress = ?3, timings = ?4, info = ?5, error = ?6,
+                 artifact_type = ?7, artifact_path = ?8, finished_at = ?9, stage = ?10
+             WHERE id = ?1",
+            params![
+                id,
+                state,
+                progress,
+                timings,
+                info.to_string(),
+                error,
+                artifact.map(|a| a.0),
+                artifact.map(|a| a.1),
+                now_ms(),
+                if state == "succeeded" { "done" } else { state },
+            ],
+        )?;
+        Ok(())
+    }
+
+    /// Back to queued (a job interrupted by shutdown runs again at the next start).
+    pub fn set_queued(&self, id: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "UPDATE jobs SET state = 'queued', progress = 0, stage = '' WHERE id = ?1",
+            [id],
+        )?;
+        Ok(())
+    }
+
+    /// The job an idempotency key was first used for, with the hash of that request.
+    pub fn idempotency(&self, key: &str) -> Result<Option<(String, String)>, StoreError> {
+        Ok(self
+            .conn()
+            .query_row(
+                "SELECT request_hash, job_id FROM idempotency WHERE key = ?1",
+                [key],
+                |r| Ok((r.get(0)?, r.get(1)?)),
+            )
+            .optional()?)
+    }
+
+    pub fn put_idempotency(
+        &self,
+        key: &str,
+        request_hash: &str,
+        job_id: &str,
+    ) -> Result<(), StoreError> {
+        self.conn().execute(
+            "INSERT OR IGNORE INTO idempotency (key, request_hash, job_id) VALUES (?1, ?2, ?3)",
+            params![key, request_hash, job_id],
+        )?;
+        Ok(())
+    }
+
+    /// Writes an artifact atomically and returns its path relative to the artifact folder.
+    pub fn write_artifact(&self, id: &str, ext: &str, bytes: &[u8]) -> Result<String, StoreError> {
+        let name = format!("{id}.{ext}");
+        let tmp = self.artifacts.join(format!(".{name}.tmp"));
+        {
+            let mut f = std::fs::File::create(&tmp)?;
+            f.write_all(bytes)?;
+            f.sync_all()?;
+        }
+        std::fs::rename(&tmp, self.artifacts.join(&name))?;
+        // Make the rename itself durable.
+        if let Ok(d) = std::fs::File::open(&self.artifacts) {
+            let _ = d.sync_all();
+        }
+        Ok(name)
+    }
+
+    pub fn read_artifact(&self, name: &str) -> Result<Vec<u8>, StoreError> {
+        if name.contains('/') || name.contains("..") {
+            return Err(StoreError::Corrupt(format!("artifact path {name:?}")));
+        }
+        Ok(std::fs::read(self.artifacts.join(name))?)
+    }
+}
+
+type RowResult = Result<JobRecord, StoreError>;
+
+fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
+    let params: String = r.get(5)?;
+    let timings: String = r.get(9)?;
+    let info: String = r.get(10)?;
+    let parse = |what: &str, s: &str| -> Result<serde_json::Value, StoreError> {
+        serde_json::from_str(s).map_err(|e| StoreError::Corrupt(format!("{what}: {e}")))
+    };
+    let rec = (|| -> RowResult {
+        Ok(JobRecord {
+            id: r.get(0)?,
+            kind: r.get(1)?,
+            method: r.get(2)?,
+            scene_id: r.get(3)?,
+            object: r.get(4)?,
+            params: parse("params", &params)?,
+            state: r.get(6)?,
+            progress: r.get::<_, f64>(7)? as f32,
+            stage: r.get(8)?,
+            timings: serde_json::from_str(&timings)
+                .map_err(|e| StoreError::Corrupt(format!("timings: {e}")))?,
+            info: parse("info", &info)?,
+            error: r.get(11)?,
+            artifact_type: r.get(12)?,
+            artifact_path: r.get(13)?,
+            created_at: r.get(14)?,
+            started_at: r.get(15)?,
+            finished_at: r.get(16)?,
+        })
+    })();
+    Ok(rec)
+}

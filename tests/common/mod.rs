@@ -1,0 +1,156 @@
+//! Shared by the HTTP tests: a real server on an ephemeral port (in this process, or the
+//! `caustica` binary as a child), a real HTTP client and bounded polling helpers.
+#![allow(dead_code)]
+
+use caustica::http::{AppState, HttpConfig};
+use caustica::jobs::JobConfig;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+pub const SCENE: &str = include_str!("../../scenes/glass-sphere-directional.json");
+
+/// A fresh, empty directory under the system temp dir.
+pub fn temp_dir(name: &str) -> PathBuf {
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let d = std::env::temp_dir().join(format!(
+        "caustica-{name}-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::SeqCst)
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub struct Server {
+    pub base: String,
+    pub client: reqwest::Client,
+    pub dir: PathBuf,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
+}
+
+impl Server {
+    /// Starts a server in this process on 127.0.0.1:0 with its own data directory.
+    pub async fn start(name: &str, tune: impl FnOnce(&mut JobConfig, &mut HttpConfig)) -> Server {
+        Server::start_in(temp_dir(name), tune).await
+    }
+
+    /// Starts a server on an existing data directory (a restart).
+    pub async fn start_in(
+        dir: PathBuf,
+        tune: impl FnOnce(&mut JobConfig, &mut HttpConfig),
+    ) -> Server {
+        let mut jc = JobConfig::new(&dir);
+        let mut hc = HttpConfig::default();
+        tune(&mut jc, &mut hc);
+        let state = tokio::task::spawn_blocking(move || AppState::start(jc, hc).unwrap())
+            .await
+            .unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let task = tokio::spawn(caustica::http::serve(listener, state, async {
+            let _ = rx.await;
+        }));
+        Server {
+            base: format!("http://{addr}"),
+            client: client(),
+            dir,
+            stop: Some(tx),
+            task: Some(task),
+        }
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{path}", self.base)
+    }
+
+    /// Graceful shutdown; waits for it.
+    pub async fn stop(mut self) {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        if let Some(t) = self.task.take() {
+            t.await.unwrap().unwrap();
+        }
+    }
+
+    pub async fn get_json(&self, path: &str) -> (u16, serde_json::Value) {
+        get_json(&self.client, &self.url(path)).await
+    }
+
+    pub async fn post_json(&self, path: &str, body: &serde_json::Value) -> reqwest::Response {
+        self.client
+            .post(self.url(path))
+            .json(body)
+            .send()
+            .await
+            .unwrap()
+    }
+}
+
+pub fn client() -> reqwest::Client {
+    reqwest::Client::builder()
+        .timeout(Duration::from_secs(300))
+        .build()
+        .unwrap()
+}
+
+pub async fn get_json(c: &reqwest::Client, url: &str) -> (u16, serde_json::Value) {
+    let r = c.get(url).send().await.unwrap();
+    let s = r.status().as_u16();
+    let b = r.bytes().await.unwrap();
+    (
+        s,
+        serde_json::from_slice(&b).unwrap_or(serde_json::Value::Null),
+    )
+}
+
+/// Polls `f` until it returns Some, at most `limit`; panics with `what` past it.
+pub async fn poll<T, F, Fut>(what: &str, limit: Duration, mut f: F) -> T
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = Option<T>>,
+{
+    let t = Instant::now();
+    loop {
+        if let Some(v) = f().await {
+            return v;
+        }
+        assert!(
+            t.elapsed() < limit,
+            "timed out after {limit:?} waiting for {what}"
+        );
+        // Yield between polls (a short pause, not synchronisation: the state decides).
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+}
+
+/// The canonical scene with another image size.
+pub fn scene_sized(w: u32, h: u32) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    v["camera"]["width"] = w.into();
+    v["camera"]["height"] = h.into();
+    v
+}
+
+/// Asserts a problem+json answer and returns its body.
+pub async fn problem(r: reqwest::Response, status: u16) -> serde_json::Value {
+    let s = r.status().as_u16();
+    let ct = r
+        .headers()
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    let body = r.text().await.unwrap();
+    assert_eq!(s, status, "{body}");
+    assert_eq!(ct, "application/problem+json", "{body}");
+    let v: serde_json::Value = serde_json::from_str(&body).unwrap();
+    for k in ["type", "title", "status", "detail"] {
+        assert!(v.get(k).is_some(), "problem without {k}: {body}");
+    }
+    assert_eq!(v["status"], status);
+    v
+}

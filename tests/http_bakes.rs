@@ -1,0 +1,324 @@
+//! Bake lifecycle on a real server: queued → running with rising progress → canceled by
+//! DELETE (the worker really stops); idempotency by content and by `Idempotency-Key`; a small
+//! bake succeeds and its artifact is a multi-layer EXR.
+
+mod common;
+use common::*;
+use std::time::Duration;
+
+fn bake(scene: &serde_json::Value, photons: u64) -> serde_json::Value {
+    serde_json::json!({
+        "scene": scene, "object": "glass", "method": "reference",
+        "params": {"photons": photons, "spp": 1, "width": 16, "height": 16},
+    })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn progress_rises_and_delete_cancels_a_running_bake() {
+    // One CPU worker: the render after the cancel can only run once the bake really stopped.
+    let srv = Server::start("bake-cancel", |j, _| j.cpu_workers = 1).await;
+    // Far more photons than the test will wait for.
+    let r = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(16, 16), 1_000_000_000))
+        .await;
+    assert_eq!(r.status(), 202);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let first = poll("progress > 0", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        let p = v["progress"].as_f64().unwrap();
+        (v["state"] == "running" && p > 0.0).then_some(p)
+    })
+    .await;
+    poll("progress to rise", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        assert_eq!(v["stage"], "photons", "{v}");
+        (v["progress"].as_f64().unwrap() > first).then_some(())
+    })
+    .await;
+    let r = srv.client.delete(srv.url(&loc)).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(v["state"], "canceled", "{v}");
+    // The worker stopped: progress no longer moves, and a new job runs on the pool.
+    let (_, a) = srv.get_json(&loc).await;
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                "photons": 2000, "spp": 1}),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let (_, b) = srv.get_json(&loc).await;
+    assert_eq!(a["progress"], b["progress"]);
+    assert_eq!(b["state"], "canceled");
+    let m = srv
+        .client
+        .get(srv.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        m.contains("caustica_jobs_total{kind=\"bake\",state=\"canceled\"} 1"),
+        "{m}"
+    );
+    // The artifact of a canceled bake is a 409 problem.
+    let r = srv
+        .client
+        .get(srv.url(&format!("{loc}/artifact")))
+        .send()
+        .await
+        .unwrap();
+    problem(r, 409).await;
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
+    let srv = Server::start("bake-idem", |_, _| {}).await;
+    let body = bake(&scene_sized(16, 16), 20_000);
+    let r1 = srv.post_json("/v1/bakes", &body).await;
+    assert_eq!(r1.status(), 202);
+    let v1: serde_json::Value = r1.json().await.unwrap();
+    // Same inputs, written differently (defaults spelled out): same job.
+    let mut body2 = body.clone();
+    body2["params"]["seed"] = 1.into();
+    let v2: serde_json::Value = srv
+        .post_json("/v1/bakes", &body2)
+        .await
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v1["id"], v2["id"]);
+    // By scene id too.
+    let mut body3 = body.clone();
+    body3.as_object_mut().unwrap().remove("scene");
+    body3["scene_id"] = v1["scene_id"].clone();
+    let v3: serde_json::Value = srv
+        .post_json("/v1/bakes", &body3)
+        .await
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v1["id"], v3["id"]);
+    // Another seed: another job.
+    let mut other = body.clone();
+    other["params"]["seed"] = 2.into();
+    let v4: serde_json::Value = srv
+        .post_json("/v1/bakes", &other)
+        .await
+        .json()
+        .await
+        .unwrap();
+    assert_ne!(v1["id"], v4["id"]);
+    // Idempotency-Key: the first job it named, and a reuse for another request is refused.
+    let send = |b: &serde_json::Value, key: &str| {
+        srv.client
+            .post(srv.url("/v1/bakes"))
+            .header("idempotency-key", key)
+            .json(b)
+            .send()
+    };
+    let k1: serde_json::Value = send(&other, "key-1").await.unwrap().json().await.unwrap();
+    assert_eq!(k1["id"], v4["id"]);
+    let k2: serde_json::Value = send(&other, "key-1").await.unwrap().json().await.unwrap();
+    assert_eq!(k2["id"], v4["id"]);
+    let p = problem(send(&body, "key-1").await.unwrap(), 422).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("Idempotency-Key"),
+        "{p}"
+    );
+
+    let id = v1["id"].as_str().unwrap();
+    let done = poll("bake to succeed", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
+        assert_ne!(v["state"], "failed", "{v}");
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    assert_eq!(done["progress"], 1.0);
+    let stages: Vec<&str> = done["timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap())
+        .collect();
+    assert_eq!(stages[0], "queue");
+    assert!(
+        stages.contains(&"photons") && stages.contains(&"encode"),
+        "{stages:?}"
+    );
+    let r = srv
+        .client
+        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["content-type"], "image/x-exr");
+    let bytes = r.bytes().await.unwrap();
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes.to_vec()))
+        .unwrap();
+    let names: Vec<String> = img
+        .layer_data
+        .iter()
+        .map(|l| l.attributes.layer_name.as_ref().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        names,
+        ["total", "direct", "caustics", "specular", "indirect"]
+    );
+    // Asking again after success: still the same job, no new work.
+    let again: serde_json::Value = srv
+        .post_json("/v1/bakes", &body)
+        .await
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(again["state"], "succeeded");
+    // A bad object and a bad param name the field.
+    let mut bad = body.clone();
+    bad["object"] = "nope".into();
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert_eq!(p["field"], "object", "{p}");
+    let mut bad = body.clone();
+    bad["params"]["photonz"] = 3.into();
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert!(p["detail"].as_str().unwrap().contains("photonz"), "{p}");
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn renders_run_before_queued_bakes_and_a_canceled_bake_can_run_again() {
+    let srv = Server::start("bake-priority", |j, _| j.cpu_workers = 1).await;
+    let long = |seed: u64| {
+        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
+    };
+    let a = srv.post_json("/v1/bakes", &long(1)).await;
+    let a = a.headers()["location"].to_str().unwrap().to_string();
+    poll("bake A to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&a).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    // B (a bake) is queued before R (a render); R must still run first.
+    let b = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(8, 8), 20_000))
+        .await;
+    let b = b.headers()["location"].to_str().unwrap().to_string();
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                "photons": 2000, "spp": 1, "wait": false}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let r = r.headers()["location"].to_str().unwrap().to_string();
+    let (_, v) = srv.get_json(&b).await;
+    assert_eq!(v["state"], "queued");
+    srv.client.delete(srv.url(&a)).send().await.unwrap();
+    let rv = poll("the render", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&r).await;
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    let bv = poll("bake B", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&b).await;
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    assert!(
+        rv["started_at"].as_i64().unwrap() <= bv["started_at"].as_i64().unwrap(),
+        "render {rv} / bake {bv}"
+    );
+    // Asking for the canceled bake again runs it again, under the same id.
+    let again = srv.post_json("/v1/bakes", &long(1)).await;
+    assert_eq!(again.headers()["location"].to_str().unwrap(), a);
+    let v: serde_json::Value = again.json().await.unwrap();
+    assert!(
+        ["queued", "running"].contains(&v["state"].as_str().unwrap()),
+        "{v}"
+    );
+    assert_eq!(v["error"], serde_json::Value::Null);
+    srv.client.delete(srv.url(&a)).send().await.unwrap();
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_it() {
+    let srv = Server::start("bake-shutdown", |j, h| {
+        j.cpu_workers = 1;
+        h.shutdown_grace = Duration::ZERO;
+    })
+    .await;
+    let dir = srv.dir.clone();
+    let r = srv
+        .post_json("/v1/bakes", &bake(&scene_sized(16, 16), 3_000_000))
+        .await;
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    poll("the bake to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    srv.stop().await;
+    let srv = Server::start_in(dir, |_, _| {}).await;
+    let (s, v) = srv.get_json(&loc).await;
+    assert_eq!(s, 200);
+    assert!(
+        ["queued", "running"].contains(&v["state"].as_str().unwrap()),
+        "{v}"
+    );
+    poll("the bake to complete", Duration::from_secs(300), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["state"] == "succeeded").then_some(())
+    })
+    .await;
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn long_bakes_do_not_block_renders() {
+    let srv = Server::start("bake-busy", |j, _| j.cpu_workers = 2).await;
+    let long = |seed: u64| {
+        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
+    };
+    let mut locs = Vec::new();
+    for seed in [1, 2] {
+        let r = srv.post_json("/v1/bakes", &long(seed)).await;
+        locs.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    poll("a bake to run", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&locs[0]).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    // The second bake waits; the render does not.
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                "photons": 2000, "spp": 1}),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let (_, v) = srv.get_json(&locs[1]).await;
+    assert_eq!(v["state"], "queued");
+    for l in &locs {
+        srv.client.delete(srv.url(l)).send().await.unwrap();
+    }
+    srv.stop().await;
+}

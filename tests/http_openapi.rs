@@ -1,0 +1,81 @@
+//! `api/openapi.yaml` against the running server: every route the router serves is in the
+//! spec (and the other way round), every such route answers (not 404/405), `/openapi.json`
+//! is the YAML converted, and the spec's request examples are accepted.
+
+mod common;
+use caustica::http::ROUTES;
+use common::*;
+use std::collections::BTreeSet;
+
+fn spec() -> serde_json::Value {
+    let yaml = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("api/openapi.yaml"),
+    )
+    .unwrap();
+    serde_yaml_ng::from_str(&yaml).unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_spec_matches_the_router_and_its_examples_are_accepted() {
+    let spec = spec();
+    assert_eq!(spec["openapi"], "3.1.0");
+    let mut in_spec = BTreeSet::new();
+    for (path, item) in spec["paths"].as_object().unwrap() {
+        for m in ["get", "post", "put", "delete", "patch"] {
+            if item.get(m).is_some() {
+                in_spec.insert((m.to_uppercase(), path.clone()));
+            }
+        }
+    }
+    let served: BTreeSet<(String, String)> = ROUTES
+        .iter()
+        .map(|(m, p)| (m.to_string(), p.to_string()))
+        .collect();
+    assert_eq!(
+        served, in_spec,
+        "routes served vs routes in api/openapi.yaml"
+    );
+
+    let srv = Server::start("openapi", |_, _| {}).await;
+    // Every route is really served.
+    for (m, p) in ROUTES {
+        let url = srv.url(&p.replace("{id}", "x"));
+        let r = srv
+            .client
+            .request(m.parse().unwrap(), url)
+            .send()
+            .await
+            .unwrap();
+        let s = r.status().as_u16();
+        let body = r.text().await.unwrap();
+        let routed = s != 405 && !(s == 404 && body.contains("no route"));
+        assert!(routed, "{m} {p}: {s} {body}");
+    }
+    let (s, served_doc) = srv.get_json("/openapi.json").await;
+    assert_eq!(s, 200);
+    assert_eq!(served_doc, spec);
+
+    // Request examples.
+    let mut n = 0;
+    for (path, item) in spec["paths"].as_object().unwrap() {
+        let Some(post) = item.get("post") else {
+            continue;
+        };
+        let Some(ex) = post["requestBody"]["content"]["application/json"].get("example") else {
+            continue;
+        };
+        let r = srv.post_json(path, ex).await;
+        let s = r.status().as_u16();
+        assert!(
+            (200..300).contains(&s),
+            "example of POST {path}: {s} {}",
+            r.text().await.unwrap()
+        );
+        n += 1;
+    }
+    assert_eq!(n, 3, "examples for scenes, bakes and renders");
+    // The error example has the documented shape.
+    let p = &spec["components"]["responses"]["Problem"]["content"]["application/problem+json"]["example"];
+    assert_eq!(p["status"], 422);
+    srv.stop().await;
+}

@@ -1,0 +1,249 @@
+//! `POST /v1/renders` end to end on a real server: the canonical scene rendered by the
+//! reference at 64×64 gives the same image as the library call (so the caustic is where the
+//! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
+//! `Server-Timing` say what happened.
+
+mod common;
+use caustica::encode::{self, PngSettings};
+use caustica::reference::{self, ReferenceParams};
+use caustica::scene::{Limits, MapSource, parse_scene, resolve};
+use caustica::trace::Accel;
+use common::*;
+use std::time::Duration;
+
+const PHOTONS: u64 = 50_000;
+
+/// The same render through the library: components of the canonical scene at 64×64.
+fn library_components() -> reference::Components {
+    let desc = parse_scene(SCENE.as_bytes()).unwrap();
+    let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+    w.camera.width = 64;
+    w.camera.height = 64;
+    let accel = Accel::build(&w);
+    let p = ReferenceParams {
+        photons: PHOTONS,
+        spp: 1,
+        seed: 7,
+        ..Default::default()
+    };
+    reference::render(&w, &accel, &p, &|_| true).unwrap().0
+}
+
+fn brightest(img: &image::RgbImage) -> (u32, u32) {
+    let mut best = (0, 0, 0u32);
+    for (x, y, p) in img.enumerate_pixels() {
+        let s = p.0.iter().map(|&c| u32::from(c)).sum::<u32>();
+        if s > best.2 {
+            best = (x, y, s);
+        }
+    }
+    (best.0, best.1)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn reference_render_matches_the_library_and_puts_the_caustic_there() {
+    let srv = Server::start("render-ref", |_, _| {}).await;
+    let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    let req = |component: &str| {
+        serde_json::json!({
+            "scene": scene, "method": "reference", "width": 64, "height": 64,
+            "format": "png", "photons": PHOTONS, "spp": 1, "seed": 7, "component": component,
+        })
+    };
+    let r = srv.post_json("/v1/renders", &req("total")).await;
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["content-type"], "image/png");
+    let timing = r.headers()["server-timing"].to_str().unwrap().to_string();
+    for stage in ["queue", "bvh", "photons", "camera", "encode", "request"] {
+        assert!(timing.contains(&format!("{stage};dur=")), "{timing}");
+    }
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    assert!(loc.starts_with("/v1/renders/rn_"), "{loc}");
+    let png = r.bytes().await.unwrap();
+    let got = image::load_from_memory(&png).unwrap().to_rgb8();
+    assert_eq!(got.dimensions(), (64, 64));
+
+    // Same numbers as the library (the reference is deterministic for a seed).
+    let c = tokio::task::spawn_blocking(library_components)
+        .await
+        .unwrap();
+    let want = encode::encode_png(&c.total(), PngSettings::default()).unwrap();
+    let want = image::load_from_memory(&want).unwrap().to_rgb8();
+    let diff = got
+        .pixels()
+        .zip(want.pixels())
+        .map(|(a, b)| {
+            (0..3)
+                .map(|k| a.0[k].abs_diff(b.0[k]) as u32)
+                .max()
+                .unwrap()
+        })
+        .max()
+        .unwrap();
+    assert!(diff <= 1, "PNG differs from the library render by {diff}");
+
+    // The caustic: the brightest pixel of the caustics component, same place.
+    let r = srv.post_json("/v1/renders", &req("caustics")).await;
+    assert_eq!(r.status(), 200);
+    let caustic = image::load_from_memory(&r.bytes().await.unwrap())
+        .unwrap()
+        .to_rgb8();
+    let lib = encode::encode_png(&c.caustics, PngSettings::default()).unwrap();
+    let lib = image::load_from_memory(&lib).unwrap().to_rgb8();
+    let (x, y) = brightest(&lib);
+    assert_eq!(brightest(&caustic), (x, y));
+    // It is a caustic: brighter there than the lit floor around it in the total image.
+    let floor = got.get_pixel(2, 60).0[0];
+    assert!(
+        got.get_pixel(x, y).0[0] > floor,
+        "caustic at {x},{y} not above the floor"
+    );
+
+    // The record.
+    let (s, rec) = srv.get_json(&loc).await;
+    assert_eq!(s, 200);
+    assert_eq!(rec["state"], "succeeded");
+    assert_eq!(rec["method"], "reference");
+    assert_eq!(rec["info"]["width"], 64);
+    assert!(
+        rec["info"]["statistics"]["photons_traced"]
+            .as_u64()
+            .unwrap()
+            >= PHOTONS
+    );
+    assert!(rec["timings"].as_array().unwrap().len() >= 4, "{rec}");
+    let img = srv
+        .client
+        .get(srv.url(&format!("{loc}/image")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(img.status(), 200);
+    assert_eq!(img.bytes().await.unwrap(), png);
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn direct_render_gives_a_png_and_exr_from_the_gpu_worker() {
+    let srv = Server::start("render-direct", |_, _| {}).await;
+    // Stored scene, then rendered by id.
+    let r = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .header("content-type", "application/json")
+        .body(SCENE)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    let info: serde_json::Value = r.json().await.unwrap();
+    let id = info["id"].as_str().unwrap().to_string();
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": id, "method": "direct", "width": 33, "height": 17}),
+        )
+        .await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let timing = r.headers()["server-timing"].to_str().unwrap().to_string();
+    for stage in ["queue", "prepare", "readback", "encode"] {
+        assert!(timing.contains(&format!("{stage};dur=")), "{timing}");
+    }
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let img = image::load_from_memory(&r.bytes().await.unwrap())
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(img.dimensions(), (33, 17));
+    // Lit floor: sRGB of 0.44 (clamp) is 176, as the CLI test.
+    let p = img.get_pixel(1, 15).0[0];
+    assert!((174..=178).contains(&p), "{p}");
+    let (_, rec) = srv.get_json(&loc).await;
+    assert!(!rec["info"]["adapter"].as_str().unwrap().is_empty());
+
+    // EXR with layers.
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": id, "method": "direct", "width": 16, "height": 8,
+                                "format": "exr", "layers": true}),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["content-type"], "image/x-exr");
+    let f = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert_eq!((f.width, f.height), (16, 8));
+
+    // readyz once the probe ran.
+    let ready = poll("readyz", Duration::from_secs(60), || async {
+        let (s, v) = srv.get_json("/readyz").await;
+        (s == 200).then_some(v)
+    })
+    .await;
+    assert_eq!(ready["status"], "ready");
+    // Metrics show the renders.
+    let m = srv
+        .client
+        .get(srv.url("/metrics"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 2"),
+        "{m}"
+    );
+    assert!(
+        m.contains("caustica_render_latency_seconds_count{method=\"direct\"} 2"),
+        "{m}"
+    );
+    assert!(m.contains("caustica_queue_depth{lane=\"gpu\"}"), "{m}");
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_past_the_wait_answers_202_and_completes() {
+    let srv = Server::start("render-202", |_, h| h.render_wait = Duration::ZERO).await;
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(16, 16), "method": "reference",
+                                "photons": 5000, "spp": 1}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let rec = poll("render to finish", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    assert_eq!(rec["artifact"], format!("{loc}/image"));
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_past_its_job_time_limit_is_a_504_problem() {
+    let srv = Server::start("render-timeout", |j, _| {
+        j.render_timeout = Duration::from_millis(300)
+    })
+    .await;
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(16, 16), "method": "reference",
+                                "photons": 1_000_000_000u64, "spp": 1}),
+        )
+        .await;
+    let p = problem(r, 504).await;
+    assert!(p["detail"].as_str().unwrap().contains("time limit"), "{p}");
+    assert!(
+        p["instance"]
+            .as_str()
+            .unwrap()
+            .starts_with("/v1/renders/rn_"),
+        "{p}"
+    );
+    srv.stop().await;
+}
