@@ -11,9 +11,12 @@
 //! σ = |h·h′/r| = |(B − A·r)(B − 2A·r)|, written without the division by r, so the central ray
 //! on the optical axis (§2.4) gets its exact limit σ = B² instead of a perturbed point. Where a
 //! ray bundle really focuses (σ → 0: the on-axis focus of the ring of rays with B = A·r, or a
-//! fold caustic with B = 2A·r) the model's intensity is infinite; we bound the concentration
-//! by the image resolution: σ ≥ texel / half_extent (a texel cannot be focused into less than
-//! that fraction of its area, the finest detail the CSL's image can represent).
+//! fold caustic with B = 2A·r) the limit is infinite. We therefore evaluate Eq. 4 before its
+//! limit, over the patch the intensity image resolves: dr = half a texel, and the area the
+//! radial interval [r − dr, r + dr] maps to at height z is computed exactly for the quadratic
+//! h (a sign change of h folds the annulus onto a disc; an extremum of h inside the interval is
+//! included). This equals Eq. 4 wherever h is smooth on the scale of a texel, stays finite at
+//! foci, and needs no epsilon.
 
 use super::Csl;
 use glam::Vec3;
@@ -64,6 +67,27 @@ pub fn radii(kappa: f32, gamma: f32, z: f32, rho: f32) -> ([(f32, f32); 3], usiz
     (out, n)
 }
 
+/// Eq. 4 over a finite patch: the ratio of the area that the light-plane annulus
+/// [r − dr, r + dr] covers at the height where h(r) = B·r − A·r², to the annulus' area.
+pub fn area_ratio(a: f32, b: f32, r: f32, dr: f32) -> f32 {
+    let h = |r: f32| r * (b - a * r);
+    let (r0, r1) = ((r - dr).max(0.0), r + dr);
+    let (h0, h1) = (h(r0), h(r1));
+    let (mut lo, mut hi) = (h0.abs().min(h1.abs()), h0.abs().max(h1.abs()));
+    if a != 0.0 {
+        let rs = b / (2.0 * a);
+        if rs > r0 && rs < r1 {
+            let hs = h(rs).abs();
+            hi = hi.max(hs);
+            lo = lo.min(hs);
+        }
+    }
+    if h0 * h1 < 0.0 {
+        lo = 0.0;
+    }
+    ((hi * hi - lo * lo) / (r1 * r1 - r0 * r0)).max(1e-12)
+}
+
 impl Csl {
     /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
     /// None outside the image.
@@ -91,9 +115,10 @@ impl Csl {
         Some(v * (self.scale / 65535.0))
     }
 
-    /// The smallest focusing factor σ the evaluation uses (see the module notes).
-    pub fn sigma_min(&self) -> f32 {
-        1.0 / (0.5 * self.size as f32)
+    /// Half a texel of the intensity image (m): the radial half-width of the light-plane patch
+    /// over which Eq. 4 is evaluated.
+    pub fn patch(&self) -> f32 {
+        self.half_extent / self.size as f32
     }
 
     /// The CSL rays reaching `x` (same frame as the CSL), at most three.
@@ -124,9 +149,7 @@ impl Csl {
             let Some(i) = self.intensity(px, py) else {
                 continue;
             };
-            let sigma = ((b - a * r) * (b - 2.0 * a * r))
-                .abs()
-                .max(self.sigma_min());
+            let sigma = area_ratio(a, b, r, self.patch());
             let g = self.kappa + self.gamma * r;
             let u = self.x_axis * px + self.y_axis() * py;
             let dir = (self.axis - u * g).normalize();
@@ -149,9 +172,111 @@ impl Csl {
     }
 }
 
+/// CPU render of the caustics component of a frame from a CSL set (§3.2 on the CPU): for every
+/// pixel (`spp`² stratified samples) the first surface seen; on a non-specular receiver each
+/// CSL's arrivals are shaded with the receiver's BRDF for the known ray direction (diffuse and
+/// glossy), times the light's `irradiance`.
+///
+/// Occlusion: an arrival counts only when nothing lies between the receiver and the CSL's light
+/// plane along the arriving ray, tested against `blockers`, an acceleration structure of every
+/// object *except* the caustic object (whose own geometry is where the CSL rays come from).
+pub fn render_caustics(
+    world: &crate::scene::World,
+    camera_accel: &crate::trace::Accel,
+    blockers: &crate::trace::Accel,
+    csls: &[Csl],
+    irradiance: Vec3,
+    spp: u32,
+) -> crate::encode::Frame {
+    use rayon::prelude::*;
+    let cam = &world.camera;
+    let rays = cam.rays();
+    let (w, h) = (cam.width, cam.height);
+    let pixels: Vec<Vec3> = (0..w * h)
+        .into_par_iter()
+        .map(|k| {
+            let (px, py) = ((k % w) as f32, (k / w) as f32);
+            let mut sum = Vec3::ZERO;
+            for sy in 0..spp {
+                for sx in 0..spp {
+                    let d = rays.dir(
+                        px + (sx as f32 + 0.5) / spp as f32,
+                        py + (sy as f32 + 0.5) / spp as f32,
+                    );
+                    let Some(hit) = camera_accel.intersect(cam.eye, d, f32::INFINITY) else {
+                        continue;
+                    };
+                    let mat = camera_accel.material(&hit);
+                    if mat.is_specular() {
+                        continue;
+                    }
+                    sum += shade(blockers, csls, &hit, -d, mat) * irradiance;
+                }
+            }
+            sum / (spp * spp) as f32
+        })
+        .collect();
+    crate::encode::Frame {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// Outgoing radiance towards `wo` per unit light irradiance at a receiver hit.
+pub fn shade(
+    blockers: &crate::trace::Accel,
+    csls: &[Csl],
+    hit: &crate::trace::Hit,
+    wo: Vec3,
+    mat: &crate::scene::Material,
+) -> Vec3 {
+    let n = hit.normal;
+    let mut out = Vec3::ZERO;
+    for c in csls {
+        let (arr, k) = c.arrivals(hit.point);
+        for a in &arr[..k] {
+            let wi = -a.dir;
+            let cos = n.dot(wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let f = crate::trace::optics::brdf(mat, n, wi, wo);
+            if f == Vec3::ZERO {
+                continue;
+            }
+            // Distance back to the light plane along the ray.
+            let t_plane = (hit.point - c.origin).dot(c.axis) / a.dir.dot(c.axis).max(1e-4);
+            if blockers.occluded(hit.spawn(wi), wi, t_plane) {
+                continue;
+            }
+            out += f * a.density * cos;
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Away from foci the patch ratio is Eq. 4's |h·h′/r|; at the on-axis focus it stays finite.
+    #[test]
+    fn area_ratio_matches_eq4_and_is_finite_at_foci() {
+        let (a, b) = (0.3f32, 0.8f32);
+        for r in [0.2f32, 0.5, 1.0] {
+            let exact = ((b - a * r) * (b - 2.0 * a * r)).abs();
+            let fd = area_ratio(a, b, r, 1e-3);
+            assert!((fd / exact - 1.0).abs() < 1e-3, "{r}: {fd} vs {exact}");
+        }
+        // Central ray: the limit B².
+        assert!((area_ratio(a, b, 0.0, 1e-4) - b * b).abs() < 1e-3);
+        // Ring focused on the axis (h(r) = 0 at r = B/A) and fold (h' = 0 at r = B/2A).
+        for r in [b / a, b / (2.0 * a)] {
+            let s = area_ratio(a, b, r, 1e-2);
+            assert!(s > 0.0 && s.is_finite() && s < 0.1, "{r}: {s}");
+        }
+    }
 
     /// Plug each root back: h(r) = side·ρ.
     #[test]

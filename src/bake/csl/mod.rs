@@ -339,6 +339,20 @@ fn rigid_frame_world(world: &World, object: &Object) -> World {
     }
 }
 
+/// Content hash of a bake's inputs (the cache key): the object's meshes, materials and scale,
+/// the light direction in its rigid frame and the parameters. Same as [`CslSet::source_hash`].
+pub fn csl_source_hash(
+    world: &World,
+    object_name: &str,
+    light_dir: Vec3,
+    params: &CslParams,
+) -> Result<u64, BakeError> {
+    let object = world
+        .object(object_name)
+        .ok_or_else(|| BakeError::UnknownObject(object_name.to_string()))?;
+    Ok(source_hash(world, object, light_dir.normalize(), params))
+}
+
 /// Hash of everything the bake reads.
 fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) -> u64 {
     let mut h = Fnv64::new();
