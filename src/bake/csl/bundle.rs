@@ -286,7 +286,7 @@ impl<'a> Extractor<'a> {
             let turned = 1.0 - a.dot(axis);
             origin = o;
             axis = a;
-            if moved < 1e-5 && turned < 1e-9 {
+            if moved < 1e-4 && turned < 1e-7 {
                 break;
             }
         }
