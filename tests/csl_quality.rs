@@ -2,8 +2,8 @@
 //! pixels seen directly, 3×3 blur).
 //!
 //! Measured (grid 512, fast() otherwise, CPU evaluation, 2×2 samples per pixel): against this
-//! 4M-photon reference relative L1 0.225, flux ratio 0.977; against a 16M-photon reference
-//! (`caustica render --method reference --photons 16000000`) L1 0.215, flux 0.983, where the
+//! 4M-photon reference relative L1 0.214, flux ratio 0.979; against a 16M-photon reference
+//! (`caustica render --method reference --photons 16000000`) L1 0.204, flux 0.985, where the
 //! 4M reference itself differs from the 16M one by L1 0.107 (photon noise). The target
 //! (L1 ≤ 15%) is NOT met: the floor lies at the sphere's paraxial focus, and the two-parameter
 //! focus law f(r) = α/(1+βr) puts too much of the light in the central spot and too little in

@@ -78,7 +78,7 @@ impl CslParams {
     pub const fn paper() -> Self {
         CslParams {
             grid: 1280,
-            min_energy: 1e-3,
+            min_energy: 1e-2,
             max_depth: 16,
             coverage: 0.95,
             cells: 64,
