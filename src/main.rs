@@ -1,13 +1,16 @@
 //! `caustica`: the command line. Thin: parses arguments and calls the library.
 
 use anyhow::{Context, Result, bail};
+use caustica::bake::Progress;
+use caustica::bake::csl::{CslParams, CslSet, bake_csl, csl_source_hash};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
 use caustica::render::{RenderOptions, Renderer};
-use caustica::scene::{self, World};
+use caustica::scene::{self, Light, World};
 use caustica::trace::Accel;
 use clap::{Parser, Subcommand, ValueEnum};
+use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -30,6 +33,10 @@ enum Method {
     Direct,
     /// CPU ground truth: photon tracing + camera paths.
     Reference,
+    /// Caustic spot lights (seed 000, static lighting): direct lighting on the GPU, the
+    /// caustics component from baked CSL sets. The caustics layer is evaluated on the CPU for
+    /// now (the same Eqs. 2-4 the GPU pass will use).
+    Csl,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
@@ -89,6 +96,16 @@ enum Cmd {
         /// Reference: stop tracing photons after this many seconds.
         #[arg(long)]
         time_budget: Option<f64>,
+        /// CSL: a baked CSL set (`caustica bake csl`) for the scene's caustic object; without
+        /// it every caustic object is baked (cached by content hash in CAUSTICA_CACHE or the
+        /// temp directory).
+        #[arg(long)]
+        bake: Option<PathBuf>,
+    },
+    /// Precompute a method's data for a scene.
+    Bake {
+        #[command(subcommand)]
+        what: BakeCmd,
     },
     /// Compare two images (EXR) on the pixels where the camera sees OBJECT, after a 3×3 blur:
     /// relative L1 and flux ratio of A against the reference B.
@@ -113,6 +130,22 @@ enum Cmd {
         /// JSON logs (also CAUSTICA_LOG_FORMAT=json).
         #[arg(long)]
         log_json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum BakeCmd {
+    /// Caustic spot lights of one object for the scene's (first) directional light.
+    Csl {
+        scene: PathBuf,
+        /// The caustic object (default: the first object with a glass or mirror material).
+        #[arg(long)]
+        object: Option<String>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Rays per side of the ray grid (default 1280, the paper's).
+        #[arg(long)]
+        grid: Option<u32>,
     },
 }
 
@@ -144,6 +177,7 @@ fn main() -> Result<()> {
             spp,
             seed,
             time_budget,
+            bake,
         } => {
             let mut timings: Vec<(String, Duration)> = Vec::new();
             let t = Instant::now();
@@ -157,7 +191,30 @@ fn main() -> Result<()> {
             scene::load::resolve_camera(&camera_desc(&world), &scene::Limits::default())
                 .context("--width/--height")?;
             timings.push(("load".into(), t.elapsed()));
+            if bake.is_some() && method != Method::Csl {
+                bail!("--bake is only for --method csl");
+            }
             let frames: Vec<(&str, Frame)> = match method {
+                Method::Csl => {
+                    let t = Instant::now();
+                    let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
+                    let mut renderer = Renderer::new(ctx)?;
+                    timings.push(("gpu init".into(), t.elapsed()));
+                    let out = renderer.render(&world, &RenderOptions::default())?;
+                    eprintln!("adapter: {}", out.adapter);
+                    timings.extend(out.timings.iter().cloned());
+                    let t = Instant::now();
+                    let caustics = csl_caustics(&world, bake.as_deref(), &mut timings)?;
+                    timings.push(("csl total".into(), t.elapsed()));
+                    let black = Frame::new(out.direct.width, out.direct.height);
+                    vec![
+                        ("total", out.total().add(&caustics)),
+                        ("direct", out.direct.clone()),
+                        ("caustics", caustics),
+                        ("specular", out.specular.clone()),
+                        ("indirect", black),
+                    ]
+                }
                 Method::Reference => {
                     let t = Instant::now();
                     let accel = Accel::build(&world);
@@ -240,6 +297,28 @@ fn main() -> Result<()> {
             }
             Ok(())
         }
+        Cmd::Bake {
+            what:
+                BakeCmd::Csl {
+                    scene,
+                    object,
+                    out,
+                    grid,
+                },
+        } => {
+            let world = load(&scene)?;
+            let (name, light) = csl_target(&world, object.as_deref())?;
+            let mut params = CslParams::paper();
+            if let Some(g) = grid {
+                params.grid = g;
+            }
+            let set = bake_with_bar(&world, &name, light, &params)?;
+            std::fs::write(&out, set.to_bytes())
+                .with_context(|| format!("writing {}", out.display()))?;
+            print_bake(&name, &set);
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
         Cmd::Compare {
             a,
             b,
@@ -265,6 +344,151 @@ fn main() -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The caustic object (named, or the first glass/mirror object) and the scene's first
+/// directional light as (world travel direction, irradiance).
+fn csl_target(world: &World, object: Option<&str>) -> Result<(String, (Vec3, Vec3))> {
+    let light = world
+        .lights
+        .iter()
+        .find_map(|l| match l {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some((*direction, *irradiance)),
+            _ => None,
+        })
+        .context("CSLs need a directional light; the scene has none")?;
+    let name = match object {
+        Some(n) => n.to_string(),
+        None => world
+            .objects
+            .iter()
+            .find(|o| {
+                o.parts
+                    .iter()
+                    .any(|p| world.materials[p.material as usize].is_specular())
+            })
+            .map(|o| o.name.clone())
+            .context("the scene has no glass or mirror object to bake")?,
+    };
+    Ok((name, light))
+}
+
+fn bake_with_bar(
+    world: &World,
+    name: &str,
+    (dir, _): (Vec3, Vec3),
+    params: &CslParams,
+) -> Result<CslSet> {
+    let obj = world
+        .object(name)
+        .with_context(|| format!("no object named {name:?}"))?;
+    let light = CslSet::light_in_object_frame(obj, dir);
+    let bar = progress_bar(&format!("bake csl {name}"));
+    let set = bake_csl(world, name, light, params, &|p: Progress| {
+        bar.set_message(format!("bake csl {name}: {}", p.stage));
+        bar.set_position((p.fraction * 1000.0) as u64);
+        true
+    })?;
+    bar.finish_and_clear();
+    Ok(set)
+}
+
+fn print_bake(name: &str, set: &CslSet) {
+    let s = &set.stats;
+    eprintln!(
+        "{name}: {} rays traced, {} hit, {} caustic rays, {} CSLs covering {:.1}% of the energy \
+         (trace {:.0} ms, raster {:.0} ms, bundles {:.0} ms, fit {:.0} ms, images {:.0} ms, \
+         total {:.0} ms)",
+        s.rays_traced,
+        s.rays_hit,
+        s.caustic_rays,
+        set.csls.len(),
+        100.0 * s.coverage(),
+        s.time_trace.as_secs_f64() * 1e3,
+        s.time_raster.as_secs_f64() * 1e3,
+        s.time_bundles.as_secs_f64() * 1e3,
+        s.time_fit.as_secs_f64() * 1e3,
+        s.time_image.as_secs_f64() * 1e3,
+        s.time_total.as_secs_f64() * 1e3,
+    );
+}
+
+/// The caustics component from CSL sets: the given artifact for the scene's caustic object, or
+/// a bake of every caustic object, cached by content hash.
+fn csl_caustics(
+    world: &World,
+    bake: Option<&Path>,
+    timings: &mut Vec<(String, Duration)>,
+) -> Result<Frame> {
+    let t = Instant::now();
+    let (first, light) = csl_target(world, None)?;
+    let params = CslParams::paper();
+    let mut sets: Vec<(String, CslSet)> = Vec::new();
+    if let Some(path) = bake {
+        let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        let set = CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?;
+        sets.push((first, set));
+    } else {
+        let cache = std::env::var_os("CAUSTICA_CACHE")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| std::env::temp_dir().join("caustica-bakes"));
+        for o in &world.objects {
+            if !o
+                .parts
+                .iter()
+                .any(|p| world.materials[p.material as usize].is_specular())
+            {
+                continue;
+            }
+            let dir = CslSet::light_in_object_frame(o, light.0);
+            let key = csl_source_hash(world, &o.name, dir, &params)?;
+            let file = cache.join(format!("csl-{key:016x}.bin"));
+            let cached = std::fs::read(&file)
+                .ok()
+                .and_then(|b| CslSet::from_bytes(&b).ok())
+                .filter(|s| s.source_hash == key);
+            let set = match cached {
+                Some(s) => {
+                    eprintln!("{}: cached bake {}", o.name, file.display());
+                    s
+                }
+                None => {
+                    let s = bake_with_bar(world, &o.name, light, &params)?;
+                    print_bake(&o.name, &s);
+                    std::fs::create_dir_all(&cache).ok();
+                    if let Err(e) = std::fs::write(&file, s.to_bytes()) {
+                        tracing::warn!("could not cache the bake in {}: {e}", file.display());
+                    }
+                    s
+                }
+            };
+            sets.push((o.name.clone(), set));
+        }
+    }
+    timings.push(("csl bake".into(), t.elapsed()));
+    let t = Instant::now();
+    let accel = Accel::build(world);
+    let mut csls = Vec::new();
+    let mut skip = Vec::new();
+    for (name, set) in &sets {
+        let obj = world
+            .object(name)
+            .with_context(|| format!("no object named {name:?}"))?;
+        csls.extend(set.to_world(CslSet::rigid_transform(obj)));
+        skip.push(world.objects.iter().position(|o| &o.name == name));
+    }
+    let blockers = Accel::build_with(
+        world,
+        |i| !skip.contains(&Some(i)),
+        obvhs::BvhBuildParams::fast_build(),
+    );
+    let frame =
+        caustica::bake::csl::eval::render_caustics(world, &accel, &blockers, &csls, light.1, 2);
+    timings.push(("csl eval cpu".into(), t.elapsed()));
+    Ok(frame)
 }
 
 fn camera_desc(w: &World) -> scene::types::CameraDesc {

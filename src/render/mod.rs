@@ -8,6 +8,7 @@
 //!
 //! The frame is `direct + caustics + specular` ([`RenderOutput::total`]).
 
+pub mod csl;
 pub mod direct;
 pub mod lights;
 pub mod scene;

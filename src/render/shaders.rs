@@ -10,6 +10,8 @@ pub const FILES: &[(&str, &str)] = &[
     ),
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
+    ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
+    ("csl.wgsl", include_str!("../../shaders/csl.wgsl")),
 ];
 
 /// Replaces each line `#include "name"` with the text `lookup(name)` returns, recursively

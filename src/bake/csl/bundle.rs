@@ -1,0 +1,398 @@
+//! Stage 2 of the CSL bake, bundle extraction (§3.1.1): the lines of the caustic rays are
+//! rasterised with a 3D DDA into the cells of an extended bounding volume (energy per cell);
+//! a bundle axis starts from the rays through the cell of most energy and is refined by
+//! alternating ray assignment (line distance and angle thresholds) and a least-squares axis fit.
+//!
+//! Cell energies are fixed-point integers added atomically: integer addition is associative, so
+//! the grid is identical whatever the thread schedule, and removing a bundle's rays subtracts
+//! exactly what they added.
+
+use super::trace::CausticRay;
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Fixed-point scale of cell energies (a unit-energy ray adds 2^32).
+const FIXED: f64 = 4_294_967_296.0;
+
+/// Deterministic parallel sum: fixed chunks summed in parallel, partial sums added in order.
+pub fn det_sum<T: Sync, R: Send + Sync + Copy + std::ops::Add<Output = R>>(
+    items: &[T],
+    zero: R,
+    f: impl Fn(&T) -> R + Sync,
+) -> R {
+    let parts: Vec<R> = items
+        .par_chunks(4096)
+        .map(|c| c.iter().fold(zero, |acc, x| acc + f(x)))
+        .collect();
+    parts.into_iter().fold(zero, |a, b| a + b)
+}
+
+/// Axis-aligned cube cut into n³ cells.
+#[derive(Clone, Copy, Debug)]
+pub struct Volume {
+    pub lo: Vec3,
+    pub cell: f32,
+    pub n: u32,
+}
+
+impl Volume {
+    /// The cube of half-size `half` around `centre`, `n` cells per axis.
+    pub fn new(centre: Vec3, half: f32, n: u32) -> Volume {
+        Volume {
+            lo: centre - Vec3::splat(half),
+            cell: 2.0 * half / n as f32,
+            n,
+        }
+    }
+
+    fn hi(&self) -> Vec3 {
+        self.lo + Vec3::splat(self.cell * self.n as f32)
+    }
+
+    /// Parameter interval of the infinite line o + t·d inside the box [lo, hi].
+    fn clip(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
+        let (mut t0, mut t1) = (f32::NEG_INFINITY, f32::INFINITY);
+        for k in 0..3 {
+            if d[k].abs() < 1e-12 {
+                if o[k] < lo[k] || o[k] > hi[k] {
+                    return None;
+                }
+            } else {
+                let a = (lo[k] - o[k]) / d[k];
+                let b = (hi[k] - o[k]) / d[k];
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+        }
+        (t0 < t1).then_some((t0, t1))
+    }
+
+    /// Visit every cell the infinite line o + t·d passes through (Amanatides-Woo 3D DDA).
+    pub fn dda(&self, o: Vec3, d: Vec3, mut visit: impl FnMut(usize)) {
+        let Some((t0, t1)) = Self::clip(o, d, self.lo, self.hi()) else {
+            return;
+        };
+        let n = self.n as i32;
+        let start = o + d * t0;
+        let mut c = [0i32; 3];
+        let mut step = [0i32; 3];
+        let mut tmax = [f32::INFINITY; 3];
+        let mut tdelta = [f32::INFINITY; 3];
+        for k in 0..3 {
+            let rel = (start[k] - self.lo[k]) / self.cell;
+            c[k] = (rel.floor() as i32).clamp(0, n - 1);
+            if d[k] > 1e-12 {
+                step[k] = 1;
+                tdelta[k] = self.cell / d[k];
+                tmax[k] = t0 + ((c[k] + 1) as f32 - rel) * tdelta[k];
+            } else if d[k] < -1e-12 {
+                step[k] = -1;
+                tdelta[k] = -self.cell / d[k];
+                tmax[k] = t0 + (rel - c[k] as f32) * tdelta[k];
+            }
+        }
+        let n3 = 3 * self.n as usize;
+        for _ in 0..n3 {
+            visit(((c[2] * n + c[1]) * n + c[0]) as usize);
+            let k = if tmax[0] < tmax[1] {
+                if tmax[0] < tmax[2] { 0 } else { 2 }
+            } else if tmax[1] < tmax[2] {
+                1
+            } else {
+                2
+            };
+            if tmax[k] > t1 {
+                break;
+            }
+            c[k] += step[k];
+            if c[k] < 0 || c[k] >= n {
+                break;
+            }
+            tmax[k] += tdelta[k];
+        }
+    }
+
+    /// Bounds of cell `idx`.
+    pub fn cell_bounds(&self, idx: usize) -> (Vec3, Vec3) {
+        let n = self.n as usize;
+        let (x, y, z) = (idx % n, (idx / n) % n, idx / (n * n));
+        let lo = self.lo + Vec3::new(x as f32, y as f32, z as f32) * self.cell;
+        (lo, lo + Vec3::splat(self.cell))
+    }
+
+    /// True when the line o + t·d meets the box.
+    pub fn line_hits_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
+        Self::clip(o, d, lo, hi).is_some()
+    }
+}
+
+/// A bundle: the axis (origin, unit direction) and the indices of its rays.
+#[derive(Clone, Debug)]
+pub struct Bundle {
+    pub origin: Vec3,
+    pub axis: Vec3,
+    pub members: Vec<u32>,
+    pub iterations: u32,
+}
+
+/// Thresholds of ray assignment.
+#[derive(Clone, Copy, Debug)]
+pub struct Thresholds {
+    /// Largest distance between a ray's line and the axis line, metres.
+    pub distance: f32,
+    /// Smallest cosine between a ray's direction and the axis.
+    pub cos_angle: f32,
+    pub max_iterations: u32,
+}
+
+/// Distance between the line (q, d) and the line (b, a), both directions unit.
+pub fn line_distance(q: Vec3, d: Vec3, b: Vec3, a: Vec3) -> f32 {
+    let n = d.cross(a);
+    let l = n.length();
+    if l > 1e-6 {
+        ((q - b).dot(n) / l).abs()
+    } else {
+        (q - b).cross(a).length()
+    }
+}
+
+/// The pool of rays not yet in a CSL and the energy grid of their lines.
+pub struct Extractor<'a> {
+    pub rays: &'a [CausticRay],
+    pub alive: Vec<bool>,
+    pub volume: Volume,
+    grid: Vec<AtomicU64>,
+    blocked: Vec<bool>,
+    fixed: Vec<u64>,
+}
+
+impl<'a> Extractor<'a> {
+    /// Rasterise every ray (parallel; exact integer sums).
+    pub fn new(rays: &'a [CausticRay], volume: Volume) -> Self {
+        let cells = (volume.n as usize).pow(3);
+        let grid: Vec<AtomicU64> = (0..cells).map(|_| AtomicU64::new(0)).collect();
+        let fixed: Vec<u64> = rays
+            .iter()
+            .map(|r| (r.weight() as f64 * FIXED).round() as u64)
+            .collect();
+        rays.par_iter().zip(fixed.par_iter()).for_each(|(r, &e)| {
+            volume.dda(r.origin, r.dir, |c| {
+                grid[c].fetch_add(e, Ordering::Relaxed);
+            })
+        });
+        Extractor {
+            rays,
+            alive: vec![true; rays.len()],
+            volume,
+            grid,
+            blocked: vec![false; cells],
+            fixed,
+        }
+    }
+
+    /// Take rays out of the pool, subtracting their energy from the grid.
+    pub fn remove(&mut self, members: &[u32]) {
+        for &m in members {
+            self.alive[m as usize] = false;
+        }
+        let (grid, rays, fixed, volume) = (&self.grid, self.rays, &self.fixed, self.volume);
+        members.par_iter().for_each(|&m| {
+            let r = &rays[m as usize];
+            let e = fixed[m as usize];
+            volume.dda(r.origin, r.dir, |c| {
+                grid[c].fetch_sub(e, Ordering::Relaxed);
+            })
+        });
+    }
+
+    /// Never seed a bundle from this cell again.
+    pub fn block(&mut self, cell: usize) {
+        self.blocked[cell] = true;
+    }
+
+    /// The unblocked cell of most energy (lowest index on ties), if any has energy.
+    pub fn max_cell(&self) -> Option<usize> {
+        let mut best: Option<(u64, usize)> = None;
+        for (i, g) in self.grid.iter().enumerate() {
+            let e = g.load(Ordering::Relaxed);
+            if e > 0 && !self.blocked[i] && best.is_none_or(|(b, _)| e > b) {
+                best = Some((e, i));
+            }
+        }
+        best.map(|(_, i)| i)
+    }
+
+    /// Energy (RGB mean) of the rays still in the pool.
+    pub fn remaining_energy(&self) -> f64 {
+        self.rays
+            .iter()
+            .zip(&self.alive)
+            .filter(|(_, a)| **a)
+            .map(|(r, _)| r.weight() as f64)
+            .sum()
+    }
+
+    /// Grow a bundle from the rays through `cell`: seed axis from their energy-weighted means,
+    /// then assignment and least-squares optimisation until the axis converges.
+    pub fn extract(&self, cell: usize, th: &Thresholds, scale: f32) -> Option<Bundle> {
+        let (lo, hi) = self.volume.cell_bounds(cell);
+        let seed: Vec<u32> = (0..self.rays.len() as u32)
+            .into_par_iter()
+            .filter(|&i| {
+                let r = &self.rays[i as usize];
+                self.alive[i as usize] && Volume::line_hits_box(r.origin, r.dir, lo, hi)
+            })
+            .collect();
+        if seed.is_empty() {
+            return None;
+        }
+        let (mut sw, mut so, mut sd) = (0.0f64, DVec3::ZERO, DVec3::ZERO);
+        for &i in &seed {
+            let r = &self.rays[i as usize];
+            let w = r.weight() as f64;
+            sw += w;
+            so += r.origin.as_dvec3() * w;
+            sd += r.dir.as_dvec3() * w;
+        }
+        if sw <= 0.0 || sd.length() < 1e-9 * sw {
+            return None;
+        }
+        let mut origin = (so / sw).as_vec3();
+        let mut axis = sd.normalize().as_vec3();
+        let mut members = Vec::new();
+        let mut iterations = 0;
+        while iterations < th.max_iterations {
+            iterations += 1;
+            let next: Vec<u32> = (0..self.rays.len() as u32)
+                .into_par_iter()
+                .filter(|&i| {
+                    let r = &self.rays[i as usize];
+                    self.alive[i as usize]
+                        && r.dir.dot(axis) >= th.cos_angle
+                        && line_distance(r.origin, r.dir, origin, axis) <= th.distance
+                })
+                .collect();
+            if next.is_empty() {
+                return None;
+            }
+            let same = next == members;
+            members = next;
+            if same {
+                break;
+            }
+            let (o, a) = self.optimise_axis(&members, origin);
+            let moved = (o - origin).length() / scale;
+            let turned = 1.0 - a.dot(axis);
+            origin = o;
+            axis = a;
+            if moved < 1e-4 && turned < 1e-7 {
+                break;
+            }
+        }
+        Some(Bundle {
+            origin,
+            axis,
+            members,
+            iterations,
+        })
+    }
+
+    /// Least-squares axis: direction the energy-weighted mean direction; origin the point of
+    /// least summed squared distance to the member lines (slightly regularised towards the old
+    /// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
+    /// mean ray origin.
+    fn optimise_axis(&self, members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
+        #[derive(Clone, Copy)]
+        struct Acc {
+            w: f64,
+            d: DVec3,
+            q: DVec3,
+            m: DMat3,
+            rhs: DVec3,
+        }
+        impl std::ops::Add for Acc {
+            type Output = Acc;
+            fn add(self, o: Acc) -> Acc {
+                Acc {
+                    w: self.w + o.w,
+                    d: self.d + o.d,
+                    q: self.q + o.q,
+                    m: self.m + o.m,
+                    rhs: self.rhs + o.rhs,
+                }
+            }
+        }
+        let zero = Acc {
+            w: 0.0,
+            d: DVec3::ZERO,
+            q: DVec3::ZERO,
+            m: DMat3::ZERO,
+            rhs: DVec3::ZERO,
+        };
+        let acc = det_sum(members, zero, |&i| {
+            let r = &self.rays[i as usize];
+            let w = r.weight() as f64;
+            let d = r.dir.as_dvec3();
+            let q = r.origin.as_dvec3();
+            let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+            Acc {
+                w,
+                d: d * w,
+                q: q * w,
+                m: p * w,
+                rhs: (p * q) * w,
+            }
+        });
+        let axis = acc.d.normalize();
+        let lambda = 1e-4 * acc.w;
+        let m = acc.m + DMat3::IDENTITY * lambda;
+        let rhs = acc.rhs + prev.as_dvec3() * lambda;
+        let mut o = if m.determinant().abs() > 1e-30 {
+            m.inverse() * rhs
+        } else {
+            prev.as_dvec3()
+        };
+        let qbar = acc.q / acc.w;
+        o += axis * (qbar - o).dot(axis);
+        (o.as_vec3(), axis.as_vec3())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dda_visits_the_cells_of_a_diagonal_and_an_axis_line() {
+        let v = Volume::new(Vec3::ZERO, 1.0, 4);
+        let mut cells = Vec::new();
+        v.dda(Vec3::new(-0.9, -0.9, -0.9), Vec3::ONE.normalize(), |c| {
+            cells.push(c)
+        });
+        // Through the main diagonal: (0,0,0), (1,1,1), (2,2,2), (3,3,3) and the cells where it
+        // touches edges; all visited cells are distinct and include the four diagonal cells.
+        for k in 0..4 {
+            assert!(cells.contains(&(k * 16 + k * 4 + k)), "{cells:?}");
+        }
+        let mut sorted = cells.clone();
+        sorted.dedup();
+        assert_eq!(sorted.len(), cells.len());
+        // A line along +x at y = z = 0.1 (cell 2 in y and z): 4 cells, in order.
+        let mut cells = Vec::new();
+        v.dda(Vec3::new(5.0, 0.1, 0.1), Vec3::NEG_X, |c| cells.push(c));
+        assert_eq!(cells, vec![43, 42, 41, 40]);
+        // A line missing the cube visits nothing.
+        let mut n = 0;
+        v.dda(Vec3::new(0.0, 2.0, 0.0), Vec3::X, |_| n += 1);
+        assert_eq!(n, 0);
+    }
+
+    #[test]
+    fn line_distance_of_skew_and_parallel_lines() {
+        let d = line_distance(Vec3::new(0.0, 0.0, 1.0), Vec3::X, Vec3::ZERO, Vec3::Y);
+        assert!((d - 1.0).abs() < 1e-6);
+        let d = line_distance(Vec3::new(0.0, 0.0, 2.0), Vec3::Y, Vec3::ZERO, Vec3::Y);
+        assert!((d - 2.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,306 @@
+//! CPU evaluation of CSLs at a receiver point (§2.2–2.4), the reference the GPU pass is
+//! checked against.
+//!
+//! With 1/f(r) = κ + γr, a CSL ray from light-plane radius r is at distance
+//! h(r) = r·(1 − z/f(r)) = r·(B − A·r), A = zγ, B = 1 − zκ, from the axis at height z above the
+//! plane (negative h: on the other side of the axis). A point at height z and distance ρ from
+//! the axis is reached by the rays with h(r) = ±ρ, i.e. the positive roots of
+//! A·r² − B·r ± ρ = 0: the paper's r₁, r₂ (case i, Eq. 2) and r₃ (case ii, Eq. 3) when
+//! α > 0, β ≥ 0, and at most three in every case. Radii whose light-plane point falls outside
+//! the intensity image are dropped. The focusing correction (Eq. 4) is
+//! σ = |h·h′/r| = |(B − A·r)(B − 2A·r)|, written without the division by r, so the central ray
+//! on the optical axis (§2.4) gets its exact limit σ = B² instead of a perturbed point. Where a
+//! ray bundle really focuses (σ → 0: the on-axis focus of the ring of rays with B = A·r, or a
+//! fold caustic with B = 2A·r) the limit is infinite. We therefore evaluate Eq. 4 before its
+//! limit, over the patch the intensity image resolves: dr = half a texel, and the area the
+//! radial interval [r − dr, r + dr] maps to at height z is computed exactly for the quadratic
+//! h (a sign change of h folds the annulus onto a disc; an extremum of h inside the interval is
+//! included). This equals Eq. 4 wherever h is smooth on the scale of a texel, stays finite at
+//! foci, and needs no epsilon.
+
+use super::Csl;
+use glam::Vec3;
+
+/// A CSL ray arriving at a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Arrival {
+    /// Unit travel direction.
+    pub dir: Vec3,
+    /// Flux per unit area perpendicular to the ray, per unit irradiance of the light.
+    pub density: Vec3,
+}
+
+/// The light-plane radii of the rays through a point at height `z` and axis distance `rho`:
+/// (radius, side) with side +1 when the ray starts on the point's side of the axis.
+pub fn radii(kappa: f32, gamma: f32, z: f32, rho: f32) -> ([(f32, f32); 3], usize) {
+    let (a, b) = (z * gamma, 1.0 - z * kappa);
+    let mut out = [(0.0, 0.0); 3];
+    let mut n = 0;
+    for side in [1.0f32, -1.0] {
+        // a·r² − b·r + side·ρ = 0
+        let c = side * rho;
+        let mut push = |r: f32| {
+            if r > 0.0 && r.is_finite() && n < 3 {
+                out[n] = (r, side);
+                n += 1;
+            }
+        };
+        if a.abs() <= 1e-9 * b.abs().max(1e-30) {
+            if b != 0.0 {
+                push(c / b);
+            }
+            continue;
+        }
+        let disc = b * b - 4.0 * a * c;
+        if disc < 0.0 {
+            continue;
+        }
+        // Stable roots of a·r² + (−b)·r + c = 0.
+        let q = 0.5 * (b + b.signum() * disc.sqrt());
+        if q != 0.0 {
+            push(q / a);
+            push(c / q);
+        } else {
+            push(0.0);
+        }
+    }
+    (out, n)
+}
+
+/// Eq. 4 over a finite patch: the ratio of the area that the light-plane annulus
+/// [r − dr, r + dr] covers at the height where h(r) = B·r − A·r², to the annulus' area.
+pub fn area_ratio(a: f32, b: f32, r: f32, dr: f32) -> f32 {
+    let h = |r: f32| r * (b - a * r);
+    let (r0, r1) = ((r - dr).max(0.0), r + dr);
+    let (h0, h1) = (h(r0), h(r1));
+    let (mut lo, mut hi) = (h0.abs().min(h1.abs()), h0.abs().max(h1.abs()));
+    if a != 0.0 {
+        let rs = b / (2.0 * a);
+        if rs > r0 && rs < r1 {
+            let hs = h(rs).abs();
+            hi = hi.max(hs);
+            lo = lo.min(hs);
+        }
+    }
+    if h0 * h1 < 0.0 {
+        lo = 0.0;
+    }
+    ((hi * hi - lo * lo) / (r1 * r1 - r0 * r0)).max(1e-12)
+}
+
+impl Csl {
+    /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
+    /// None outside the image.
+    pub fn intensity(&self, x: f32, y: f32) -> Option<Vec3> {
+        let h = self.half_extent;
+        if x.abs() > h || y.abs() > h {
+            return None;
+        }
+        let n = self.size as i64;
+        let pix = 2.0 * h / self.size as f32;
+        let fx = (x + h) / pix - 0.5;
+        let fy = (y + h) / pix - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let texel = |i: i64, j: i64| {
+            let (i, j) = (i.clamp(0, n - 1), j.clamp(0, n - 1));
+            let t = self.texels[(j * n + i) as usize];
+            Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32)
+        };
+        let (i, j) = (x0 as i64, y0 as i64);
+        let v = texel(i, j) * ((1.0 - tx) * (1.0 - ty))
+            + texel(i + 1, j) * (tx * (1.0 - ty))
+            + texel(i, j + 1) * ((1.0 - tx) * ty)
+            + texel(i + 1, j + 1) * (tx * ty);
+        Some(v * (self.scale / 65535.0))
+    }
+
+    /// Half a texel of the intensity image (m): the radial half-width of the light-plane patch
+    /// over which Eq. 4 is evaluated.
+    pub fn patch(&self) -> f32 {
+        self.half_extent / self.size as f32
+    }
+
+    /// The CSL rays reaching `x` (same frame as the CSL), at most three.
+    pub fn arrivals(&self, x: Vec3) -> ([Arrival; 3], usize) {
+        let mut out = [Arrival {
+            dir: Vec3::ZERO,
+            density: Vec3::ZERO,
+        }; 3];
+        let d = x - self.origin;
+        let z = d.dot(self.axis);
+        if z <= 0.0 {
+            return (out, 0);
+        }
+        let w = d - self.axis * z;
+        let (wx, wy) = (w.dot(self.x_axis), w.dot(self.y_axis()));
+        let rho = (wx * wx + wy * wy).sqrt();
+        // Unit direction from the axis towards x in the plane (any one on the axis).
+        let (ux, uy) = if rho > 0.0 {
+            (wx / rho, wy / rho)
+        } else {
+            (1.0, 0.0)
+        };
+        let (roots, count) = radii(self.kappa, self.gamma, z, rho);
+        let (a, b) = (z * self.gamma, 1.0 - z * self.kappa);
+        let mut n = 0;
+        for &(r, side) in &roots[..count] {
+            let (px, py) = (side * r * ux, side * r * uy);
+            let Some(i) = self.intensity(px, py) else {
+                continue;
+            };
+            let sigma = area_ratio(a, b, r, self.patch());
+            let g = self.kappa + self.gamma * r;
+            let u = self.x_axis * px + self.y_axis() * py;
+            let dir = (self.axis - u * g).normalize();
+            out[n] = Arrival {
+                dir,
+                density: i / (sigma * dir.dot(self.axis).max(1e-4)),
+            };
+            n += 1;
+        }
+        (out, n)
+    }
+
+    /// Irradiance on a surface with unit normal `n` at `x`, per unit irradiance of the light.
+    pub fn irradiance(&self, x: Vec3, n: Vec3) -> Vec3 {
+        let (arr, k) = self.arrivals(x);
+        arr[..k]
+            .iter()
+            .map(|a| a.density * (-a.dir.dot(n)).max(0.0))
+            .sum()
+    }
+}
+
+/// CPU render of the caustics component of a frame from a CSL set (§3.2 on the CPU): for every
+/// pixel (`spp`² stratified samples) the first surface seen; on a non-specular receiver each
+/// CSL's arrivals are shaded with the receiver's BRDF for the known ray direction (diffuse and
+/// glossy), times the light's `irradiance`.
+///
+/// Occlusion: an arrival counts only when nothing lies between the receiver and the CSL's light
+/// plane along the arriving ray, tested against `blockers`, an acceleration structure of every
+/// object *except* the caustic object (whose own geometry is where the CSL rays come from).
+pub fn render_caustics(
+    world: &crate::scene::World,
+    camera_accel: &crate::trace::Accel,
+    blockers: &crate::trace::Accel,
+    csls: &[Csl],
+    irradiance: Vec3,
+    spp: u32,
+) -> crate::encode::Frame {
+    use rayon::prelude::*;
+    let cam = &world.camera;
+    let rays = cam.rays();
+    let (w, h) = (cam.width, cam.height);
+    let pixels: Vec<Vec3> = (0..w * h)
+        .into_par_iter()
+        .map(|k| {
+            let (px, py) = ((k % w) as f32, (k / w) as f32);
+            let mut sum = Vec3::ZERO;
+            for sy in 0..spp {
+                for sx in 0..spp {
+                    let d = rays.dir(
+                        px + (sx as f32 + 0.5) / spp as f32,
+                        py + (sy as f32 + 0.5) / spp as f32,
+                    );
+                    let Some(hit) = camera_accel.intersect(cam.eye, d, f32::INFINITY) else {
+                        continue;
+                    };
+                    let mat = camera_accel.material(&hit);
+                    if mat.is_specular() {
+                        continue;
+                    }
+                    sum += shade(blockers, csls, &hit, -d, mat) * irradiance;
+                }
+            }
+            sum / (spp * spp) as f32
+        })
+        .collect();
+    crate::encode::Frame {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// Outgoing radiance towards `wo` per unit light irradiance at a receiver hit.
+pub fn shade(
+    blockers: &crate::trace::Accel,
+    csls: &[Csl],
+    hit: &crate::trace::Hit,
+    wo: Vec3,
+    mat: &crate::scene::Material,
+) -> Vec3 {
+    let n = hit.normal;
+    let mut out = Vec3::ZERO;
+    for c in csls {
+        let (arr, k) = c.arrivals(hit.point);
+        for a in &arr[..k] {
+            let wi = -a.dir;
+            let cos = n.dot(wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let f = crate::trace::optics::brdf(mat, n, wi, wo);
+            if f == Vec3::ZERO {
+                continue;
+            }
+            // Distance back to the light plane along the ray.
+            let t_plane = (hit.point - c.origin).dot(c.axis) / a.dir.dot(c.axis).max(1e-4);
+            if blockers.occluded(hit.spawn(wi), wi, t_plane) {
+                continue;
+            }
+            out += f * a.density * cos;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Away from foci the patch ratio is Eq. 4's |h·h′/r|; at the on-axis focus it stays finite.
+    #[test]
+    fn area_ratio_matches_eq4_and_is_finite_at_foci() {
+        let (a, b) = (0.3f32, 0.8f32);
+        for r in [0.2f32, 0.5, 1.0] {
+            let exact = ((b - a * r) * (b - 2.0 * a * r)).abs();
+            let fd = area_ratio(a, b, r, 1e-3);
+            assert!((fd / exact - 1.0).abs() < 1e-3, "{r}: {fd} vs {exact}");
+        }
+        // Central ray: the limit B².
+        assert!((area_ratio(a, b, 0.0, 1e-4) - b * b).abs() < 1e-3);
+        // Ring focused on the axis (h(r) = 0 at r = B/A) and fold (h' = 0 at r = B/2A).
+        for r in [b / a, b / (2.0 * a)] {
+            let s = area_ratio(a, b, r, 1e-2);
+            assert!(s > 0.0 && s.is_finite() && s < 0.1, "{r}: {s}");
+        }
+    }
+
+    /// Plug each root back: h(r) = side·ρ.
+    #[test]
+    fn radii_solve_the_ray_equation() {
+        for &(kappa, gamma) in &[(1.3f32, 0.8f32), (0.0, 0.0), (-0.7, -0.2), (2.0, 0.0)] {
+            for &z in &[0.1f32, 0.5, 0.9, 2.0] {
+                for &rho in &[0.0f32, 0.01, 0.2, 0.6] {
+                    let (r, n) = radii(kappa, gamma, z, rho);
+                    for &(r, side) in &r[..n] {
+                        let h = r * (1.0 - z * (kappa + gamma * r));
+                        assert!(
+                            (h - side * rho).abs() < 1e-4,
+                            "{kappa} {gamma} {z} {rho}: {r}"
+                        );
+                    }
+                }
+            }
+        }
+        // Case (i) and (ii) of the paper: α = 1, β = 1 at z = 0.25, ρ = 0.05 gives three radii.
+        let (_, n) = radii(1.0, 1.0, 0.25, 0.05);
+        assert_eq!(n, 3);
+        // Collimated: the one ray at r = ρ.
+        let (r, n) = radii(0.0, 0.0, 1.0, 0.3);
+        assert_eq!(n, 1);
+        assert!((r[0].0 - 0.3).abs() < 1e-6 && r[0].1 == 1.0);
+    }
+}

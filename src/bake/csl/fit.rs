@@ -1,0 +1,181 @@
+//! Stage 3 of the CSL bake, parameterisation (§3.1.2): the CSL's light plane sits on the bundle
+//! axis at c = b + ℓ·â and its rays meet the axis at f(r) = α / (1 + βr). We fit (α, β, ℓ) by
+//! minimising Eq. 5, Σ (t₁² + t₂²)·‖d̂ − ê‖², with Powell's method and Brent line searches;
+//! rays whose direction the fitted CSL misses by more than a threshold leave the bundle and the
+//! fit is repeated on the rest.
+//!
+//! Internally the focus function is written 1/f(r) = κ + γ·r with κ = 1/α and γ = β/α. This is
+//! the same family (α = 1/κ, β = γ/κ), but it stays finite for collimated bundles (κ = γ = 0,
+//! α → ∞) and also represents diverging bundles (κ < 0: a virtual focus behind the light plane,
+//! e.g. light reflected by a convex mirror), which the paper's α > 0 excludes.
+
+use super::bundle::Bundle;
+use super::optimize::powell;
+use super::trace::CausticRay;
+use glam::{DVec3, Vec3};
+
+/// A fitted CSL before its intensity image: light plane origin and axis, focus function, and
+/// the rays it represents.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub origin: Vec3,
+    pub axis: Vec3,
+    pub kappa: f64,
+    pub gamma: f64,
+    pub kept: Vec<u32>,
+    /// Rays dismissed from the bundle (they return to the pool).
+    pub dismissed: usize,
+    /// Objective evaluations over all rounds.
+    pub evaluations: u32,
+}
+
+/// The CSL ray direction through light-plane offset `u` (⊥ axis) for focus 1/f = κ + γ|u|.
+#[inline]
+pub fn csl_dir(axis: DVec3, u: DVec3, kappa: f64, gamma: f64) -> DVec3 {
+    let g = kappa + gamma * u.length();
+    (axis - u * g).normalize()
+}
+
+/// Per-ray terms of Eq. 5 for plane parameter `ell`: (t₁, ‖d̂ − ê‖²).
+#[inline]
+fn ray_terms(r: &CausticRay, b: DVec3, a: DVec3, ell: f64, kappa: f64, gamma: f64) -> (f64, f64) {
+    let q = r.origin.as_dvec3();
+    let d = r.dir.as_dvec3();
+    let s = ((b - q).dot(a) + ell) / d.dot(a);
+    let p = q + d * s;
+    let c = b + a * ell;
+    let e = csl_dir(a, p - c, kappa, gamma);
+    (s.abs(), (d - e).length_squared())
+}
+
+/// Fit a CSL to `bundle`. `length` is the object's bounding radius (variable scaling), `w` the
+/// paper's far distance (four times the object's bounding box size), `max_angle` the largest
+/// direction error (radians) a kept ray may have, `samples` the most rays used in the objective.
+pub fn fit_bundle(
+    rays: &[CausticRay],
+    bundle: &Bundle,
+    length: f64,
+    w: f64,
+    max_angle: f64,
+    samples: usize,
+) -> Fit {
+    let b = bundle.origin.as_dvec3();
+    let a = bundle.axis.as_dvec3();
+    let mut members = bundle.members.clone();
+    // The light plane stays within the axial range of the bundle's ray origins (the CSL stands
+    // in for the object; a plane far beyond it would hide receivers near the object).
+    let (lmin, lmax) = members
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
+            let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
+            (lo.min(t), hi.max(t))
+        });
+    let clamp_ell = |ell: f64| ell.clamp(lmin.min(0.0), lmax.max(0.0));
+    let mut evaluations = 0u32;
+    let mut x = initial_guess(rays, &members, b, a, length);
+    let mut dismissed = 0;
+    // Graduated dismissal: each round minimises Eq. 5 with the error of a ray capped at the
+    // round's threshold (so that rays the CSL cannot represent, e.g. internal reflections, do
+    // not drag the fit), then dismisses the rays beyond it. The threshold tightens from 20° to
+    // the final one.
+    let finals = [
+        max_angle.max(20f64.to_radians()),
+        (3.0 * max_angle).min(max_angle.max(20f64.to_radians())),
+        max_angle,
+        max_angle,
+    ];
+    for &limit in &finals {
+        let cap = (2.0 * (0.5 * limit).sin()).powi(2);
+        let sample: Vec<&CausticRay> = if members.len() > samples {
+            (0..samples)
+                .map(|k| &rays[members[k * members.len() / samples] as usize])
+                .collect()
+        } else {
+            members.iter().map(|&i| &rays[i as usize]).collect()
+        };
+        let objective = |v: &[f64]| {
+            let (kappa, gamma, ell) = unscale(v, length);
+            let ell = clamp_ell(ell);
+            sample
+                .iter()
+                .map(|r| {
+                    let (t1, e2) = ray_terms(r, b, a, ell, kappa, gamma);
+                    let t2 = t1 + w;
+                    r.weight() as f64 * (t1 * t1 + t2 * t2) * e2.min(cap)
+                })
+                .sum::<f64>()
+        };
+        let mut count = 0u32;
+        let (xv, _, _) = powell(
+            |v| {
+                count += 1;
+                objective(v)
+            },
+            &x,
+            1e-9,
+            60,
+        );
+        evaluations += count;
+        x = xv;
+        x[2] = clamp_ell(x[2] * length) / length;
+        let (kappa, gamma, ell) = unscale(&x, length);
+        let before = members.len();
+        members.retain(|&i| {
+            let (_, e2) = ray_terms(&rays[i as usize], b, a, ell, kappa, gamma);
+            e2 <= cap
+        });
+        dismissed += before - members.len();
+        if members.is_empty() {
+            break;
+        }
+    }
+    let (kappa, gamma, ell) = unscale(&x, length);
+    Fit {
+        origin: (b + a * ell).as_vec3(),
+        axis: bundle.axis,
+        kappa,
+        gamma,
+        kept: members,
+        dismissed,
+        evaluations,
+    }
+}
+
+/// Powell's variables are (κL, γL², ℓ/L) so that a unit step is sensible for each.
+fn unscale(v: &[f64], l: f64) -> (f64, f64, f64) {
+    (v[0] / l, v[1] / (l * l), v[2] * l)
+}
+
+/// Start with the light plane through the axis origin and κ, γ from a weighted linear fit of
+/// each ray's own ideal 1/f at its radius.
+fn initial_guess(rays: &[CausticRay], members: &[u32], b: DVec3, a: DVec3, l: f64) -> Vec<f64> {
+    let (mut sw, mut sr, mut srr, mut sg, mut srg) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
+    for &i in members {
+        let r = &rays[i as usize];
+        let q = r.origin.as_dvec3();
+        let d = r.dir.as_dvec3();
+        let s = (b - q).dot(a) / d.dot(a);
+        let u = q + d * s - b;
+        let rad = u.length();
+        if rad < 1e-3 * l {
+            continue;
+        }
+        // a − g·u ∥ d  ⇒  g = −(d·u) / ((d·a) r²)
+        let g = -d.dot(u) / (d.dot(a) * rad * rad);
+        let wt = r.weight() as f64;
+        sw += wt;
+        sr += wt * rad;
+        srr += wt * rad * rad;
+        sg += wt * g;
+        srg += wt * rad * g;
+    }
+    let det = sw * srr - sr * sr;
+    let (kappa, gamma) = if sw > 0.0 && det.abs() > 1e-12 * sw * srr.max(1e-30) {
+        ((sg * srr - sr * srg) / det, (sw * srg - sr * sg) / det)
+    } else if sw > 0.0 {
+        (sg / sw, 0.0)
+    } else {
+        (0.0, 0.0)
+    };
+    vec![kappa * l, gamma * l * l, 0.0]
+}

@@ -1,0 +1,561 @@
+//! Caustic spot lights, static lighting (seed 000 §2–3). For one caustic object and one light
+//! direction fixed relative to it, [`bake_csl`] turns the light the object reflects and
+//! refracts into a small set of CSLs:
+//!
+//! 1. [`trace`]: a regular grid of parallel unit-energy rays over the object's silhouette,
+//!    traced recursively through the object alone (Fresnel-weighted reflection and refraction,
+//!    total internal reflection, absorption) until they leave it; every leaving ray is kept.
+//! 2. [`bundle`]: bundle extraction by 3D-DDA energy rasterisation, seeding at the cell of most
+//!    energy, threshold assignment and least-squares axis optimisation (§3.1.1).
+//! 3. [`fit`]: the CSL parameters by Powell's method with Brent line searches on Eq. 5; rays
+//!    the CSL cannot approximate leave the bundle (§3.1.2).
+//! 4. [`image`]: the light plane's intensity image by EWA splatting, quantised to 16 bits.
+//! 5. Repeat from 2 until the CSLs cover the target fraction of the traced energy.
+//!
+//! Everything is in the object's *rigid frame*: the object's local coordinates with the
+//! object's scale applied (so absorption distances are real), without its rotation and
+//! translation; [`CslSet::to_world`] places the set in the world for a render, so a rigidly
+//! moving object (light fixed relative to it) reuses the bake. The set is deterministic: the
+//! same inputs give the same bytes ([`CslSet::to_bytes`]), whatever the thread count.
+
+pub mod artifact;
+pub mod bundle;
+pub mod eval;
+pub mod fit;
+pub mod image;
+pub mod optimize;
+pub mod trace;
+
+use super::{BakeError, Fnv64, Progress};
+use crate::scene::{Object, World};
+use crate::trace::Accel;
+use glam::{Mat4, Quat, Vec3};
+use std::time::{Duration, Instant};
+
+pub use artifact::ArtifactError;
+
+/// Parameters of a CSL bake. Lengths relative to the object are in units of its bounding
+/// sphere radius R, so that one preset suits objects of any size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CslParams {
+    /// Rays per side of the square ray grid over the silhouette (only those inside the
+    /// projected bounding sphere are traced). 16..=8192; the paper uses 1280.
+    pub grid: u32,
+    /// A path is dropped when its energy (RGB mean, fraction of the unit a grid ray starts
+    /// with) falls below this. 0..1; e.g. 1e-3.
+    pub min_energy: f32,
+    /// Most surface interactions of one path. 1..=64.
+    pub max_depth: u32,
+    /// Fraction of the energy leaving the object that the CSLs must cover. (0, 1]; 0.95.
+    pub coverage: f32,
+    /// Cells per axis of the rasterisation volume (§3.1.1 step 1). 4..=256.
+    pub cells: u32,
+    /// Half-size of the rasterisation cube around the bounding-sphere centre, in R. ≥ 1.
+    pub volume_extent: f32,
+    /// Largest distance between a ray's line and the bundle axis, in R. > 0.
+    pub distance_threshold: f32,
+    /// Largest angle between a ray and the bundle axis, degrees. (0, 90).
+    pub angle_threshold_deg: f32,
+    /// Largest direction error of a ray kept by a fitted CSL, degrees. > 0.
+    pub fit_threshold_deg: f32,
+    /// Most assignment/optimisation iterations of one bundle (paper: 100). ≥ 1.
+    pub max_iterations: u32,
+    /// Most CSLs in a set. ≥ 1.
+    pub max_csls: u32,
+    /// A bundle whose fitted energy is below this fraction of the total is not made a CSL
+    /// (energy cut-off; its seed cell is not tried again). [0, 1).
+    pub min_csl_energy: f32,
+    /// Most rays used in the fitting objective (evenly strided through the bundle). ≥ 16.
+    pub fit_samples: u32,
+    /// Texels per side of each intensity image. 128..=512.
+    pub image_size: u32,
+    /// Splat size δ as a multiple of the ray spacing (paper: 3). > 0.
+    pub splat_scale: f32,
+}
+
+impl CslParams {
+    /// The paper's settings: 1280² rays, 256² images.
+    pub const fn paper() -> Self {
+        CslParams {
+            grid: 1280,
+            min_energy: 1e-2,
+            max_depth: 16,
+            coverage: 0.95,
+            cells: 64,
+            volume_extent: 3.0,
+            distance_threshold: 0.1,
+            angle_threshold_deg: 60.0,
+            fit_threshold_deg: 3.0,
+            max_iterations: 100,
+            max_csls: 64,
+            min_csl_energy: 1e-4,
+            fit_samples: 16384,
+            image_size: 256,
+            splat_scale: 3.0,
+        }
+    }
+
+    /// Quick bakes for tests and previews: 256² rays, 128² images, a coarser volume.
+    pub const fn fast() -> Self {
+        CslParams {
+            grid: 256,
+            cells: 48,
+            image_size: 128,
+            fit_samples: 4096,
+            ..Self::paper()
+        }
+    }
+
+    /// Check the documented ranges.
+    pub fn validate(&self) -> Result<(), BakeError> {
+        let bad = |what: &str| Err(BakeError::InvalidParams(what.to_string()));
+        if !(16..=8192).contains(&self.grid) {
+            return bad("grid must be in 16..=8192");
+        }
+        if !(0.0..1.0).contains(&self.min_energy) {
+            return bad("min_energy must be in [0, 1)");
+        }
+        if !(1..=64).contains(&self.max_depth) {
+            return bad("max_depth must be in 1..=64");
+        }
+        if !(self.coverage > 0.0 && self.coverage <= 1.0) {
+            return bad("coverage must be in (0, 1]");
+        }
+        if !(4..=256).contains(&self.cells) {
+            return bad("cells must be in 4..=256");
+        }
+        if !(self.volume_extent >= 1.0 && self.volume_extent.is_finite()) {
+            return bad("volume_extent must be ≥ 1");
+        }
+        if !(self.distance_threshold > 0.0 && self.distance_threshold.is_finite()) {
+            return bad("distance_threshold must be > 0");
+        }
+        if !(self.angle_threshold_deg > 0.0 && self.angle_threshold_deg < 90.0) {
+            return bad("angle_threshold_deg must be in (0, 90)");
+        }
+        if !(self.fit_threshold_deg > 0.0 && self.fit_threshold_deg.is_finite()) {
+            return bad("fit_threshold_deg must be > 0");
+        }
+        if self.max_iterations == 0 || self.max_csls == 0 || self.fit_samples < 16 {
+            return bad("max_iterations and max_csls must be ≥ 1, fit_samples ≥ 16");
+        }
+        if !(0.0..1.0).contains(&self.min_csl_energy) {
+            return bad("min_csl_energy must be in [0, 1)");
+        }
+        if !(128..=512).contains(&self.image_size) {
+            return bad("image_size must be in 128..=512");
+        }
+        if !(self.splat_scale > 0.0 && self.splat_scale.is_finite()) {
+            return bad("splat_scale must be > 0");
+        }
+        Ok(())
+    }
+
+    /// Stable hash of the parameters (part of the artifact header and the cache key).
+    pub fn hash(&self) -> u64 {
+        let mut h = Fnv64::new();
+        for v in [
+            self.grid,
+            self.max_depth,
+            self.cells,
+            self.max_iterations,
+            self.max_csls,
+            self.fit_samples,
+            self.image_size,
+        ] {
+            h.write_u32(v);
+        }
+        for v in [
+            self.min_energy,
+            self.coverage,
+            self.volume_extent,
+            self.distance_threshold,
+            self.angle_threshold_deg,
+            self.fit_threshold_deg,
+            self.min_csl_energy,
+            self.splat_scale,
+        ] {
+            h.write_f32(v);
+        }
+        h.finish()
+    }
+}
+
+impl Default for CslParams {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+/// One caustic spot light, in the rigid frame of its object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Csl {
+    /// Light plane origin c (m).
+    pub origin: Vec3,
+    /// Unit optical axis â (the light plane normal; rays travel towards +â).
+    pub axis: Vec3,
+    /// Unit in-plane direction of the image's +x; +y is â × x̂.
+    pub x_axis: Vec3,
+    /// 1/f(0) = 1/α (1/m): where the central ray meets the axis. 0 for a collimated bundle,
+    /// negative for a diverging one.
+    pub kappa: f32,
+    /// β/α (1/m²): 1/f(r) = κ + γr.
+    pub gamma: f32,
+    /// The image covers [-half_extent, half_extent]² of the light plane (m).
+    pub half_extent: f32,
+    /// Texels per side.
+    pub size: u32,
+    /// Value of the quantised level 65535: flux per m² of light plane per unit irradiance.
+    pub scale: f32,
+    /// Flux of the CSL per unit irradiance of the light (m²), i.e. its share of the energy.
+    pub flux: f32,
+    /// Row-major RGB texels, row 0 at -y.
+    pub texels: Vec<[u16; 3]>,
+}
+
+impl Csl {
+    /// The paper's α (m), infinite for a collimated CSL.
+    pub fn alpha(&self) -> f32 {
+        1.0 / self.kappa
+    }
+
+    /// The paper's β (1/m).
+    pub fn beta(&self) -> f32 {
+        self.gamma / self.kappa
+    }
+
+    pub fn y_axis(&self) -> Vec3 {
+        self.axis.cross(self.x_axis)
+    }
+
+    /// Where the rays from radius `r` meet the axis, distance from the light plane (m).
+    pub fn focus(&self, r: f32) -> f32 {
+        1.0 / (self.kappa + self.gamma * r)
+    }
+}
+
+/// Figures of one bake. Counts survive serialisation; times are zero after [`CslSet::from_bytes`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BakeStats {
+    /// Grid rays traced (inside the projected bounding sphere).
+    pub rays_traced: u64,
+    /// Grid rays that hit the object.
+    pub rays_hit: u64,
+    /// Rays leaving the object.
+    pub caustic_rays: u64,
+    pub csls: u32,
+    /// Energy leaving the object, in grid-ray units.
+    pub energy_traced: f64,
+    /// Energy the CSLs represent, in grid-ray units.
+    pub energy_covered: f64,
+    /// Energy lost to absorption, the depth limit and the energy threshold, grid-ray units.
+    pub energy_dropped: f64,
+    /// Bundles whose axis search or fit gave nothing usable.
+    pub rejected_bundles: u32,
+    /// Rays dismissed by fits (they went back to the pool).
+    pub dismissed_rays: u64,
+    /// Assignment/optimisation iterations, summed over CSLs.
+    pub iterations: u32,
+    pub time_trace: Duration,
+    pub time_raster: Duration,
+    pub time_bundles: Duration,
+    pub time_fit: Duration,
+    pub time_image: Duration,
+    pub time_total: Duration,
+}
+
+impl BakeStats {
+    /// Fraction of the leaving energy the CSLs cover.
+    pub fn coverage(&self) -> f64 {
+        if self.energy_traced > 0.0 {
+            self.energy_covered / self.energy_traced
+        } else {
+            1.0
+        }
+    }
+}
+
+/// The CSLs of one object for one light direction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CslSet {
+    /// Content hash of the inputs (object geometry and materials, scale, light, parameters):
+    /// the cache key.
+    pub source_hash: u64,
+    pub params_hash: u64,
+    /// Unit light travel direction in the object's rigid frame.
+    pub light_dir: Vec3,
+    /// Bounding sphere of the object in its rigid frame.
+    pub centre: Vec3,
+    pub radius: f32,
+    /// Distance between grid rays (m).
+    pub spacing: f32,
+    pub csls: Vec<Csl>,
+    pub stats: BakeStats,
+}
+
+impl CslSet {
+    /// The object-to-world transform a render applies to this set: the object's rotation and
+    /// translation (its scale is already in the bake).
+    pub fn rigid_transform(object: &Object) -> Mat4 {
+        let (_, rot, trans) = object.transform.to_scale_rotation_translation();
+        Mat4::from_rotation_translation(rot, trans)
+    }
+
+    /// The world light direction `dir` expressed in the rigid frame of `object`.
+    pub fn light_in_object_frame(object: &Object, dir: Vec3) -> Vec3 {
+        let (_, rot, _) = object.transform.to_scale_rotation_translation();
+        (rot.inverse() * dir).normalize()
+    }
+
+    /// A copy with every CSL moved by the rigid transform `m` (rotation + translation).
+    pub fn to_world(&self, m: Mat4) -> Vec<Csl> {
+        let (_, rot, _): (Vec3, Quat, Vec3) = m.to_scale_rotation_translation();
+        self.csls
+            .iter()
+            .map(|c| Csl {
+                origin: m.transform_point3(c.origin),
+                axis: (rot * c.axis).normalize(),
+                x_axis: (rot * c.x_axis).normalize(),
+                ..c.clone()
+            })
+            .collect()
+    }
+}
+
+/// The object alone, scaled, at the origin: the world the bake traces.
+fn rigid_frame_world(world: &World, object: &Object) -> World {
+    let (scale, _, _) = object.transform.to_scale_rotation_translation();
+    World {
+        name: object.name.clone(),
+        camera: world.camera.clone(),
+        lights: Vec::new(),
+        materials: world.materials.clone(),
+        objects: vec![Object {
+            name: object.name.clone(),
+            parts: object.parts.clone(),
+            transform: Mat4::from_scale(scale),
+        }],
+        warnings: Vec::new(),
+    }
+}
+
+/// Content hash of a bake's inputs (the cache key): the object's meshes, materials and scale,
+/// the light direction in its rigid frame and the parameters. Same as [`CslSet::source_hash`].
+pub fn csl_source_hash(
+    world: &World,
+    object_name: &str,
+    light_dir: Vec3,
+    params: &CslParams,
+) -> Result<u64, BakeError> {
+    let object = world
+        .object(object_name)
+        .ok_or_else(|| BakeError::UnknownObject(object_name.to_string()))?;
+    Ok(source_hash(world, object, light_dir.normalize(), params))
+}
+
+/// Hash of everything the bake reads.
+fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) -> u64 {
+    let mut h = Fnv64::new();
+    h.write(b"csl");
+    let (scale, _, _) = object.transform.to_scale_rotation_translation();
+    for v in scale.to_array().into_iter().chain(light.to_array()) {
+        h.write_f32(v);
+    }
+    for p in &object.parts {
+        h.write_u32(p.mesh.positions.len() as u32);
+        for v in p.mesh.positions.iter().chain(&p.mesh.normals) {
+            for c in v.to_array() {
+                h.write_f32(c);
+            }
+        }
+        for t in &p.mesh.indices {
+            for c in t {
+                h.write_u32(*c);
+            }
+        }
+        h.write(format!("{:?}", world.materials[p.material as usize]).as_bytes());
+    }
+    h.write(&params.hash().to_le_bytes());
+    h.finish()
+}
+
+/// Bake the CSL set of object `object_name` lit from unit travel direction `light_dir`
+/// (in the object's rigid frame, see [`CslSet::light_in_object_frame`]). `progress` is called
+/// now and then; returning false cancels the bake ([`BakeError::Canceled`]).
+pub fn bake_csl(
+    world: &World,
+    object_name: &str,
+    light_dir: Vec3,
+    params: &CslParams,
+    progress: &(dyn Fn(Progress) -> bool + Sync),
+) -> Result<CslSet, BakeError> {
+    let t_start = Instant::now();
+    params.validate()?;
+    if !light_dir.is_finite() || light_dir.length() < 1e-6 {
+        return Err(BakeError::InvalidLight(light_dir.to_array()));
+    }
+    let light = light_dir.normalize();
+    let object = world
+        .object(object_name)
+        .ok_or_else(|| BakeError::UnknownObject(object_name.to_string()))?;
+    if object.triangle_count() == 0 {
+        return Err(BakeError::EmptyObject(object_name.to_string()));
+    }
+    if !object
+        .parts
+        .iter()
+        .any(|p| world.materials[p.material as usize].is_specular())
+    {
+        return Err(BakeError::NotSpecular(object_name.to_string()));
+    }
+    let local = rigid_frame_world(world, object);
+    let (lo, hi) = local.bounds();
+    let centre = 0.5 * (lo + hi);
+    let radius = local.objects[0]
+        .parts
+        .iter()
+        .flat_map(|p| p.mesh.positions.iter())
+        .map(|v| (local.objects[0].transform.transform_point3(*v) - centre).length())
+        .fold(0.0f32, f32::max)
+        * 1.0001;
+    let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
+
+    // 1. Trace.
+    let (u, v) = light.any_orthonormal_pair();
+    let grid = trace::RayGrid {
+        light,
+        u,
+        v,
+        centre,
+        radius,
+        n: params.grid,
+    };
+    let t0 = Instant::now();
+    let n = params.grid;
+    let report = |stage, fraction| progress(Progress { stage, fraction });
+    if !report("trace", 0.0) {
+        return Err(BakeError::Canceled);
+    }
+    let (rays, totals) = trace::trace_grid(&accel, &grid, params, &|rows| {
+        report("trace", 0.5 * rows as f32 / n as f32)
+    })
+    .ok_or(BakeError::Canceled)?;
+    let mut stats = BakeStats {
+        rays_traced: (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .filter(|&(i, j)| grid.origin(i, j).is_some())
+            .count() as u64,
+        rays_hit: totals.hits,
+        caustic_rays: rays.len() as u64,
+        energy_traced: rays.iter().map(|r| r.weight() as f64).sum(),
+        energy_dropped: totals.dropped,
+        time_trace: t0.elapsed(),
+        ..Default::default()
+    };
+
+    // 2.–5. Bundles, fits, images until the coverage target is met.
+    let t0 = Instant::now();
+    let volume = bundle::Volume::new(centre, params.volume_extent * radius, params.cells);
+    let mut ex = bundle::Extractor::new(&rays, volume);
+    stats.time_raster = t0.elapsed();
+    let thresholds = bundle::Thresholds {
+        distance: params.distance_threshold * radius,
+        cos_angle: params.angle_threshold_deg.to_radians().cos(),
+        max_iterations: params.max_iterations,
+    };
+    let total = stats.energy_traced;
+    let mut remaining = total;
+    let spacing = grid.spacing();
+    let far = 4.0 * (hi - lo).length() as f64;
+    let mut csls = Vec::new();
+    let mut attempts = 0u32;
+    while remaining > (1.0 - params.coverage as f64) * total
+        && csls.len() < params.max_csls as usize
+        && attempts < 2 * params.max_csls
+    {
+        attempts += 1;
+        if !report(
+            "bundles",
+            0.5 + 0.5 * (1.0 - remaining / total.max(1e-30)) as f32,
+        ) {
+            return Err(BakeError::Canceled);
+        }
+        let Some(cell) = ex.max_cell() else { break };
+        let t0 = Instant::now();
+        let found = ex.extract(cell, &thresholds, radius);
+        stats.time_bundles += t0.elapsed();
+        let Some(b) = found else {
+            ex.block(cell);
+            stats.rejected_bundles += 1;
+            continue;
+        };
+        let t0 = Instant::now();
+        let f = fit::fit_bundle(
+            &rays,
+            &b,
+            radius as f64,
+            far,
+            (params.fit_threshold_deg as f64).to_radians(),
+            params.fit_samples as usize,
+        );
+        stats.time_fit += t0.elapsed();
+        stats.dismissed_rays += f.dismissed as u64;
+        let kept_energy: f64 = f
+            .kept
+            .iter()
+            .map(|&i| rays[i as usize].weight() as f64)
+            .sum();
+        if f.kept.is_empty() || kept_energy < params.min_csl_energy as f64 * total {
+            ex.block(cell);
+            stats.rejected_bundles += 1;
+            continue;
+        }
+        let t0 = Instant::now();
+        let x_axis = f.axis.any_orthonormal_vector();
+        let y_axis = f.axis.cross(x_axis);
+        let img = image::splat(
+            &rays,
+            &f.kept,
+            f.origin,
+            f.axis,
+            x_axis,
+            y_axis,
+            params.splat_scale * spacing,
+            spacing * spacing,
+            params.image_size,
+        );
+        let (scale, texels) = image::quantise(&img.texels);
+        stats.time_image += t0.elapsed();
+        let t0 = Instant::now();
+        ex.remove(&f.kept);
+        stats.time_bundles += t0.elapsed();
+        remaining -= kept_energy;
+        stats.energy_covered += kept_energy;
+        stats.iterations += b.iterations;
+        csls.push(Csl {
+            origin: f.origin,
+            axis: f.axis,
+            x_axis,
+            kappa: f.kappa as f32,
+            gamma: f.gamma as f32,
+            half_extent: img.half,
+            size: img.size,
+            scale,
+            flux: img.flux as f32,
+            texels,
+        });
+    }
+    stats.csls = csls.len() as u32;
+    stats.time_total = t_start.elapsed();
+    report("done", 1.0);
+    Ok(CslSet {
+        source_hash: source_hash(world, object, light, params),
+        params_hash: params.hash(),
+        light_dir: light,
+        centre,
+        radius,
+        spacing,
+        csls,
+        stats,
+    })
+}

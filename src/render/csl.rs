@@ -1,0 +1,218 @@
+//! The CSL pass's GPU evaluation (shaders/csl.inc.wgsl): CSL sets uploaded as a storage buffer
+//! of parameters plus one of 16-bit texels, and a compute entry that evaluates all CSLs at a
+//! list of receiver points. `tests/csl_gpu.rs` checks it against the CPU evaluation
+//! (`bake::csl::eval`). The per-pixel caustics layer of [`super::RenderOutput`] is not wired to
+//! it yet.
+
+use crate::bake::csl::Csl;
+use crate::gpu::{GpuContext, GpuError};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+/// `struct Csl` of csl.inc.wgsl (std430, 80 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuCsl {
+    pub origin: [f32; 3],
+    pub kappa: f32,
+    pub axis: [f32; 3],
+    pub gamma: f32,
+    pub x_axis: [f32; 3],
+    pub half_extent: f32,
+    pub y_axis: [f32; 3],
+    pub scale: f32,
+    pub size: u32,
+    pub texel_offset: u32,
+    pub pad: [u32; 2],
+}
+
+/// CSL parameters and packed texels (two u32 words per RGB texel) for upload.
+pub fn pack(csls: &[Csl]) -> (Vec<GpuCsl>, Vec<u32>) {
+    let mut params = Vec::with_capacity(csls.len());
+    let mut words = Vec::new();
+    for c in csls {
+        params.push(GpuCsl {
+            origin: c.origin.to_array(),
+            kappa: c.kappa,
+            axis: c.axis.to_array(),
+            gamma: c.gamma,
+            x_axis: c.x_axis.to_array(),
+            half_extent: c.half_extent,
+            y_axis: c.y_axis().to_array(),
+            scale: c.scale / 65535.0,
+            size: c.size,
+            texel_offset: words.len() as u32,
+            pad: [0; 2],
+        });
+        for t in &c.texels {
+            words.push(t[0] as u32 | (t[1] as u32) << 16);
+            words.push(t[2] as u32);
+        }
+    }
+    if words.is_empty() {
+        words.push(0);
+    }
+    (params, words)
+}
+
+/// Compute pipeline evaluating CSL sets at points.
+pub struct CslEvaluator {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+impl CslEvaluator {
+    pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
+        let device = ctx.device();
+        ctx.scoped(&device, || {
+            let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            };
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("csl eval"),
+                entries: &[
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 0,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                        count: None,
+                    },
+                    storage(1, true),
+                    storage(2, true),
+                    storage(3, true),
+                    storage(4, true),
+                    storage(5, false),
+                ],
+            });
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("csl.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(super::shaders::source("csl.wgsl").into()),
+            });
+            let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("csl eval"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("csl eval"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("eval_points"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            CslEvaluator { pipeline, layout }
+        })
+    }
+
+    /// Summed irradiance of `csls` (per unit light irradiance, no occlusion) at each
+    /// (point, unit normal), evaluated on the GPU.
+    pub fn irradiance(
+        &self,
+        ctx: &GpuContext,
+        csls: &[Csl],
+        points: &[(Vec3, Vec3)],
+    ) -> Result<Vec<Vec3>, GpuError> {
+        if points.is_empty() {
+            return Ok(Vec::new());
+        }
+        let device = ctx.device();
+        let queue = ctx.queue();
+        let (params, words) = pack(csls);
+        let params = if params.is_empty() {
+            vec![GpuCsl::zeroed()]
+        } else {
+            params
+        };
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let (bg, out, read) = ctx.scoped(&device, || {
+            let uniform = init(
+                "csl params",
+                bytemuck::cast_slice(&[csls.len() as u32, points.len() as u32, 0, 0]),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let s = wgpu::BufferUsages::STORAGE;
+            let cbuf = init("csls", bytemuck::cast_slice(&params), s);
+            let tbuf = init("csl texels", bytemuck::cast_slice(&words), s);
+            let p: Vec<[f32; 4]> = points.iter().map(|(p, _)| p.extend(1.0).into()).collect();
+            let n: Vec<[f32; 4]> = points.iter().map(|(_, n)| n.extend(0.0).into()).collect();
+            let pbuf = init("points", bytemuck::cast_slice(&p), s);
+            let nbuf = init("normals", bytemuck::cast_slice(&n), s);
+            let size = (points.len() * 16) as u64;
+            let out = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("csl result"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let read = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("csl readback"),
+                size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("csl eval"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: cbuf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: tbuf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: pbuf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: nbuf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: out.as_entire_binding(),
+                    },
+                ],
+            });
+            (bg, out, read)
+        })?;
+        let size = (points.len() * 16) as u64;
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bg, &[]);
+            pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
+        }
+        enc.copy_buffer_to_buffer(&out, 0, &read, 0, size);
+        queue.submit([enc.finish()]);
+        let bytes = ctx.map_read(&device, &read)?;
+        let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        Ok(v.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect())
+    }
+}
