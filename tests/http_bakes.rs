@@ -322,3 +322,92 @@ async fn long_bakes_do_not_block_renders() {
     }
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn csl_bake_job_gives_the_library_bake_bytes() {
+    use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+    let srv = Server::start("bake-csl", |_, _| {}).await;
+    let scene = scene_sized(16, 16);
+    let body = serde_json::json!({
+        "scene": scene, "object": "glass", "method": "csl",
+        "params": {"preset": "fast", "grid": 96},
+    });
+    let r = srv.post_json("/v1/bakes", &body).await;
+    assert_eq!(r.status(), 202);
+    let v: serde_json::Value = r.json().await.unwrap();
+    let id = v["id"].as_str().unwrap().to_string();
+    // Spelling out the default-filled parameters names the same job.
+    let mut body2 = body.clone();
+    body2["params"] = serde_json::json!({"grid": 96, "preset": "fast"});
+    let v2: serde_json::Value = srv
+        .post_json("/v1/bakes", &body2)
+        .await
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v2["id"], id.as_str());
+    let done = poll("csl bake to succeed", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
+        assert_ne!(v["state"], "failed", "{v}");
+        (v["state"] == "succeeded").then_some(v)
+    })
+    .await;
+    let stages: Vec<&str> = done["timings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap())
+        .collect();
+    assert!(
+        stages.contains(&"bundles") && stages.contains(&"fit"),
+        "{stages:?}"
+    );
+    let r = srv
+        .client
+        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let bytes = r.bytes().await.unwrap().to_vec();
+    let set = CslSet::from_bytes(&bytes).expect("a valid CSL set");
+    assert!(!set.csls.is_empty());
+    // The same bake through the library: identical bytes (deterministic, same inputs).
+    let world = caustica::scene::resolve(
+        &caustica::scene::parse_scene(scene.to_string().as_bytes()).unwrap(),
+        &caustica::scene::MapSource::default(),
+        &Default::default(),
+    )
+    .unwrap();
+    let light = CslSet::light_in_object_frame(
+        world.object("glass").unwrap(),
+        glam::Vec3::new(1.0, -1.2, 0.0).normalize(),
+    );
+    let params = CslParams {
+        grid: 96,
+        ..CslParams::fast()
+    };
+    let lib = tokio::task::spawn_blocking(move || {
+        bake_csl(&world, "glass", light, &params, &|_| true)
+            .unwrap()
+            .to_bytes()
+    })
+    .await
+    .unwrap();
+    assert!(
+        lib == bytes,
+        "the service's artifact differs from the library bake"
+    );
+
+    // A scene without a directional light is refused with the field named.
+    let mut point = scene.clone();
+    point["lights"] = serde_json::json!([{"type": "point", "position": [0, 2, 0], "intensity": 5}]);
+    let mut bad = body.clone();
+    bad["scene"] = point;
+    let r = srv.post_json("/v1/bakes", &bad).await;
+    let p = problem(r, 422).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("directional light"),
+        "{p}"
+    );
+}

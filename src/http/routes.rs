@@ -1,6 +1,7 @@
 //! Handlers and DTOs of API v1.
 
 use super::{AppError, AppState};
+use crate::jobs::csl_bake::CslBakeParams;
 use crate::jobs::reference_bake::ReferenceBakeParams;
 use crate::jobs::scenes::{SceneInfo, SceneInput, sha256_hex};
 use crate::jobs::store::JobRecord;
@@ -390,9 +391,12 @@ fn canonical_bake_params(
             Ok(serde_json::to_value(ReferenceBakeParams::from_value(&v)?)
                 .expect("params serialise"))
         }
+        "csl" => {
+            Ok(serde_json::to_value(CslBakeParams::from_value(&v)?).expect("params serialise"))
+        }
         m => Err(AppError::invalid(
             "method",
-            format!("method: unknown bake method '{m}' (available: reference)"),
+            format!("method: unknown bake method '{m}' (available: reference, csl)"),
         )),
     }
 }

@@ -10,6 +10,7 @@
 //!
 //! Nothing here knows HTTP; errors are domain enums and `http` picks the status codes.
 
+pub mod csl_bake;
 pub mod metrics;
 pub mod reference_bake;
 pub mod render;
@@ -188,6 +189,11 @@ pub fn build_job(
             &spec.params,
             limits,
         )?)),
+        ("bake", "csl") => Ok(Box::new(csl_bake::CslBake::new(
+            world,
+            spec.object.as_deref(),
+            &spec.params,
+        )?)),
         ("render", _) => Ok(Box::new(render::RenderJob::new(
             world,
             &spec.method,
@@ -195,7 +201,7 @@ pub fn build_job(
             limits,
         )?)),
         ("bake", m) => Err(JobError::Params(format!(
-            "method: unknown bake method '{m}' (available: reference)"
+            "method: unknown bake method '{m}' (available: reference, csl)"
         ))),
         (k, _) => Err(JobError::Params(format!("unknown job kind '{k}'"))),
     }

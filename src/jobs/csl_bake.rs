@@ -1,0 +1,166 @@
+//! The `csl` bake: caustic spot lights of one object for the scene's (first) directional light,
+//! as the versioned, checksummed CSL set artifact of `bake::csl` (the same bytes as
+//! `caustica bake csl`). Deterministic, so re-running it after a restart is safe.
+
+use super::{Artifact, Job, JobCtx, JobError, Lane};
+use crate::bake::csl::{CslParams, CslSet, bake_csl};
+use crate::bake::{BakeError, Progress};
+use crate::scene::{Light, World};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Parameters of a CSL bake; defaults filled in before the bake id is computed.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CslBakeParams {
+    /// `paper` (the paper's settings) or `fast` (coarser cells and images, for previews).
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    /// Rays per side of the ray grid over the silhouette, 16..=4096 (the paper: 1280).
+    #[serde(default)]
+    pub grid: Option<u32>,
+}
+
+fn default_preset() -> String {
+    "paper".into()
+}
+
+impl CslBakeParams {
+    /// Parses and checks `v` (field paths in errors), filling the preset's grid.
+    pub fn from_value(v: &serde_json::Value) -> Result<Self, JobError> {
+        let mut p: CslBakeParams = serde_path_to_error::deserialize(v).map_err(|e| {
+            let path = match e.path().to_string() {
+                p if p == "." => "params".to_string(),
+                p => format!("params.{p}"),
+            };
+            JobError::Params(format!("{path}: {}", e.into_inner()))
+        })?;
+        let base = match p.preset.as_str() {
+            "paper" => CslParams::paper(),
+            "fast" => CslParams::fast(),
+            other => {
+                return Err(JobError::Params(format!(
+                    "params.preset: '{other}' is not one of paper, fast"
+                )));
+            }
+        };
+        let grid = p.grid.unwrap_or(base.grid);
+        if !(16..=4096).contains(&grid) {
+            return Err(JobError::Params(
+                "params.grid: must lie in 16..=4096".into(),
+            ));
+        }
+        p.grid = Some(grid);
+        Ok(p)
+    }
+
+    fn csl_params(&self) -> CslParams {
+        let base = if self.preset == "fast" {
+            CslParams::fast()
+        } else {
+            CslParams::paper()
+        };
+        CslParams {
+            grid: self.grid.unwrap_or(base.grid),
+            ..base
+        }
+    }
+}
+
+pub struct CslBake {
+    world: Arc<World>,
+    object: String,
+    /// Light travel direction in the object's rigid frame.
+    light: glam::Vec3,
+    params: CslBakeParams,
+}
+
+impl CslBake {
+    pub fn new(
+        world: Arc<World>,
+        object: Option<&str>,
+        params: &serde_json::Value,
+    ) -> Result<Self, JobError> {
+        let params = CslBakeParams::from_value(params)?;
+        let object = object.ok_or_else(|| JobError::Params("object: required".into()))?;
+        let obj = world
+            .object(object)
+            .ok_or_else(|| JobError::UnknownObject(object.into()))?;
+        let dir = world
+            .lights
+            .iter()
+            .find_map(|l| match l {
+                Light::Directional { direction, .. } => Some(*direction),
+                _ => None,
+            })
+            .ok_or_else(|| {
+                JobError::Params(
+                    "scene.lights: a csl bake needs a directional light; the scene has none".into(),
+                )
+            })?;
+        let light = CslSet::light_in_object_frame(obj, dir);
+        Ok(CslBake {
+            object: object.into(),
+            world,
+            light,
+            params,
+        })
+    }
+}
+
+impl Job for CslBake {
+    fn kind(&self) -> &'static str {
+        "bake"
+    }
+    fn method(&self) -> &'static str {
+        "csl"
+    }
+    fn lane(&self) -> Lane {
+        Lane::Cpu
+    }
+
+    fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
+        let set = bake_csl(
+            &self.world,
+            &self.object,
+            self.light,
+            &self.params.csl_params(),
+            &|p: Progress| {
+                ctx.progress(p.fraction, p.stage);
+                ctx.keep_going()
+            },
+        )
+        .map_err(|e| match e {
+            BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
+            BakeError::UnknownObject(o) => JobError::UnknownObject(o),
+            other => JobError::Params(other.to_string()),
+        })?;
+        let s = &set.stats;
+        let timings: Vec<(String, Duration)> = vec![
+            ("trace".into(), s.time_trace),
+            ("raster".into(), s.time_raster),
+            ("bundles".into(), s.time_bundles),
+            ("fit".into(), s.time_fit),
+            ("images".into(), s.time_image),
+        ];
+        let info = serde_json::json!({
+            "object": self.object,
+            "light_dir_object_frame": self.light.to_array(),
+            "statistics": {
+                "rays_traced": s.rays_traced,
+                "rays_hit": s.rays_hit,
+                "caustic_rays": s.caustic_rays,
+                "csls": set.csls.len(),
+                "energy_covered": s.coverage(),
+            },
+        });
+        Ok(Artifact {
+            content_type: "application/octet-stream",
+            ext: "csl",
+            bytes: set.to_bytes(),
+            timings,
+            info,
+        })
+    }
+}
