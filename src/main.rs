@@ -7,7 +7,7 @@ use caustica::encode::{self, Frame, PngSettings, ToneMap};
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
 use caustica::render::{RenderOptions, Renderer};
-use caustica::scene::{self, Light, World};
+use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use clap::{Parser, Subcommand, ValueEnum};
 use glam::Vec3;
@@ -349,16 +349,7 @@ fn main() -> Result<()> {
 /// The caustic object (named, or the first glass/mirror object) and the scene's first
 /// directional light as (world travel direction, irradiance).
 fn csl_target(world: &World, object: Option<&str>) -> Result<(String, (Vec3, Vec3))> {
-    let light = world
-        .lights
-        .iter()
-        .find_map(|l| match l {
-            Light::Directional {
-                direction,
-                irradiance,
-            } => Some((*direction, *irradiance)),
-            _ => None,
-        })
+    let light = caustica::bake::csl::scene_directional_light(world)
         .context("CSLs need a directional light; the scene has none")?;
     let name = match object {
         Some(n) => n.to_string(),

@@ -3,9 +3,9 @@
 //! `caustica bake csl`). Deterministic, so re-running it after a restart is safe.
 
 use super::{Artifact, Job, JobCtx, JobError, Lane};
-use crate::bake::csl::{CslParams, CslSet, bake_csl};
+use crate::bake::csl::{CslParams, CslSet, bake_csl, scene_directional_light};
 use crate::bake::{BakeError, Progress};
-use crate::scene::{Light, World};
+use crate::scene::World;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Duration;
@@ -87,18 +87,11 @@ impl CslBake {
         let obj = world
             .object(object)
             .ok_or_else(|| JobError::UnknownObject(object.into()))?;
-        let dir = world
-            .lights
-            .iter()
-            .find_map(|l| match l {
-                Light::Directional { direction, .. } => Some(*direction),
-                _ => None,
-            })
-            .ok_or_else(|| {
-                JobError::Params(
-                    "scene.lights: a csl bake needs a directional light; the scene has none".into(),
-                )
-            })?;
+        let (dir, _) = scene_directional_light(&world).ok_or_else(|| {
+            JobError::Params(
+                "scene.lights: a csl bake needs a directional light; the scene has none".into(),
+            )
+        })?;
         let light = CslSet::light_in_object_frame(obj, dir);
         Ok(CslBake {
             object: object.into(),

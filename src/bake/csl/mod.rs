@@ -379,6 +379,18 @@ fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) 
     h.finish()
 }
 
+/// The light a static CSL bake is for: the scene's first directional light, as (unit travel
+/// direction, irradiance).
+pub fn scene_directional_light(world: &World) -> Option<(Vec3, Vec3)> {
+    world.lights.iter().find_map(|l| match l {
+        crate::scene::Light::Directional {
+            direction,
+            irradiance,
+        } => Some((*direction, *irradiance)),
+        _ => None,
+    })
+}
+
 /// Bake the CSL set of object `object_name` lit from unit travel direction `light_dir`
 /// (in the object's rigid frame, see [`CslSet::light_in_object_frame`]). `progress` is called
 /// now and then; returning false cancels the bake ([`BakeError::Canceled`]).
