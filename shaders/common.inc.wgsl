@@ -25,12 +25,14 @@ struct Globals {
     env_radiance: vec4<f32>,
     // rgb: multiplier of the environment map; w: 1 when a map is bound.
     env_map_scale: vec4<f32>,
-    // x: number of lights, y/z: environment map size, w: unused.
+    // x: number of lights, y/z: environment map size, w: number of caustic spot lights.
     counts: vec4<u32>,
     // xy: viewport size in pixels.
     viewport: vec4<f32>,
     // Irradiance from the environment as 9 SH coefficients (cosine lobe already applied).
     sh: array<vec4<f32>, 9>,
+    // rgb: irradiance (W/m²) of the directional light the caustic spot lights carry.
+    csl_irradiance: vec4<f32>,
 }
 
 // A shadowed delta light. Line lights arrive as several point lights.

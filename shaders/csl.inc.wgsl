@@ -22,8 +22,8 @@ struct Csl {
 }
 
 // The intensity images of all CSLs, two words per RGB texel (r | g << 16, b), 16-bit linear.
-// Declared here so that this file validates on its own; includers use group 0, binding 2.
-@group(0) @binding(2) var<storage, read> csl_texels: array<u32>;
+// Declared here so that this file validates on its own; includers use group 0, binding 7.
+@group(0) @binding(7) var<storage, read> csl_texels: array<u32>;
 
 fn csl_texel(c: Csl, i: i32, j: i32) -> vec3<f32> {
     let n = i32(c.size);
@@ -83,32 +83,43 @@ fn csl_area_ratio(a: f32, b: f32, r: f32, dr: f32) -> f32 {
     return max((hi * hi - lo * lo) / (r1 * r1 - r0 * r0), 1e-12);
 }
 
-// One candidate radius: adds its arrival's irradiance on normal n (per unit light
-// irradiance) when r is valid and on the image.
-fn csl_arrival(c: Csl, r: f32, side: f32, ux: f32, uy: f32, a: f32, b: f32, n: vec3<f32>) -> vec3<f32> {
+// The CSL rays reaching a point (at most three): unit travel direction and flux per unit area
+// perpendicular to the ray, per unit light irradiance. Mirrors Csl::arrivals.
+struct CslArrivals {
+    dir: array<vec3<f32>, 3>,
+    density: array<vec3<f32>, 3>,
+    count: u32,
+}
+
+// One candidate radius: appends its arrival when r is valid and on the image.
+fn csl_arrival(c: Csl, r: f32, side: f32, ux: f32, uy: f32, a: f32, b: f32, out: ptr<function, CslArrivals>) {
     if (!(r > 0.0) || r > 3.0e38) {
-        return vec3<f32>(0.0);
+        return;
     }
     let px = side * r * ux;
     let py = side * r * uy;
     let i = csl_intensity(c, px, py);
     if (i.x < 0.0) {
-        return vec3<f32>(0.0);
+        return;
     }
     let sigma = csl_area_ratio(a, b, r, c.half_extent / f32(c.size));
     let g = c.kappa + c.gamma * r;
     let u = c.x_axis * px + c.y_axis * py;
     let dir = normalize(c.axis - u * g);
-    let density = i / (sigma * max(dot(dir, c.axis), 1e-4));
-    return density * max(-dot(dir, n), 0.0);
+    let k = (*out).count;
+    (*out).dir[k] = dir;
+    (*out).density[k] = i / (sigma * max(dot(dir, c.axis), 1e-4));
+    (*out).count = k + 1u;
 }
 
-// Irradiance of CSL c at point x on a surface with unit normal n, per unit light irradiance.
-fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// The rays of CSL c through point x.
+fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
+    var out: CslArrivals;
+    out.count = 0u;
     let d = x - c.origin;
     let z = dot(d, c.axis);
     if (z <= 0.0) {
-        return vec3<f32>(0.0);
+        return out;
     }
     let w = d - c.axis * z;
     let wx = dot(w, c.x_axis);
@@ -122,7 +133,7 @@ fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     }
     let a = z * c.gamma;
     let b = 1.0 - z * c.kappa;
-    var sum = vec3<f32>(0.0);
+    // Radii are collected as Csl radii() does (at most three), then turned into arrivals.
     var found = 0u;
     for (var s = 0; s < 2; s++) {
         let side = select(-1.0, 1.0, s == 0);
@@ -131,7 +142,7 @@ fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             if (b != 0.0 && found < 3u) {
                 let r = cc / b;
                 if (r > 0.0) {
-                    sum += csl_arrival(c, r, side, ux, uy, a, b, n);
+                    csl_arrival(c, r, side, ux, uy, a, b, &out);
                     found += 1u;
                 }
             }
@@ -146,15 +157,25 @@ fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         if (q != 0.0) {
             let r1 = q / a;
             if (r1 > 0.0 && found < 3u) {
-                sum += csl_arrival(c, r1, side, ux, uy, a, b, n);
+                csl_arrival(c, r1, side, ux, uy, a, b, &out);
                 found += 1u;
             }
             let r2 = cc / q;
             if (r2 > 0.0 && found < 3u) {
-                sum += csl_arrival(c, r2, side, ux, uy, a, b, n);
+                csl_arrival(c, r2, side, ux, uy, a, b, &out);
                 found += 1u;
             }
         }
+    }
+    return out;
+}
+
+// Irradiance of CSL c at point x on a surface with unit normal n, per unit light irradiance.
+fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let arr = csl_arrivals(c, x);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < arr.count; k++) {
+        sum += arr.density[k] * max(-dot(arr.dir[k], n), 0.0);
     }
     return sum;
 }

@@ -1,14 +1,19 @@
-// Direct pass: one forward pass over all geometry that writes two HDR layers of linear
+// Direct pass: one forward pass over all geometry that writes three HDR layers of linear
 // radiance W/(m²·sr). `direct`: receivers (diffuse, glossy) lit by every delta light with PCF
 // shadows from the shadow map array, plus unshadowed environment irradiance from spherical
 // harmonics (diffuse lobe only), and the visible environment behind everything (fullscreen
 // background draw). `specular`: the specular objects themselves, mirror = reflectance
 // × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
 // the reflected and (first-interface) refracted directions. Specular objects are 0 in `direct`,
-// receivers 0 in `specular`. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
+// receivers 0 in `specular`. `caustics`: the caustic spot lights of seed 000 evaluated per
+// pixel on receivers (Eqs. 2-4 in csl.inc.wgsl), each arriving ray shaded with the receiver's
+// BRDF for its known direction and dropped when an occluder (occlusion.inc.wgsl: everything but
+// the caustic objects) lies between the receiver and the CSL's light plane. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
 // behind, they get nothing.
 
 #include "common.inc.wgsl"
+#include "csl.inc.wgsl"
+#include "occlusion.inc.wgsl"
 
 @group(0) @binding(0) var<uniform> g: Globals;
 @group(0) @binding(1) var<storage, read> lights: array<Light>;
@@ -16,6 +21,7 @@
 @group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(4) var shadow_sampler: sampler_comparison;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
+@group(0) @binding(6) var<storage, read> csls: array<Csl>;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -27,6 +33,7 @@ struct VsOut {
 struct FsOut {
     @location(0) direct: vec4<f32>,
     @location(1) specular: vec4<f32>,
+    @location(2) caustics: vec4<f32>,
 }
 
 @vertex
@@ -117,6 +124,7 @@ fn fs_main(in: VsOut) -> FsOut {
     var out: FsOut;
     out.direct = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    out.caustics = vec4<f32>(0.0, 0.0, 0.0, 1.0);
 
     if m.kind == MAT_DIELECTRIC || m.kind == MAT_MIRROR {
         var ns = n;
@@ -178,7 +186,42 @@ fn fs_main(in: VsOut) -> FsOut {
     // Environment: diffuse lobe only, unshadowed.
     l += albedo / PI * sh_irradiance(g.sh, n);
     out.direct = vec4<f32>(l, 1.0);
+    if g.counts.w > 0u {
+        out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m) * g.csl_irradiance.rgb, 1.0);
+    }
     return out;
+}
+
+// Caustic radiance towards v per unit light irradiance at receiver point p (shading normal n,
+// geometric ng): every CSL's arrivals, BRDF-weighted, unoccluded ones only. Mirrors
+// bake/csl/eval.rs `shade`.
+fn csl_shade(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, v: vec3<f32>, m: Material) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    // Shadow rays start off the surface, on the side they leave towards, by a margin scaled to
+    // the coordinates' magnitude (as trace::Hit::spawn).
+    let eps = 1e-4 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
+    for (var i = 0u; i < g.counts.w; i++) {
+        let c = csls[i];
+        let arr = csl_arrivals(c, p);
+        for (var k = 0u; k < arr.count; k++) {
+            let wi = -arr.dir[k];
+            let cos_i = dot(n, wi);
+            if cos_i <= 0.0 {
+                continue;
+            }
+            var f = m.albedo.rgb / PI;
+            if m.kind == MAT_GLOSSY {
+                f = glossy_brdf(n, wi, v, m.albedo.rgb, m.specular.rgb, m.roughness);
+            }
+            let t_plane = dot(p - c.origin, c.axis) / max(dot(arr.dir[k], c.axis), 1e-4);
+            let o = p + ng * select(-eps, eps, dot(wi, ng) >= 0.0);
+            if occluded(o, wi, t_plane) {
+                continue;
+            }
+            sum += f * arr.density[k] * cos_i;
+        }
+    }
+    return sum;
 }
 
 // Background: a fullscreen triangle at the far plane, drawn after the geometry with a
@@ -200,5 +243,6 @@ fn fs_background(@builtin(position) frag: vec4<f32>) -> FsOut {
     // belongs to `direct`, as in the reference renderer.
     out.direct = vec4<f32>(env_radiance(d), 1.0);
     out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    out.caustics = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     return out;
 }

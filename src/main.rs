@@ -2,11 +2,12 @@
 
 use anyhow::{Context, Result, bail};
 use caustica::bake::Progress;
-use caustica::bake::csl::{CslParams, CslSet, bake_csl, csl_source_hash};
+use caustica::bake::csl::cache as csl_cache;
+use caustica::bake::csl::{CslParams, CslSet, bake_csl};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
-use caustica::render::{RenderOptions, Renderer};
+use caustica::render::{CslLayer, RenderOptions, Renderer};
 use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use clap::{Parser, Subcommand, ValueEnum};
@@ -200,15 +201,16 @@ fn main() -> Result<()> {
                     let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
                     let mut renderer = Renderer::new(ctx)?;
                     timings.push(("gpu init".into(), t.elapsed()));
-                    let out = renderer.render(&world, &RenderOptions::default())?;
+                    let sets = csl_sets(&world, bake.as_deref(), &mut timings)?;
+                    let layer = CslLayer::from_sets(&world, &sets);
+                    let out =
+                        renderer.render_csl(&world, &RenderOptions::default(), Some(&layer))?;
                     eprintln!("adapter: {}", out.adapter);
                     timings.extend(out.timings.iter().cloned());
-                    let t = Instant::now();
-                    let caustics = csl_caustics(&world, bake.as_deref(), &mut timings)?;
-                    timings.push(("csl total".into(), t.elapsed()));
                     let black = Frame::new(out.direct.width, out.direct.height);
+                    let caustics = out.caustics.clone().unwrap_or_else(|| black.clone());
                     vec![
-                        ("total", out.total().add(&caustics)),
+                        ("total", out.total()),
                         ("direct", out.direct.clone()),
                         ("caustics", caustics),
                         ("specular", out.specular.clone()),
@@ -407,79 +409,60 @@ fn print_bake(name: &str, set: &CslSet) {
     );
 }
 
-/// The caustics component from CSL sets: the given artifact for the scene's caustic object, or
-/// a bake of every caustic object, cached by content hash.
-fn csl_caustics(
+/// The CSL sets of the render: the given artifact for the scene's caustic object, or the set of
+/// every caustic object from the bake cache (`$CAUSTICA_CACHE`, else a folder under the
+/// system's temporary directory), baking what is missing.
+fn csl_sets(
     world: &World,
     bake: Option<&Path>,
     timings: &mut Vec<(String, Duration)>,
-) -> Result<Frame> {
+) -> Result<csl_cache::RenderSets> {
     let t = Instant::now();
-    let (first, light) = csl_target(world, None)?;
-    let params = CslParams::paper();
-    let mut sets: Vec<(String, CslSet)> = Vec::new();
-    if let Some(path) = bake {
+    let sets = if let Some(path) = bake {
+        let (first, light) = csl_target(world, None)?;
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         let set = CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?;
-        sets.push((first, set));
+        let object = world
+            .objects
+            .iter()
+            .position(|o| o.name == first)
+            .context("caustic object")?;
+        csl_cache::RenderSets {
+            sets: vec![csl_cache::ObjectSet {
+                object,
+                set,
+                cached: true,
+            }],
+            light,
+        }
     } else {
-        let cache = std::env::var_os("CAUSTICA_CACHE")
+        let dir = std::env::var_os("CAUSTICA_CACHE")
             .map(PathBuf::from)
             .unwrap_or_else(|| std::env::temp_dir().join("caustica-bakes"));
-        for o in &world.objects {
-            if !o
-                .parts
-                .iter()
-                .any(|p| world.materials[p.material as usize].is_specular())
-            {
-                continue;
+        let store = csl_cache::DirStore(dir);
+        let bar = progress_bar("bake csl");
+        let r = csl_cache::sets_for_render(world, &CslParams::paper(), &store, &|name, p| {
+            bar.set_message(format!("bake csl {name}: {}", p.stage));
+            bar.set_position((p.fraction * 1000.0) as u64);
+            true
+        });
+        bar.finish_and_clear();
+        let r = r?;
+        for s in &r.sets {
+            let name = &world.objects[s.object].name;
+            if s.cached {
+                eprintln!(
+                    "{name}: cached bake {}",
+                    store.path(s.set.source_hash).display()
+                );
+            } else {
+                print_bake(name, &s.set);
             }
-            let dir = CslSet::light_in_object_frame(o, light.0);
-            let key = csl_source_hash(world, &o.name, dir, &params)?;
-            let file = cache.join(format!("csl-{key:016x}.bin"));
-            let cached = std::fs::read(&file)
-                .ok()
-                .and_then(|b| CslSet::from_bytes(&b).ok())
-                .filter(|s| s.source_hash == key);
-            let set = match cached {
-                Some(s) => {
-                    eprintln!("{}: cached bake {}", o.name, file.display());
-                    s
-                }
-                None => {
-                    let s = bake_with_bar(world, &o.name, light, &params)?;
-                    print_bake(&o.name, &s);
-                    std::fs::create_dir_all(&cache).ok();
-                    if let Err(e) = std::fs::write(&file, s.to_bytes()) {
-                        tracing::warn!("could not cache the bake in {}: {e}", file.display());
-                    }
-                    s
-                }
-            };
-            sets.push((o.name.clone(), set));
         }
-    }
+        r
+    };
     timings.push(("csl bake".into(), t.elapsed()));
-    let t = Instant::now();
-    let accel = Accel::build(world);
-    let mut csls = Vec::new();
-    let mut skip = Vec::new();
-    for (name, set) in &sets {
-        let obj = world
-            .object(name)
-            .with_context(|| format!("no object named {name:?}"))?;
-        csls.extend(set.to_world(CslSet::rigid_transform(obj)));
-        skip.push(world.objects.iter().position(|o| &o.name == name));
-    }
-    let blockers = Accel::build_with(
-        world,
-        |i| !skip.contains(&Some(i)),
-        obvhs::BvhBuildParams::fast_build(),
-    );
-    let frame =
-        caustica::bake::csl::eval::render_caustics(world, &accel, &blockers, &csls, light.1, 2);
-    timings.push(("csl eval cpu".into(), t.elapsed()));
-    Ok(frame)
+    Ok(sets)
 }
 
 fn camera_desc(w: &World) -> scene::types::CameraDesc {

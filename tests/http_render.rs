@@ -247,3 +247,94 @@ async fn a_render_past_its_job_time_limit_is_a_504_problem() {
     );
     srv.stop().await;
 }
+
+/// `method: csl` bakes first (on the CPU pool, `bake` in `Server-Timing`), renders the
+/// caustics layer on the GPU, and gives the same image as the library path (same bake, same
+/// pass); a second render of the same object and light finds the bake by content hash.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn csl_render_bakes_first_then_reuses_the_bake() {
+    use caustica::bake::csl::{CslParams, cache};
+    use caustica::render::{CslLayer, RenderOptions, Renderer};
+    let srv = Server::start("render-csl", |_, _| {}).await;
+    let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    let req = serde_json::json!({
+        "scene": scene, "method": "csl", "width": 64, "height": 64, "format": "exr",
+        "component": "caustics", "csl": {"preset": "fast", "grid": 128},
+    });
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["content-type"], "image/x-exr");
+    let timing = r.headers()["server-timing"].to_str().unwrap().to_string();
+    for stage in ["queue", "bake", "gpu_wait", "readback", "encode"] {
+        assert!(timing.contains(&format!("{stage};dur=")), "{timing}");
+    }
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let got = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert_eq!((got.width, got.height), (64, 64));
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["method"], "csl");
+    assert_eq!(
+        rec["info"]["statistics"]["bakes"][0]["cached"], false,
+        "{rec}"
+    );
+
+    // The library path: same bake parameters, same renderer pass.
+    let want = tokio::task::spawn_blocking(|| {
+        let desc = parse_scene(SCENE.as_bytes()).unwrap();
+        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        w.camera.width = 64;
+        w.camera.height = 64;
+        let params = CslParams {
+            grid: 128,
+            ..CslParams::fast()
+        };
+        let sets = cache::sets_for_render(&w, &params, &cache::NoStore, &|_, _| true).unwrap();
+        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
+        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        let layer = CslLayer::from_sets(&w, &sets);
+        r.render_csl(&w, &RenderOptions::default(), Some(&layer))
+            .unwrap()
+            .caustics
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    assert!(peak > 1.0, "a caustic: {peak}");
+    let worst = got
+        .pixels
+        .iter()
+        .zip(&want.pixels)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 1e-3 * peak,
+        "differs from the library by {worst} (peak {peak})"
+    );
+
+    // Again, with another camera: the bake is found, not redone.
+    let mut req2 = req.clone();
+    req2["camera"] = serde_json::json!({"eye": [0, 4, 2], "target": [0.3, 0, 0]});
+    let r = srv.post_json("/v1/renders", &req2).await;
+    assert_eq!(r.status(), 200);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(
+        rec["info"]["statistics"]["bakes"][0]["cached"], true,
+        "{rec}"
+    );
+
+    // A scene without a directional light is refused up front, naming the field.
+    let mut no_light = scene.clone();
+    no_light["lights"] =
+        serde_json::json!([{"type": "point", "position": [0, 3, 0], "intensity": 5}]);
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": no_light, "method": "csl"}),
+        )
+        .await;
+    let p = problem(r, 422).await;
+    assert!(p["detail"].as_str().unwrap().contains("directional"), "{p}");
+    srv.stop().await;
+}

@@ -29,10 +29,15 @@ fn default_preset() -> String {
 impl CslBakeParams {
     /// Parses and checks `v` (field paths in errors), filling the preset's grid.
     pub fn from_value(v: &serde_json::Value) -> Result<Self, JobError> {
+        Self::parse(v, "params")
+    }
+
+    /// As [`Self::from_value`] for parameters found at field `at` of a request.
+    pub fn parse(v: &serde_json::Value, at: &str) -> Result<Self, JobError> {
         let mut p: CslBakeParams = serde_path_to_error::deserialize(v).map_err(|e| {
             let path = match e.path().to_string() {
-                p if p == "." => "params".to_string(),
-                p => format!("params.{p}"),
+                p if p == "." => at.to_string(),
+                p => format!("{at}.{p}"),
             };
             JobError::Params(format!("{path}: {}", e.into_inner()))
         })?;
@@ -41,21 +46,21 @@ impl CslBakeParams {
             "fast" => CslParams::fast(),
             other => {
                 return Err(JobError::Params(format!(
-                    "params.preset: '{other}' is not one of paper, fast"
+                    "{at}.preset: '{other}' is not one of paper, fast"
                 )));
             }
         };
         let grid = p.grid.unwrap_or(base.grid);
         if !(16..=4096).contains(&grid) {
-            return Err(JobError::Params(
-                "params.grid: must lie in 16..=4096".into(),
-            ));
+            return Err(JobError::Params(format!(
+                "{at}.grid: must lie in 16..=4096"
+            )));
         }
         p.grid = Some(grid);
         Ok(p)
     }
 
-    fn csl_params(&self) -> CslParams {
+    pub fn csl_params(&self) -> CslParams {
         let base = if self.preset == "fast" {
             CslParams::fast()
         } else {

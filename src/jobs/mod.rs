@@ -331,7 +331,12 @@ impl JobCtx<'_> {
         self.check().is_ok()
     }
 
-    /// The GPU renderer (GPU lane only), created on first use.
+    /// Where a job may keep files between runs (caches keyed by content hash).
+    pub fn data_dir(&self) -> &std::path::Path {
+        &self.system.cfg.data_dir
+    }
+
+    /// The GPU renderer, created on first use; held for the duration of `f`.
     pub fn with_renderer<T>(
         &self,
         f: impl FnOnce(&mut Renderer) -> Result<T, JobError>,
@@ -456,6 +461,10 @@ pub struct JobSystem {
     abort: AtomicBool,
     readiness: Mutex<Readiness>,
     threads: Mutex<Vec<std::thread::JoinHandle<()>>>,
+    /// The one renderer. The GPU worker takes its jobs; a CPU job that ends on the GPU (a `csl`
+    /// render: bake on the CPU pool, then one frame) borrows it through the same lock, so the
+    /// device is never used by two threads at once and a long bake never holds it.
+    gpu: Arc<Mutex<GpuSlot>>,
 }
 
 impl JobSystem {
@@ -480,6 +489,7 @@ impl JobSystem {
                 }
             }),
             threads: Mutex::new(Vec::new()),
+            gpu: Arc::new(Mutex::new(GpuSlot::default())),
             cfg,
         });
         for rec in sys.store.unfinished_jobs()? {
@@ -517,7 +527,10 @@ impl JobSystem {
             threads.push(
                 std::thread::Builder::new()
                     .name(format!("caustica-cpu-{i}"))
-                    .spawn(move || s.worker(Lane::Cpu, None, renders_only))
+                    .spawn(move || {
+                        let gpu = s.gpu.clone();
+                        s.worker(Lane::Cpu, Some(&gpu), renders_only)
+                    })
                     .expect("spawn worker"),
             );
         }
@@ -526,7 +539,7 @@ impl JobSystem {
             std::thread::Builder::new()
                 .name("caustica-gpu".into())
                 .spawn(move || {
-                    let slot = Mutex::new(GpuSlot::default());
+                    let slot = s.gpu.clone();
                     if s.cfg.probe_gpu {
                         s.probe(&slot);
                     }

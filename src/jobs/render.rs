@@ -1,10 +1,15 @@
-//! Render jobs: `direct` on the GPU worker, `reference` on the CPU pool; one image out (PNG
+//! Render jobs: `direct` on the GPU worker, `reference` on the CPU pool, `csl` on the CPU pool
+//! for its bake (cached by content hash under the data directory, so only the first render of
+//! an object and light bakes) and then one frame on the shared renderer; one image out (PNG
 //! tone-mapped, or EXR linear, optionally with every component as a layer).
 
+use super::csl_bake::CslBakeParams;
 use super::{Artifact, Job, JobCtx, JobError, Lane};
+use crate::bake::BakeError;
+use crate::bake::csl::cache as csl_cache;
 use crate::encode::{self, Frame, PngSettings, ToneMap};
 use crate::reference::{self, ReferenceParams};
-use crate::render::{RenderOptions, Renderer};
+use crate::render::{CslLayer, RenderOptions, Renderer};
 use crate::scene::types::{CameraDesc, LightDesc};
 use crate::scene::{Limits, MapSource, World};
 use crate::trace::Accel;
@@ -59,6 +64,10 @@ pub struct RenderParams {
     pub spp: Option<u32>,
     #[serde(default)]
     pub seed: Option<u64>,
+    /// CSL: the bake's parameters, `{"preset": "paper" | "fast", "grid": 16..=4096}` as for
+    /// `POST /v1/bakes` (default: the paper's).
+    #[serde(default)]
+    pub csl: Option<serde_json::Value>,
 }
 
 fn total() -> String {
@@ -84,6 +93,15 @@ pub struct RenderJob {
     world: World,
     method: &'static str,
     p: RenderParams,
+    /// Method `csl`: the bake parameters.
+    csl: Option<CslBakeParams>,
+}
+
+/// The "total" entry of a renderer's timings (zero when absent).
+fn total_of(t: &[(String, Duration)]) -> Duration {
+    t.iter()
+        .find(|(n, _)| n == "total")
+        .map_or(Duration::ZERO, |(_, d)| *d)
 }
 
 impl RenderJob {
@@ -97,13 +115,22 @@ impl RenderJob {
         let method = match method {
             "direct" => "direct",
             "reference" => "reference",
+            "csl" => "csl",
             m => {
                 return Err(JobError::Params(format!(
-                    "method: unknown render method '{m}' (available: direct, reference)"
+                    "method: unknown render method '{m}' (available: direct, reference, csl)"
                 )));
             }
         };
         let p = RenderParams::from_value(v)?;
+        let csl = match (&p.csl, method) {
+            (Some(_), m) if m != "csl" => {
+                return Err(JobError::Params("csl: only with method csl".into()));
+            }
+            (Some(v), _) => Some(CslBakeParams::parse(v, "csl")?),
+            (None, "csl") => Some(CslBakeParams::parse(&serde_json::json!({}), "csl")?),
+            (None, _) => None,
+        };
         if !COMPONENTS.contains(&p.component.as_str()) {
             return Err(JobError::Params(format!(
                 "component: '{}' is not one of {COMPONENTS:?}",
@@ -154,7 +181,79 @@ impl RenderJob {
                 })
                 .collect::<Result<_, _>>()?;
         }
-        Ok(RenderJob { world, method, p })
+        if method == "csl" && crate::bake::csl::scene_directional_light(&world).is_none() {
+            return Err(JobError::Params(
+                "scene.lights: method csl needs a directional light; the scene has none".into(),
+            ));
+        }
+        Ok(RenderJob {
+            world,
+            method,
+            p,
+            csl,
+        })
+    }
+
+    /// Bakes (or finds) the CSL sets on this CPU worker, then renders on the shared renderer.
+    fn frames_csl(
+        &self,
+        ctx: &JobCtx<'_>,
+        timings: &mut Vec<(String, Duration)>,
+    ) -> Result<Frames, JobError> {
+        let params = self.csl.as_ref().expect("set for csl").csl_params();
+        let store = csl_cache::DirStore(ctx.data_dir().join("csl-cache"));
+        let t = Instant::now();
+        let sets = csl_cache::sets_for_render(&self.world, &params, &store, &|_, p| {
+            ctx.progress(0.9 * p.fraction, "bake");
+            ctx.keep_going()
+        })
+        .map_err(|e| match e {
+            csl_cache::PrepareError::Bake(BakeError::Canceled) => {
+                ctx.check().err().unwrap_or(JobError::Canceled)
+            }
+            other => JobError::Params(other.to_string()),
+        })?;
+        timings.push(("bake".into(), t.elapsed()));
+        ctx.check()?;
+        ctx.progress(0.9, "render");
+        let layer = CslLayer::from_sets(&self.world, &sets);
+        let t = Instant::now();
+        let out = ctx.with_renderer(|r| {
+            r.render_csl(&self.world, &RenderOptions::default(), Some(&layer))
+                .map_err(|e| JobError::Render(e.to_string()))
+        })?;
+        timings.push((
+            "gpu_lock".into(),
+            t.elapsed().saturating_sub(total_of(&out.timings)),
+        ));
+        timings.extend(out.timings.iter().cloned());
+        let black = Frame::new(out.direct.width, out.direct.height);
+        let info = serde_json::json!({
+            "adapter": out.adapter,
+            "statistics": {
+                "csls": layer.csls.len(),
+                "bakes": sets.sets.iter().map(|s| serde_json::json!({
+                    "object": self.world.objects[s.object].name,
+                    "cached": s.cached,
+                    "source_hash": format!("{:016x}", s.set.source_hash),
+                    "csls": s.set.csls.len(),
+                    "energy_covered": s.set.stats.coverage(),
+                })).collect::<Vec<_>>(),
+            },
+        });
+        Ok((
+            vec![
+                ("total", out.total()),
+                ("direct", out.direct.clone()),
+                (
+                    "caustics",
+                    out.caustics.clone().unwrap_or_else(|| black.clone()),
+                ),
+                ("specular", out.specular.clone()),
+                ("indirect", black),
+            ],
+            info,
+        ))
     }
 
     fn frames_direct(
@@ -241,10 +340,10 @@ impl Job for RenderJob {
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
         let mut timings = Vec::new();
         ctx.progress(0.0, "render");
-        let (frames, mut info) = if self.method == "direct" {
-            ctx.with_renderer(|r| self.frames_direct(r, &mut timings))?
-        } else {
-            self.frames_reference(ctx, &mut timings)?
+        let (frames, mut info) = match self.method {
+            "direct" => ctx.with_renderer(|r| self.frames_direct(r, &mut timings))?,
+            "csl" => self.frames_csl(ctx, &mut timings)?,
+            _ => self.frames_reference(ctx, &mut timings)?,
         };
         ctx.check()?;
         ctx.progress(1.0, "encode");

@@ -1,8 +1,8 @@
 //! The CSL pass's GPU evaluation (shaders/csl.inc.wgsl): CSL sets uploaded as a storage buffer
 //! of parameters plus one of 16-bit texels, and a compute entry that evaluates all CSLs at a
 //! list of receiver points. `tests/csl_gpu.rs` checks it against the CPU evaluation
-//! (`bake::csl::eval`). The per-pixel caustics layer of [`super::RenderOutput`] is not wired to
-//! it yet.
+//! (`bake::csl::eval`). The per-pixel caustics layer of [`super::RenderOutput`] runs the same
+//! functions inside the direct pass (`shaders/direct.wgsl`, [`super::CslLayer`]).
 
 use crate::bake::csl::Csl;
 use crate::gpu::{GpuContext, GpuError};
@@ -90,7 +90,7 @@ impl CslEvaluator {
                         count: None,
                     },
                     storage(1, true),
-                    storage(2, true),
+                    storage(7, true),
                     storage(3, true),
                     storage(4, true),
                     storage(5, false),
@@ -182,7 +182,7 @@ impl CslEvaluator {
                         resource: cbuf.as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
-                        binding: 2,
+                        binding: 7,
                         resource: tbuf.as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {

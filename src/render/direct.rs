@@ -1,5 +1,6 @@
 //! The direct pass: shadow maps for every delta light, then one forward pass writing the
-//! `direct` and `specular` HDR layers (see `shaders/direct.wgsl` for what each holds).
+//! `direct`, `specular` and `caustics` HDR layers (see `shaders/direct.wgsl` for what each
+//! holds; `caustics` is non-zero only when caustic spot lights are bound, method `csl`).
 
 use super::lights::{GpuLight, LightPlan};
 use super::scene::{GpuMaterial, PackedScene, vertex_layout};
@@ -25,6 +26,7 @@ pub struct Globals {
     pub counts: [u32; 4],
     pub viewport: [f32; 4],
     pub sh: [[f32; 4]; 9],
+    pub csl_irradiance: [f32; 4],
 }
 
 /// Pipelines and layouts of the direct pass, created once per device.
@@ -94,6 +96,12 @@ impl DirectPipelines {
                     },
                     count: None,
                 },
+                // Caustic spot lights, their texels, the occluder hierarchy's nodes and
+                // triangles.
+                storage(6),
+                storage(7),
+                storage(8),
+                storage(9),
             ],
         });
         let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -134,7 +142,7 @@ impl DirectPipelines {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         });
-        let targets = [hdr_target.clone(), hdr_target];
+        let targets = [hdr_target.clone(), hdr_target.clone(), hdr_target];
         let primitive = wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
             cull_mode: None,
@@ -258,6 +266,7 @@ pub struct Targets {
     pub height: u32,
     pub direct: wgpu::Texture,
     pub specular: wgpu::Texture,
+    pub caustics: wgpu::Texture,
     pub depth: wgpu::Texture,
 }
 
@@ -285,6 +294,7 @@ impl Targets {
             height,
             direct: tex("direct", HDR_FORMAT, color),
             specular: tex("specular", HDR_FORMAT, color),
+            caustics: tex("caustics", HDR_FORMAT, color),
             depth: tex(
                 "depth",
                 DEPTH_FORMAT,
@@ -407,6 +417,10 @@ pub struct FrameBuffers {
     pub lights: wgpu::Buffer,
     pub materials: wgpu::Buffer,
     pub layer_mats: Option<wgpu::Buffer>,
+    pub csls: wgpu::Buffer,
+    pub csl_texels: wgpu::Buffer,
+    pub blocker_nodes: wgpu::Buffer,
+    pub blocker_tris: wgpu::Buffer,
 }
 
 impl FrameBuffers {
@@ -415,6 +429,7 @@ impl FrameBuffers {
         scene: &PackedScene,
         globals: &Globals,
         plan: &LightPlan,
+        csl: &CslBuffers,
     ) -> FrameBuffers {
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -475,6 +490,48 @@ impl FrameBuffers {
                 wgpu::BufferUsages::STORAGE,
             ),
             layer_mats,
+            csls: init(
+                "csls",
+                bytemuck::cast_slice(&csl.params),
+                wgpu::BufferUsages::STORAGE,
+            ),
+            csl_texels: init(
+                "csl texels",
+                bytemuck::cast_slice(&csl.texels),
+                wgpu::BufferUsages::STORAGE,
+            ),
+            blocker_nodes: init(
+                "occluder nodes",
+                bytemuck::cast_slice(&csl.blockers.nodes),
+                wgpu::BufferUsages::STORAGE,
+            ),
+            blocker_tris: init(
+                "occluder triangles",
+                bytemuck::cast_slice(&csl.blockers.triangles),
+                wgpu::BufferUsages::STORAGE,
+            ),
+        }
+    }
+}
+
+/// What the `caustics` layer evaluates, packed for upload: never-empty arrays (placeholders
+/// when no CSL is bound; `Globals::counts[3]` says how many are real).
+pub struct CslBuffers {
+    pub params: Vec<super::csl::GpuCsl>,
+    pub texels: Vec<u32>,
+    pub blockers: super::blockers::Blockers,
+}
+
+impl CslBuffers {
+    pub fn new(csls: &[crate::bake::csl::Csl], blockers: super::blockers::Blockers) -> Self {
+        let (mut params, texels) = super::csl::pack(csls);
+        if params.is_empty() {
+            params.push(super::csl::GpuCsl::zeroed());
+        }
+        CslBuffers {
+            params,
+            texels,
+            blockers,
         }
     }
 }
@@ -501,6 +558,7 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
         counts: [plan.lights.len() as u32, map_w, map_h, 0],
         viewport: [width as f32, height as f32, 0.0, 0.0],
         sh: plan.env.sh.map(|v| [v.x, v.y, v.z, 0.0]),
+        csl_irradiance: [0.0; 4],
     }
 }
 
@@ -608,10 +666,27 @@ pub fn encode(
                 binding: 5,
                 resource: wgpu::BindingResource::TextureView(&env_view),
             },
+            wgpu::BindGroupEntry {
+                binding: 6,
+                resource: bufs.csls.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 7,
+                resource: bufs.csl_texels.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 8,
+                resource: bufs.blocker_nodes.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 9,
+                resource: bufs.blocker_tris.as_entire_binding(),
+            },
         ],
     });
     let dv = targets.direct.create_view(&Default::default());
     let sv = targets.specular.create_view(&Default::default());
+    let cv = targets.caustics.create_view(&Default::default());
     let depth = targets.depth.create_view(&Default::default());
     let clear = |view| {
         Some(wgpu::RenderPassColorAttachment {
@@ -626,7 +701,7 @@ pub fn encode(
     };
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("direct"),
-        color_attachments: &[clear(&dv), clear(&sv)],
+        color_attachments: &[clear(&dv), clear(&sv), clear(&cv)],
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &depth,
             depth_ops: Some(wgpu::Operations {

@@ -4,10 +4,12 @@
 //!
 //! - `direct`: receivers lit by every light, with shadows ([`direct`]);
 //! - `specular`: the specular objects themselves and the visible environment;
-//! - `caustics`: reserved for the caustics methods (`None` until one runs).
+//! - `caustics`: the caustics methods' layer (`None` when none ran); method `csl` evaluates
+//!   its caustic spot lights per pixel in the same pass ([`CslLayer`], [`Renderer::render_csl`]).
 //!
 //! The frame is `direct + caustics + specular` ([`RenderOutput::total`]).
 
+pub mod blockers;
 pub mod csl;
 pub mod direct;
 pub mod lights;
@@ -20,6 +22,37 @@ use crate::scene::World;
 use glam::Vec3;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// The caustic spot lights of a frame (method `csl`), already placed in the world
+/// ([`crate::bake::csl::CslSet::to_world`]).
+#[derive(Clone, Debug, Default)]
+pub struct CslLayer {
+    pub csls: Vec<crate::bake::csl::Csl>,
+    /// Irradiance (W/m²) of the directional light the CSLs were baked for.
+    pub irradiance: Vec3,
+    /// Indices into `World::objects` of the caustic objects: they do not occlude their own
+    /// caustic light; every other object does.
+    pub caustic_objects: Vec<usize>,
+}
+
+impl CslLayer {
+    /// The layer of a render: every set placed where its object is now.
+    pub fn from_sets(world: &World, r: &crate::bake::csl::cache::RenderSets) -> CslLayer {
+        use crate::bake::csl::CslSet;
+        let mut csls = Vec::new();
+        let mut caustic_objects = Vec::new();
+        for s in &r.sets {
+            let o = &world.objects[s.object];
+            csls.extend(s.set.to_world(CslSet::rigid_transform(o)));
+            caustic_objects.push(s.object);
+        }
+        CslLayer {
+            csls,
+            irradiance: r.light.1,
+            caustic_objects,
+        }
+    }
+}
 
 /// Which layers to compute and read back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,11 +179,22 @@ impl Renderer {
         world: &World,
         opts: &RenderOptions,
     ) -> Result<RenderOutput, RenderError> {
-        match self.render_once(world, opts) {
+        self.render_csl(world, opts, None)
+    }
+
+    /// Renders `world` and, with `csl`, its caustics layer from caustic spot lights evaluated
+    /// per pixel (`RenderOutput::caustics` is then `Some`).
+    pub fn render_csl(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        csl: Option<&CslLayer>,
+    ) -> Result<RenderOutput, RenderError> {
+        match self.render_once(world, opts, csl) {
             Err(RenderError::Gpu(e)) if matches!(e, GpuError::Lost(_)) || self.ctx.is_lost() => {
                 tracing::warn!(error = %e, "render failed on a lost device; retrying on a new one");
                 self.ctx.mark_lost();
-                self.render_once(world, opts)
+                self.render_once(world, opts, csl)
             }
             r => r,
         }
@@ -160,6 +204,7 @@ impl Renderer {
         &mut self,
         world: &World,
         opts: &RenderOptions,
+        csl: Option<&CslLayer>,
     ) -> Result<RenderOutput, RenderError> {
         let t0 = Instant::now();
         let mut timings = Vec::new();
@@ -231,7 +276,26 @@ impl Renderer {
                 "several environment maps: all light receivers, only the first is reflected"
             );
         }
-        let globals = direct::globals(world, width, height, &plan);
+        let mut globals = direct::globals(world, width, height, &plan);
+        let csl_bufs = match csl {
+            Some(l) => {
+                let max_storage = limits.max_storage_buffer_binding_size;
+                let texel_bytes: u64 = l.csls.iter().map(|c| c.texels.len() as u64 * 8).sum();
+                if texel_bytes > max_storage {
+                    return Err(RenderError::Limit(format!(
+                        "{} bytes of CSL intensity images over the adapter's storage binding \
+                         limit of {max_storage}",
+                        texel_bytes
+                    )));
+                }
+                globals.counts[3] = l.csls.len() as u32;
+                globals.csl_irradiance = l.irradiance.extend(0.0).to_array();
+                let blockers =
+                    blockers::Blockers::build(world, |i| !l.caustic_objects.contains(&i));
+                direct::CslBuffers::new(&l.csls, blockers)
+            }
+            None => direct::CslBuffers::new(&[], blockers::Blockers::from_triangles(&[])),
+        };
         let dev = &h.device;
         let c = &mut self.cache;
         let with_ts = self.ctx.has_timestamps();
@@ -281,7 +345,7 @@ impl Renderer {
             }
         })?;
         let bufs = self.ctx.scoped(dev, || {
-            direct::FrameBuffers::upload(dev, &scene, &globals, &plan)
+            direct::FrameBuffers::upload(dev, &scene, &globals, &plan, &csl_bufs)
         })?;
         let c = &self.cache;
         let (Some(targets), Some(atlas), Some(env)) = (&c.targets, &c.atlas, &c.env) else {
@@ -336,7 +400,12 @@ impl Renderer {
             if !plan.layers.is_empty() {
                 timings.push(("gpu:shadow_maps".to_string(), span(ts(0), ts(1))));
             }
-            timings.push(("gpu:direct".to_string(), span(ts(2), ts(3))));
+            let main = if csl.is_some() {
+                "gpu:direct+csl"
+            } else {
+                "gpu:direct"
+            };
+            timings.push((main.to_string(), span(ts(2), ts(3))));
         }
 
         let t3 = Instant::now();
@@ -358,6 +427,10 @@ impl Renderer {
         } else {
             Frame::new(width, height)
         };
+        let caustics_frame = match csl {
+            Some(_) => Some(to_frame(self.ctx.readback_rgba32f(&targets.caustics)?)),
+            None => None,
+        };
         timings.push(("readback".to_string(), t3.elapsed()));
         timings.push(("total".to_string(), t0.elapsed()));
         for e in self.ctx.take_uncaptured_errors() {
@@ -366,7 +439,7 @@ impl Renderer {
         Ok(RenderOutput {
             direct: direct_frame,
             specular: specular_frame,
-            caustics: None,
+            caustics: caustics_frame,
             timings,
             adapter: self.ctx.adapter_info().to_string(),
         })

@@ -12,6 +12,10 @@ pub const FILES: &[(&str, &str)] = &[
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
     ("csl.wgsl", include_str!("../../shaders/csl.wgsl")),
+    (
+        "occlusion.inc.wgsl",
+        include_str!("../../shaders/occlusion.inc.wgsl"),
+    ),
 ];
 
 /// Replaces each line `#include "name"` with the text `lookup(name)` returns, recursively

@@ -20,6 +20,7 @@
 
 pub mod artifact;
 pub mod bundle;
+pub mod cache;
 pub mod eval;
 pub mod fit;
 pub mod image;

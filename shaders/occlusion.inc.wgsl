@@ -1,0 +1,85 @@
+// Occlusion of caustic light: one shadow ray through the occluder hierarchy that
+// src/render/blockers.rs builds (every triangle except the caustic objects', median-split BVH,
+// children stored side by side). The traversal and the Moller-Trumbore test are the same as
+// Blockers::occluded on the CPU. Declares its two storage buffers itself (group 0, bindings 8
+// and 9) so that it validates on its own.
+
+struct BvhNode {
+    lo: vec3<f32>,
+    // Inner node (count == 0): index of the left child, the right one follows it.
+    // Leaf: index of its first triangle.
+    first: u32,
+    hi: vec3<f32>,
+    count: u32,
+}
+
+struct BlockerTri {
+    v0: vec4<f32>,
+    e1: vec4<f32>,
+    e2: vec4<f32>,
+}
+
+@group(0) @binding(8) var<storage, read> blocker_nodes: array<BvhNode>;
+@group(0) @binding(9) var<storage, read> blocker_tris: array<BlockerTri>;
+
+const BVH_STACK: u32 = 48u;
+
+fn bvh_slab(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, t_max: f32) -> bool {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let tmin = min(t0, t1);
+    let tmax = max(t0, t1);
+    let tn = max(max(max(tmin.x, tmin.y), tmin.z), 0.0);
+    let tf = min(min(min(tmax.x, tmax.y), tmax.z), t_max);
+    return tn <= tf;
+}
+
+fn blocker_hit(t: BlockerTri, o: vec3<f32>, d: vec3<f32>) -> f32 {
+    let p = cross(d, t.e2.xyz);
+    let det = dot(t.e1.xyz, p);
+    if abs(det) < 1e-12 {
+        return -1.0;
+    }
+    let inv = 1.0 / det;
+    let s = o - t.v0.xyz;
+    let u = dot(s, p) * inv;
+    if u < 0.0 || u > 1.0 {
+        return -1.0;
+    }
+    let q = cross(s, t.e1.xyz);
+    let v = dot(d, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return -1.0;
+    }
+    return dot(t.e2.xyz, q) * inv;
+}
+
+// Whether an occluder lies on origin + t*dir, 0 < t < t_max.
+fn occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    let inv = 1.0 / d;
+    var stack: array<u32, 48>;
+    var sp = 1u;
+    stack[0] = 0u;
+    while sp > 0u {
+        sp -= 1u;
+        let n = blocker_nodes[stack[sp]];
+        if !bvh_slab(n.lo, n.hi, o, inv, t_max) {
+            continue;
+        }
+        if n.count == 0u {
+            if sp + 2u <= BVH_STACK {
+                stack[sp] = n.first;
+                stack[sp + 1u] = n.first + 1u;
+                sp += 2u;
+            }
+            continue;
+        }
+        for (var k = n.first; k < n.first + n.count; k++) {
+            let t = blocker_hit(blocker_tris[k], o, d);
+            if t > 0.0 && t < t_max {
+                return true;
+            }
+        }
+    }
+    return false;
+}

@@ -1,0 +1,136 @@
+//! The CSL sets a render needs, baked once and kept by content hash. A `csl` render of a scene
+//! needs, for every caustic object (one with a glass or mirror part), the static CSL set of the
+//! scene's directional light expressed in that object's rigid frame. [`sets_for_render`] looks
+//! each up in a [`CslStore`] by [`super::csl_source_hash`] and bakes only what is missing, so a
+//! moving receiver, a moving camera or the object moving rigidly with the light reuse the bake.
+//! The CLI keeps its store in a folder ([`DirStore`]); the service in its data directory.
+
+use super::{CslParams, CslSet, bake_csl, csl_source_hash, scene_directional_light};
+use crate::bake::{BakeError, Progress};
+use crate::scene::World;
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// Where baked sets are kept between renders.
+pub trait CslStore: Sync {
+    /// The set whose source hash is `key`, if kept (and intact).
+    fn load(&self, key: u64) -> Option<CslSet>;
+    /// Keeps `set` under its source hash. Failing to keep it is not an error of the render.
+    fn save(&self, set: &CslSet);
+}
+
+/// A store that keeps nothing: every render bakes.
+pub struct NoStore;
+
+impl CslStore for NoStore {
+    fn load(&self, _: u64) -> Option<CslSet> {
+        None
+    }
+    fn save(&self, _: &CslSet) {}
+}
+
+/// A folder of `csl-{hash:016x}.bin` artifacts, written atomically (temporary file, rename).
+pub struct DirStore(pub PathBuf);
+
+impl DirStore {
+    pub fn path(&self, key: u64) -> PathBuf {
+        self.0.join(format!("csl-{key:016x}.bin"))
+    }
+}
+
+impl CslStore for DirStore {
+    fn load(&self, key: u64) -> Option<CslSet> {
+        let bytes = std::fs::read(self.path(key)).ok()?;
+        CslSet::from_bytes(&bytes)
+            .ok()
+            .filter(|s| s.source_hash == key)
+    }
+
+    fn save(&self, set: &CslSet) {
+        let path = self.path(set.source_hash);
+        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        let r = std::fs::create_dir_all(&self.0)
+            .and_then(|_| std::fs::write(&tmp, set.to_bytes()))
+            .and_then(|_| std::fs::rename(&tmp, &path));
+        if let Err(e) = r {
+            let _ = std::fs::remove_file(&tmp);
+            tracing::warn!("could not keep the CSL bake in {}: {e}", path.display());
+        }
+    }
+}
+
+/// One caustic object's set, as a render uses it.
+#[derive(Clone, Debug)]
+pub struct ObjectSet {
+    /// Index into `World::objects`.
+    pub object: usize,
+    pub set: CslSet,
+    /// Whether it came from the store (false: baked now).
+    pub cached: bool,
+}
+
+/// The sets of a render and the light they carry.
+#[derive(Clone, Debug)]
+pub struct RenderSets {
+    pub sets: Vec<ObjectSet>,
+    /// World travel direction and irradiance (W/m²) of the scene's directional light.
+    pub light: (Vec3, Vec3),
+}
+
+/// Indices of the objects with a glass or mirror part: the caustic objects.
+pub fn caustic_objects(world: &World) -> Vec<usize> {
+    world
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| {
+            o.parts
+                .iter()
+                .any(|p| world.materials[p.material as usize].is_specular())
+        })
+        .map(|(i, _)| i)
+        .collect()
+}
+
+/// Why a CSL render cannot be prepared.
+#[derive(Debug, thiserror::Error)]
+pub enum PrepareError {
+    #[error("CSLs need a directional light; the scene has none")]
+    NoDirectionalLight,
+    #[error(transparent)]
+    Bake(#[from] BakeError),
+}
+
+/// For every caustic object of `world`, its CSL set for the scene's first directional light:
+/// from `store` when kept, else baked (with `params`) and saved. `progress(object name, p)` sees
+/// each bake's progress; returning false cancels. A scene without caustic objects gives no set.
+pub fn sets_for_render(
+    world: &World,
+    params: &CslParams,
+    store: &dyn CslStore,
+    progress: &(dyn Fn(&str, Progress) -> bool + Sync),
+) -> Result<RenderSets, PrepareError> {
+    let light = scene_directional_light(world).ok_or(PrepareError::NoDirectionalLight)?;
+    let mut sets = Vec::new();
+    for oi in caustic_objects(world) {
+        let o = &world.objects[oi];
+        let dir = CslSet::light_in_object_frame(o, light.0);
+        let key = csl_source_hash(world, &o.name, dir, params)?;
+        if let Some(set) = store.load(key) {
+            sets.push(ObjectSet {
+                object: oi,
+                set,
+                cached: true,
+            });
+            continue;
+        }
+        let set = bake_csl(world, &o.name, dir, params, &|p| progress(&o.name, p))?;
+        store.save(&set);
+        sets.push(ObjectSet {
+            object: oi,
+            set,
+            cached: false,
+        });
+    }
+    Ok(RenderSets { sets, light })
+}

@@ -1,0 +1,255 @@
+//! Occluders of caustic light for the GPU: a small bounding volume hierarchy over every
+//! triangle of the scene *except* the caustic objects (whose own surfaces are where the caustic
+//! rays come from), flattened into two storage buffers that `shaders/occlusion.inc.wgsl`
+//! traverses with one shadow ray per caustic arrival. It is the GPU twin of the CPU
+//! evaluation's `blockers` acceleration structure (`bake::csl::eval::render_caustics`), so both
+//! answer the same question: is anything between the receiver and the light plane along the
+//! arriving ray?
+//!
+//! The tree is built by median splits on the longest axis of the centroid bounds, at most
+//! [`LEAF_SIZE`] triangles per leaf, children stored next to each other (right = left + 1).
+//! Occluders are usually few (a floor, a table, a blocker box), so build quality matters less
+//! than a build that is O(n log n), deterministic and needs no dependency.
+
+use crate::scene::World;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Most triangles in a leaf.
+pub const LEAF_SIZE: usize = 4;
+
+/// `BvhNode` of occlusion.inc.wgsl (32 bytes). `count == 0`: inner node whose children are
+/// `first` and `first + 1`; otherwise a leaf of `count` triangles from index `first`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuBvhNode {
+    pub lo: [f32; 3],
+    pub first: u32,
+    pub hi: [f32; 3],
+    pub count: u32,
+}
+
+/// `BlockerTri` of occlusion.inc.wgsl: v0 and the two edges (48 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuTriangle {
+    pub v0: [f32; 4],
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+}
+
+/// The flattened hierarchy. Never empty: with no occluder it holds one leaf with a degenerate
+/// triangle (zero edges, which no ray hits), so the bindings stay valid.
+#[derive(Clone, Debug, Default)]
+pub struct Blockers {
+    pub nodes: Vec<GpuBvhNode>,
+    pub triangles: Vec<GpuTriangle>,
+}
+
+impl Blockers {
+    /// Every triangle of `world` whose object index `keep` accepts, in world space.
+    pub fn build(world: &World, keep: impl Fn(usize) -> bool) -> Blockers {
+        let mut tris = Vec::new();
+        for (oi, o) in world.objects.iter().enumerate() {
+            if !keep(oi) {
+                continue;
+            }
+            for p in &o.parts {
+                let pos: Vec<Vec3> = p
+                    .mesh
+                    .positions
+                    .iter()
+                    .map(|v| o.transform.transform_point3(*v))
+                    .collect();
+                for t in &p.mesh.indices {
+                    tris.push([pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]]);
+                }
+            }
+        }
+        Self::from_triangles(&tris)
+    }
+
+    pub fn from_triangles(tris: &[[Vec3; 3]]) -> Blockers {
+        let empty = GpuBvhNode {
+            lo: [1.0; 3],
+            first: 0,
+            hi: [-1.0; 3],
+            count: 0,
+        };
+        if tris.is_empty() {
+            return Blockers {
+                nodes: vec![GpuBvhNode {
+                    lo: [0.0; 3],
+                    first: 0,
+                    hi: [0.0; 3],
+                    count: 1,
+                }],
+                triangles: vec![GpuTriangle::zeroed()],
+            };
+        }
+        let centroid = |t: &[Vec3; 3]| (t[0] + t[1] + t[2]) / 3.0;
+        let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+        let mut nodes = vec![empty];
+        // (node index, range start, range end)
+        let mut stack = vec![(0usize, 0usize, tris.len())];
+        while let Some((ni, s, e)) = stack.pop() {
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            let (mut clo, mut chi) = (lo, hi);
+            for &i in &order[s..e] {
+                let t = &tris[i as usize];
+                for v in t {
+                    lo = lo.min(*v);
+                    hi = hi.max(*v);
+                }
+                let c = centroid(t);
+                clo = clo.min(c);
+                chi = chi.max(c);
+            }
+            nodes[ni].lo = lo.to_array();
+            nodes[ni].hi = hi.to_array();
+            let ext = chi - clo;
+            if e - s <= LEAF_SIZE || ext.max_element() <= 0.0 {
+                nodes[ni].first = s as u32;
+                nodes[ni].count = (e - s) as u32;
+                continue;
+            }
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let mid = (s + e) / 2;
+            order[s..e].select_nth_unstable_by(mid - s, |&a, &b| {
+                let (ca, cb) = (
+                    centroid(&tris[a as usize])[axis],
+                    centroid(&tris[b as usize])[axis],
+                );
+                ca.total_cmp(&cb).then(a.cmp(&b))
+            });
+            let left = nodes.len();
+            nodes.push(empty);
+            nodes.push(empty);
+            nodes[ni].first = left as u32;
+            nodes[ni].count = 0;
+            stack.push((left + 1, mid, e));
+            stack.push((left, s, mid));
+        }
+        let triangles = order
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = tris[i as usize];
+                GpuTriangle {
+                    v0: a.extend(0.0).to_array(),
+                    e1: (b - a).extend(0.0).to_array(),
+                    e2: (c - a).extend(0.0).to_array(),
+                }
+            })
+            .collect();
+        Blockers { nodes, triangles }
+    }
+
+    /// CPU traversal of the flattened tree, exactly as the shader does it: whether a triangle
+    /// lies on the segment `origin + t·dir`, `0 < t < t_max`.
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let inv = dir.recip();
+        let mut stack = vec![0u32];
+        while let Some(ni) = stack.pop() {
+            let n = &self.nodes[ni as usize];
+            if !slab(Vec3::from(n.lo), Vec3::from(n.hi), origin, inv, t_max) {
+                continue;
+            }
+            if n.count == 0 {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+                continue;
+            }
+            for t in &self.triangles[n.first as usize..(n.first + n.count) as usize] {
+                let v0 = Vec3::from_slice(&t.v0);
+                let e1 = Vec3::from_slice(&t.e1);
+                let e2 = Vec3::from_slice(&t.e2);
+                if let Some(d) = moller_trumbore(origin, dir, v0, e1, e2)
+                    && d > 0.0
+                    && d < t_max
+                {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+fn slab(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, t_max: f32) -> bool {
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let tn = t0.min(t1).max_element().max(0.0);
+    let tf = t0.max(t1).min_element().min(t_max);
+    tn <= tf
+}
+
+fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<f32> {
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some(e2.dot(q) * inv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flattened tree answers like a brute-force test over all triangles.
+    #[test]
+    fn traversal_matches_brute_force() {
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut tris = Vec::new();
+        for _ in 0..300 {
+            let c = Vec3::new(next(), next(), next()) * 4.0 - 2.0;
+            let a = c + Vec3::new(next(), next(), next()) * 0.3;
+            let b = c + Vec3::new(next(), next(), next()) * 0.3;
+            tris.push([c, a, b]);
+        }
+        let bvh = Blockers::from_triangles(&tris);
+        assert!(bvh.nodes.len() > 100);
+        let mut hits = 0;
+        for _ in 0..2000 {
+            let o = Vec3::new(next(), next(), next()) * 6.0 - 3.0;
+            let d = (Vec3::new(next(), next(), next()) - 0.5).normalize();
+            let t_max = next() * 6.0;
+            let brute = tris.iter().any(|t| {
+                moller_trumbore(o, d, t[0], t[1] - t[0], t[2] - t[0])
+                    .is_some_and(|x| x > 0.0 && x < t_max)
+            });
+            hits += brute as u32;
+            assert_eq!(bvh.occluded(o, d, t_max), brute, "ray {o} {d} {t_max}");
+        }
+        assert!(hits > 50, "the test should see hits ({hits})");
+    }
+
+    #[test]
+    fn empty_scene_blocks_nothing() {
+        let bvh = Blockers::from_triangles(&[]);
+        assert!(!bvh.occluded(Vec3::ZERO, Vec3::Y, 10.0));
+    }
+}
