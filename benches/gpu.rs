@@ -1,7 +1,8 @@
 //! GPU frame time: the direct renderer (shadow maps + direct/specular layers + readback) at
-//! 800×600 on the glass-sphere scene, on whatever adapter `GpuContext` picks
-//! (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The adapter name is printed: quote it
-//! with the median.
+//! 800×600 on the glass-sphere scene, and the same frame with the CSL caustics layer evaluated
+//! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), on
+//! whatever adapter `GpuContext` picks (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The
+//! adapter name is printed: quote it with the median.
 
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::render::{RenderOptions, Renderer};
@@ -71,6 +72,26 @@ fn bench_direct(c: &mut Criterion) {
     g.sample_size(20).measurement_time(Duration::from_secs(15));
     g.bench_function("direct_frame_800x600_glass_sphere", |b| {
         b.iter(|| renderer.render(&world, &opts).expect("render"))
+    });
+    let sets = caustica::bake::csl::cache::sets_for_render(
+        &world,
+        &caustica::bake::csl::CslParams::paper(),
+        &caustica::bake::csl::cache::NoStore,
+        &|_, _| true,
+    )
+    .expect("csl bake");
+    let layer = caustica::render::CslLayer::from_sets(&world, &sets);
+    println!("CSLs in the frame: {}", layer.csls.len());
+    let first = renderer
+        .render_csl(&world, &opts, Some(&layer))
+        .expect("render");
+    println!("one csl frame's stages: {:?}", first.timings);
+    g.bench_function("csl_frame_800x600_glass_sphere", |b| {
+        b.iter(|| {
+            renderer
+                .render_csl(&world, &opts, Some(&layer))
+                .expect("render")
+        })
     });
     g.finish();
 }

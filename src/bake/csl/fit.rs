@@ -13,6 +13,10 @@ use super::bundle::Bundle;
 use super::optimize::powell;
 use super::trace::CausticRay;
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+/// Rays per parallel chunk of the objective.
+const CHUNK: usize = 2048;
 
 /// A fitted CSL before its intensity image: light plane origin and axis, focus function, and
 /// the rays it represents.
@@ -93,17 +97,23 @@ pub fn fit_bundle(
         } else {
             members.iter().map(|&i| &rays[i as usize]).collect()
         };
+        // Summed in fixed chunks (in parallel) and the partial sums in order: deterministic.
         let objective = |v: &[f64]| {
             let (kappa, gamma, ell) = unscale(v, length);
             let ell = clamp_ell(ell);
-            sample
-                .iter()
-                .map(|r| {
-                    let (t1, e2) = ray_terms(r, b, a, ell, kappa, gamma);
-                    let t2 = t1 + w;
-                    r.weight() as f64 * (t1 * t1 + t2 * t2) * e2.min(cap)
-                })
-                .sum::<f64>()
+            let term = |r: &&CausticRay| {
+                let (t1, e2) = ray_terms(r, b, a, ell, kappa, gamma);
+                let t2 = t1 + w;
+                r.weight() as f64 * (t1 * t1 + t2 * t2) * e2.min(cap)
+            };
+            if sample.len() < 2 * CHUNK {
+                return sample.iter().map(term).sum::<f64>();
+            }
+            let parts: Vec<f64> = sample
+                .par_chunks(CHUNK)
+                .map(|c| c.iter().map(term).sum::<f64>())
+                .collect();
+            parts.iter().sum::<f64>()
         };
         let mut count = 0u32;
         let (xv, _, _) = powell(

@@ -497,6 +497,7 @@ pub fn bake_csl(
         let t0 = Instant::now();
         let found = ex.extract(cell, &thresholds, radius);
         stats.time_bundles += t0.elapsed();
+
         let Some(b) = found else {
             ex.block(cell);
             stats.rejected_bundles += 1;

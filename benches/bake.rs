@@ -1,0 +1,39 @@
+//! Bake time: a static CSL bake (seed 000 §3) of one light direction at the paper's settings
+//! (1280² rays) on the canonical glass sphere (a 256-segment UV sphere, 65k triangles), all
+//! cores. The stage times of one bake are printed before timing.
+
+use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+use caustica::scene;
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Duration;
+
+fn bench(c: &mut Criterion) {
+    let w = scene::load_scene_file(
+        Path::new("scenes/glass-sphere-directional.json"),
+        &Default::default(),
+    )
+    .expect("scene");
+    let obj = w.object("glass").expect("glass");
+    let (dir, _) = caustica::bake::csl::scene_directional_light(&w).expect("light");
+    let light = CslSet::light_in_object_frame(obj, dir);
+    let params = CslParams::paper();
+    let once = bake_csl(&w, "glass", light, &params, &|_| true).expect("bake");
+    println!(
+        "triangles {}, {} CSLs, coverage {:.3}, stats {:?}",
+        obj.triangle_count(),
+        once.csls.len(),
+        once.stats.coverage(),
+        once.stats
+    );
+    let mut g = c.benchmark_group("bake");
+    g.sample_size(10).measurement_time(Duration::from_secs(30));
+    g.bench_function("csl_static_1280_glass_sphere_65k", |b| {
+        b.iter(|| black_box(bake_csl(&w, "glass", light, &params, &|_| true).expect("bake")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
