@@ -128,7 +128,10 @@ enum Cmd {
         /// ./caustica-data).
         #[arg(long)]
         data_dir: Option<PathBuf>,
-        /// JSON logs (also CAUSTICA_LOG_FORMAT=json).
+        /// JSON logs (also CAUSTICA_LOG_FORMAT=json). Limits and timeouts come from the
+        /// environment: CAUSTICA_CPU_WORKERS, CAUSTICA_MAX_QUEUED, CAUSTICA_BAKE_TIMEOUT_S,
+        /// CAUSTICA_RENDER_TIMEOUT_S, CAUSTICA_MAX_IMAGE_SIDE, CAUSTICA_MAX_TRIANGLES,
+        /// CAUSTICA_MAX_BODY, CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
         #[arg(long)]
         log_json: bool,
     },
@@ -555,7 +558,12 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>) -> Result<()> {
         .enable_all()
         .build()?;
     rt.block_on(async move {
-        let state = AppState::start(JobConfig::new(&data_dir), HttpConfig::default())
+        let get = |k: &str| std::env::var(k).ok();
+        let mut jc = JobConfig::new(&data_dir);
+        jc.apply_env(&get).map_err(anyhow::Error::msg)?;
+        let mut hc = HttpConfig::default();
+        hc.apply_env(&get).map_err(anyhow::Error::msg)?;
+        let state = AppState::start(jc, hc)
             .with_context(|| format!("starting the job system in {}", data_dir.display()))?;
         let listener = tokio::net::TcpListener::bind(&addr)
             .await

@@ -61,6 +61,24 @@ impl Default for HttpConfig {
     }
 }
 
+impl HttpConfig {
+    /// Overrides from the environment: `CAUSTICA_MAX_BODY` (bytes), `CAUSTICA_RENDER_WAIT_S`,
+    /// `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range value is an error naming it.
+    pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
+        use crate::jobs::env_num;
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY", 1024.0, 4e9, true)? {
+            self.max_body = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
+            self.render_wait = Duration::from_secs_f64(v);
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_SHUTDOWN_GRACE_S", 0.0, 86400.0, false)? {
+            self.shutdown_grace = Duration::from_secs_f64(v);
+        }
+        Ok(())
+    }
+}
+
 /// What every handler sees.
 #[derive(Clone)]
 pub struct AppState {
