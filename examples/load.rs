@@ -1,8 +1,11 @@
 //! Load harness: N concurrent clients render a stored (cached) scene over loopback and the
 //! harness reports renders/s and p50/p99 latency. Bounded in requests and time.
 //!
-//! cargo run --example load -- [--clients 16] [--requests 400] [--method direct]
-//!     [--size 64] [--seconds 60] [--url http://HOST:PORT]
+//! cargo run --example load -- [--clients 16] [--requests 400] [--method direct|reference|csl]
+//!     [--size 64] [--seconds 60] [--csl-grid 1280] [--url http://HOST:PORT]
+//! With `--method csl` the warm-up render bakes the sphere's CSL set (paper settings, grid
+//! `--csl-grid`) and every timed render finds that bake by content hash: renders on a cached
+//! bake.
 //! Without --url it starts a server in process on 127.0.0.1:0 with a temporary data dir.
 
 use caustica::http::{AppState, HttpConfig};
@@ -59,10 +62,21 @@ async fn main() {
         .json()
         .await
         .unwrap();
-    let body = Arc::new(serde_json::json!({
+    let mut body = serde_json::json!({
         "scene": v["id"], "method": method, "width": size, "height": size,
-        "photons": 20000, "spp": 1,
-    }));
+    });
+    match method.as_str() {
+        "reference" => {
+            body["photons"] = 20000.into();
+            body["spp"] = 1.into();
+        }
+        "csl" => {
+            let grid: u32 = arg("--csl-grid", "1280").parse().unwrap();
+            body["csl"] = serde_json::json!({ "grid": grid });
+        }
+        _ => {}
+    }
+    let body = Arc::new(body);
     // Warm-up: the GPU worker creates its device on first use.
     let r = c
         .post(format!("{base}/v1/renders"))

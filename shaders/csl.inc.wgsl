@@ -133,6 +133,19 @@ fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     }
     let a = z * c.gamma;
     let b = 1.0 - z * c.kappa;
+    // Early out: no ray from the image (radii up to rmax) comes this far from the axis at this
+    // height. |h(r)| = |r (b - a r)| is largest at rmax or at the extremum r = b / 2a.
+    let rmax = c.half_extent * 1.4142136;
+    var hmax = abs(rmax * (b - a * rmax));
+    if (a != 0.0) {
+        let rs = b / (2.0 * a);
+        if (rs > 0.0 && rs < rmax) {
+            hmax = max(hmax, abs(rs * (b - a * rs)));
+        }
+    }
+    if (rho > hmax * 1.0001 + 1e-7) {
+        return out;
+    }
     // Radii are collected as Csl radii() does (at most three), then turned into arrivals.
     var found = 0u;
     for (var s = 0; s < 2; s++) {

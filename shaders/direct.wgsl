@@ -23,6 +23,10 @@
 @group(0) @binding(5) var env_map: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read> csls: array<Csl>;
 
+// Whether this pipeline evaluates the caustics layer (the csl pipeline sets it): the direct-only
+// pipeline is compiled without that code.
+override CSL_LAYER: bool = false;
+
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
@@ -186,7 +190,7 @@ fn fs_main(in: VsOut) -> FsOut {
     // Environment: diffuse lobe only, unshadowed.
     l += albedo / PI * sh_irradiance(g.sh, n);
     out.direct = vec4<f32>(l, 1.0);
-    if g.counts.w > 0u {
+    if CSL_LAYER && g.counts.w > 0u {
         out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m) * g.csl_irradiance.rgb, 1.0);
     }
     return out;
@@ -206,7 +210,7 @@ fn csl_shade(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, v: vec3<f32>, m: Materia
         for (var k = 0u; k < arr.count; k++) {
             let wi = -arr.dir[k];
             let cos_i = dot(n, wi);
-            if cos_i <= 0.0 {
+            if cos_i <= 0.0 || all(arr.density[k] <= vec3<f32>(0.0)) {
                 continue;
             }
             var f = m.albedo.rgb / PI;

@@ -32,6 +32,8 @@ pub struct Globals {
 /// Pipelines and layouts of the direct pass, created once per device.
 pub struct DirectPipelines {
     pub main: wgpu::RenderPipeline,
+    /// `main` with the caustics layer compiled in (`CSL_LAYER`).
+    pub main_csl: wgpu::RenderPipeline,
     pub background: wgpu::RenderPipeline,
     pub shadow: wgpu::RenderPipeline,
     pub main_layout: wgpu::BindGroupLayout,
@@ -158,31 +160,39 @@ impl DirectPipelines {
                 bias,
             })
         };
-        let main = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("direct"),
-            layout: Some(&main_pl),
-            vertex: wgpu::VertexState {
-                module: &direct_mod,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive,
-            depth_stencil: depth(
-                true,
-                wgpu::CompareFunction::Less,
-                wgpu::DepthBiasState::default(),
-            ),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &direct_mod,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let main_pipeline = |label, csl: bool| {
+            let constants = [("CSL_LAYER", if csl { 1.0 } else { 0.0 })];
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&main_pl),
+                vertex: wgpu::VertexState {
+                    module: &direct_mod,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(vertex_layout())],
+                },
+                primitive,
+                depth_stencil: depth(
+                    true,
+                    wgpu::CompareFunction::Less,
+                    wgpu::DepthBiasState::default(),
+                ),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &direct_mod,
+                    entry_point: Some("fs_main"),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        ..Default::default()
+                    },
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let main = main_pipeline("direct", false);
+        let main_csl = main_pipeline("direct+csl", true);
         let background = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("background"),
             layout: Some(&main_pl),
@@ -251,6 +261,7 @@ impl DirectPipelines {
         });
         DirectPipelines {
             main,
+            main_csl,
             background,
             shadow,
             main_layout,
@@ -418,6 +429,8 @@ pub struct FrameBuffers {
     pub materials: wgpu::Buffer,
     pub layer_mats: Option<wgpu::Buffer>,
     pub csls: wgpu::Buffer,
+    /// Caustic spot lights to evaluate (0: the direct-only pipeline draws).
+    pub csl_count: u32,
     pub csl_texels: wgpu::Buffer,
     pub blocker_nodes: wgpu::Buffer,
     pub blocker_tris: wgpu::Buffer,
@@ -495,6 +508,7 @@ impl FrameBuffers {
                 bytemuck::cast_slice(&csl.params),
                 wgpu::BufferUsages::STORAGE,
             ),
+            csl_count: globals.counts[3],
             csl_texels: init(
                 "csl texels",
                 bytemuck::cast_slice(&csl.texels),
@@ -720,7 +734,11 @@ pub fn encode(
     });
     pass.set_bind_group(0, &bg, &[]);
     if let (Some(vb), Some(ib)) = (&bufs.vertices, &bufs.indices) {
-        pass.set_pipeline(&p.main);
+        pass.set_pipeline(if bufs.csl_count > 0 {
+            &p.main_csl
+        } else {
+            &p.main
+        });
         pass.set_vertex_buffer(0, vb.slice(..));
         pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..bufs.index_count, 0, 0..1);

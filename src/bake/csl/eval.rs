@@ -141,8 +141,21 @@ impl Csl {
         } else {
             (1.0, 0.0)
         };
-        let (roots, count) = radii(self.kappa, self.gamma, z, rho);
         let (a, b) = (z * self.gamma, 1.0 - z * self.kappa);
+        // No ray from the image (radii up to its corner) comes this far from the axis at this
+        // height: |h(r)| = |r(b − ar)| is largest at the corner radius or at r = b/2a.
+        let rmax = self.half_extent * std::f32::consts::SQRT_2;
+        let mut hmax = (rmax * (b - a * rmax)).abs();
+        if a != 0.0 {
+            let rs = b / (2.0 * a);
+            if rs > 0.0 && rs < rmax {
+                hmax = hmax.max((rs * (b - a * rs)).abs());
+            }
+        }
+        if rho > hmax * 1.0001 + 1e-7 {
+            return (out, 0);
+        }
+        let (roots, count) = radii(self.kappa, self.gamma, z, rho);
         let mut n = 0;
         for &(r, side) in &roots[..count] {
             let (px, py) = (side * r * ux, side * r * uy);
@@ -238,7 +251,7 @@ pub fn shade(
         for a in &arr[..k] {
             let wi = -a.dir;
             let cos = n.dot(wi);
-            if cos <= 0.0 {
+            if cos <= 0.0 || a.density.max_element() <= 0.0 {
                 continue;
             }
             let f = crate::trace::optics::brdf(mat, n, wi, wo);
