@@ -48,7 +48,10 @@ impl CslStore for DirStore {
 
     fn save(&self, set: &CslSet) {
         let path = self.path(set.source_hash);
-        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        // Unique per process and call: two renders saving the same set never share a file.
+        static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = path.with_extension(format!("tmp{}-{n}", std::process::id()));
         let r = std::fs::create_dir_all(&self.0)
             .and_then(|_| std::fs::write(&tmp, set.to_bytes()))
             .and_then(|_| std::fs::rename(&tmp, &path));
