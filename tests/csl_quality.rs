@@ -10,6 +10,7 @@
 //! - the GPU pass at one sample per pixel: relative L1 0.221, flux 0.851. The focus is smaller
 //!   than a pixel, and a point sample at the pixel centre misses part of it (2×2 samples
 //!   happen to land on it here and give 0.975, 3×3 0.900, 4×4 0.879: not converged).
+//!
 //! The paper-settings bake (1280², 256² images) is no better: GPU L1 0.223, flux 0.852.
 //! The targets (L1 ≤ 15 %, flux within 5 %) are NOT met: the CSLs cover 96 % of the
 //! traced energy, and the two-parameter focus law f(r) = α/(1+βr) does not follow the sphere's
