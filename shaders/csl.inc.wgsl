@@ -86,8 +86,8 @@ fn csl_area_ratio(a: f32, b: f32, r: f32, dr: f32) -> f32 {
 // The CSL rays reaching a point (at most three): unit travel direction and flux per unit area
 // perpendicular to the ray, per unit light irradiance. Mirrors Csl::arrivals.
 struct CslArrivals {
-    dir: array<vec3<f32>, 3>,
-    density: array<vec3<f32>, 3>,
+    dir: array<vec3<f32>, 4>,
+    density: array<vec3<f32>, 4>,
     count: u32,
 }
 
@@ -191,4 +191,133 @@ fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         sum += arr.density[k] * max(-dot(arr.dir[k], n), 0.0);
     }
     return sum;
+}
+
+// Pixel filter (Csl::arrivals_filtered, eval.rs): the mean over a disc of the pixel's area.
+
+// Angle of the circle of radius t around the axis inside a disc of radius f centred rho from it.
+fn csl_arc_inside(t: f32, rho: f32, f: f32) -> f32 {
+    if (t <= f - rho) {
+        return 3.141592653589793;
+    }
+    if (t <= 0.0 || t >= rho + f || t <= rho - f) {
+        return 0.0;
+    }
+    return acos(clamp((t * t + rho * rho - f * f) / (2.0 * t * rho), -1.0, 1.0));
+}
+
+// Pre-image of level c under g(r) = side*r*(b - a*r) on [lo, hi] (monotonic there), clamped.
+fn csl_pre(a: f32, b: f32, side: f32, lo: f32, hi: f32, glo: f32, ghi: f32, c: f32) -> f32 {
+    let gmin = min(glo, ghi);
+    let gmax = max(glo, ghi);
+    if (c <= gmin) {
+        return select(hi, lo, glo <= ghi);
+    }
+    if (c >= gmax) {
+        return select(lo, hi, glo <= ghi);
+    }
+    var x: f32;
+    if (abs(a) <= 1e-9 * max(abs(b), 1e-30)) {
+        x = side * c / b;
+    } else {
+        let disc = max(b * b - 4.0 * a * side * c, 0.0);
+        let q = 0.5 * (b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+        let x1 = q / a;
+        var x2 = x1;
+        if (q != 0.0) {
+            x2 = side * c / q;
+        }
+        let mid = 0.5 * (lo + hi);
+        x = select(x2, x1, abs(x1 - mid) <= abs(x2 - mid));
+    }
+    return clamp(x, lo, hi);
+}
+
+// ∫ 2 r θ(g(r)) dr over [ra, rb] by 8-point Gauss-Legendre (disc_measure in eval.rs).
+fn csl_disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f32) -> f32 {
+    let xs = array<f32, 8>(-0.9602899, -0.7966665, -0.5255324, -0.18343464, 0.18343464, 0.5255324, 0.7966665, 0.9602899);
+    let ws = array<f32, 8>(0.10122854, 0.22238103, 0.31370664, 0.3626838, 0.3626838, 0.31370664, 0.22238103, 0.10122854);
+    let lo = min(ra, rb);
+    let hi = max(ra, rb);
+    let mid = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo);
+    var sum = 0.0;
+    for (var k = 0; k < 8; k++) {
+        let r = mid + half * xs[k];
+        let t = side * r * (b - a * r);
+        sum += ws[k] * 2.0 * r * csl_arc_inside(t, rho, f);
+    }
+    return sum * half;
+}
+
+// The light of CSL c reaching a pixel whose footprint on the receiver around x has side
+// `footprint`, averaged over a disc of the pixel's area: one arrival per side of the axis and
+// monotonic branch of the ray map.
+fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
+    var out: CslArrivals;
+    out.count = 0u;
+    let d = x - c.origin;
+    let z = dot(d, c.axis);
+    if (z <= 0.0) {
+        return out;
+    }
+    let w = d - c.axis * z;
+    let wx = dot(w, c.x_axis);
+    let wy = dot(w, c.y_axis);
+    let rho = sqrt(wx * wx + wy * wy);
+    var ux = 1.0;
+    var uy = 0.0;
+    if (rho > 0.0) {
+        ux = wx / rho;
+        uy = wy / rho;
+    }
+    let a = z * c.gamma;
+    let b = 1.0 - z * c.kappa;
+    let rmax = c.half_extent * 1.4142135;
+    let f = footprint / sqrt(3.141592653589793);
+    let pa = max(rho - f, 0.0);
+    let pb = rho + f;
+    var cuts = array<f32, 3>(0.0, rmax, rmax);
+    var pieces = 1;
+    if (a != 0.0) {
+        let rs = b / (2.0 * a);
+        if (rs > 0.0 && rs < rmax) {
+            cuts = array<f32, 3>(0.0, rs, rmax);
+            pieces = 2;
+        }
+    }
+    for (var s = 0; s < 2; s++) {
+        let side = select(-1.0, 1.0, s == 0);
+        for (var k = 0; k < pieces; k++) {
+            let lo = cuts[k];
+            let hi = cuts[k + 1];
+            let glo = side * lo * (b - a * lo);
+            let ghi = side * hi * (b - a * hi);
+            let ra = csl_pre(a, b, side, lo, hi, glo, ghi, pa);
+            let rb = csl_pre(a, b, side, lo, hi, glo, ghi, pb);
+            let r = csl_pre(a, b, side, lo, hi, glo, ghi, rho);
+            if (!(abs(rb * rb - ra * ra) > 0.0) || !(r > 0.0)) {
+                continue;
+            }
+            let px = side * r * ux;
+            let py = side * r * uy;
+            let i = csl_intensity(c, px, py);
+            if (i.x < 0.0) {
+                continue;
+            }
+            let m = csl_disc_measure(a, b, side, ra, rb, rho, f);
+            if (!(m > 0.0)) {
+                continue;
+            }
+            let sigma = 3.141592653589793 * f * f / m;
+            let g = c.kappa + c.gamma * r;
+            let u = c.x_axis * px + c.y_axis * py;
+            let dir = normalize(c.axis - u * g);
+            let n = out.count;
+            out.dir[n] = dir;
+            out.density[n] = i / (sigma * max(dot(dir, c.axis), 1e-4));
+            out.count = n + 1u;
+        }
+    }
+    return out;
 }

@@ -5,16 +5,21 @@
 //! test differs from it by 10 % relative L1 by photon noise alone, which would drown the
 //! figure being measured (a 16 M-photon render with another seed differs from it by 7.5 %).
 //!
-//! Measured (grid 512, `CslParams::fast()` otherwise; llvmpipe for the GPU):
-//! - the CSL model integrated over each pixel (CPU, 6×6 samples): relative L1 0.192, flux 0.888;
-//! - the GPU pass at one sample per pixel: relative L1 0.221, flux 0.851. The focus is smaller
-//!   than a pixel, and a point sample at the pixel centre misses part of it (2×2 samples
-//!   happen to land on it here and give 0.975, 3×3 0.900, 4×4 0.879: not converged).
+//! Both evaluations average each pixel over a disc of its area (`Csl::arrivals_filtered`):
+//! a point sample at the pixel centre misses most of a focus smaller than the pixel (before
+//! that filter the GPU pass gave flux 0.851 and 2×2 samples happened to land on the focus and
+//! gave 0.975; 3×3 0.900, 4×4 0.879: not converged).
 //!
-//! The paper-settings bake (1280², 256² images) is no better: GPU L1 0.223, flux 0.852.
-//! The issue's targets (L1 ≤ 15 %, flux within 5 %) are NOT met: the CSLs cover 96 % of the
-//! traced energy, and the two-parameter focus law f(r) = α/(1+βr) does not follow the sphere's
-//! spherical aberration well enough, so part of the light lands in the wrong place.
+//! Measured (grid 512, `CslParams::fast()` otherwise; llvmpipe for the GPU):
+//! - CPU, 6×6 samples per pixel: relative L1 0.175, flux 0.907;
+//! - the GPU pass, one sample per pixel: relative L1 0.189, flux 0.901.
+//!
+//! The issue's targets (L1 ≤ 15 %, flux within 5 %) are NOT met. Where the light is missing
+//! (radial profile around the focus): within 32 px of it the CSLs hold the reference's light
+//! to a few percent, beyond it they have half of it. That far light is the sphere's reflection
+//! off its lower-left side and light leaving after internal reflections, spread thinly over
+//! the floor; the bake finds bundles for part of it (diverging CSLs, κ < 0), and raising the
+//! coverage to 99 % does not bring it back (flux 0.893 at 0.992 coverage before the filter).
 
 use caustica::bake::csl::{CslParams, CslSet, bake_csl, cache, eval};
 use caustica::encode::decode_frame;
@@ -107,8 +112,8 @@ fn glass_sphere_caustics_match_the_reference() {
     }
     // Targets (issue 3): relative L1 ≤ 0.15 and flux within 5 %. NOT met; these bounds guard
     // the measured state against regressions (see the module notes).
-    assert!(c_cpu.rel_l1 <= 0.22, "{c_cpu:?}");
-    assert!((0.85..=1.05).contains(&c_cpu.flux_ratio), "{c_cpu:?}");
-    assert!(c_gpu.rel_l1 <= 0.25, "{c_gpu:?}");
-    assert!((0.80..=1.05).contains(&c_gpu.flux_ratio), "{c_gpu:?}");
+    assert!(c_cpu.rel_l1 <= 0.20, "{c_cpu:?}");
+    assert!((0.87..=1.05).contains(&c_cpu.flux_ratio), "{c_cpu:?}");
+    assert!(c_gpu.rel_l1 <= 0.21, "{c_gpu:?}");
+    assert!((0.87..=1.05).contains(&c_gpu.flux_ratio), "{c_gpu:?}");
 }

@@ -88,6 +88,100 @@ pub fn area_ratio(a: f32, b: f32, r: f32, dr: f32) -> f32 {
     ((hi * hi - lo * lo) / (r1 * r1 - r0 * r0)).max(1e-12)
 }
 
+/// Gauss-Legendre nodes and weights on [-1, 1], 8 points.
+const GL8: [(f32, f32); 8] = [
+    (-0.960_289_9, 0.101_228_54),
+    (-0.796_666_5, 0.222_381_03),
+    (-0.525_532_4, 0.313_706_64),
+    (-0.183_434_64, 0.362_683_8),
+    (0.183_434_64, 0.362_683_8),
+    (0.525_532_4, 0.313_706_64),
+    (0.796_666_5, 0.222_381_03),
+    (0.960_289_9, 0.101_228_54),
+];
+
+/// Angle (radians, 0..π) of the circle of radius `t` around the axis that lies inside a disc of
+/// radius `f` whose centre is `rho` from the axis, per side.
+pub fn arc_inside(t: f32, rho: f32, f: f32) -> f32 {
+    if t <= f - rho {
+        return std::f32::consts::PI;
+    }
+    if t <= 0.0 || t >= rho + f || t <= rho - f {
+        return 0.0;
+    }
+    ((t * t + rho * rho - f * f) / (2.0 * t * rho))
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+/// Light-plane measure of the rays of one branch [ra, rb] of g(r) = side·r(b − a·r) that land
+/// inside a disc of radius `f` centred `rho` from the axis: ∫ 2·r·θ(g(r)) dr, θ from
+/// [`arc_inside`], by 8-point Gauss-Legendre. With a constant intensity I over the band, the
+/// disc receives I times this, so its mean irradiance is I·this/(π f²).
+#[allow(clippy::too_many_arguments)]
+pub fn disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f32) -> f32 {
+    let (lo, hi) = (ra.min(rb), ra.max(rb));
+    let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    GL8.iter()
+        .map(|&(x, w)| {
+            let r = mid + half * x;
+            let t = side * r * (b - a * r);
+            w * 2.0 * r * arc_inside(t, rho, f)
+        })
+        .sum::<f32>()
+        * half
+}
+
+/// Most arrivals at a point: three for a point (the paper's r₁, r₂, r₃), four for a pixel
+/// band (each side of the axis has two monotonic branches).
+pub const MAX_ARRIVALS: usize = 4;
+
+/// Pixel filter of Eq. 4 on one branch: the light-plane radii [r_a, r_b] whose rays land in the
+/// receiver band [ρ_a, ρ_b] on branch [lo, hi] of the ray map g(r) = side·r(b − a·r) (monotonic
+/// there), and the radius whose ray lands at `rho` (clamped to the branch: the branch's end
+/// nearest to it when none does). The band's mean irradiance is I·(r_b² − r_a²)/(ρ_b² − ρ_a²):
+/// flux-conserving over a pixel, however small the focus or thin the fold in it.
+#[allow(clippy::too_many_arguments)]
+pub fn branch_band(
+    a: f32,
+    b: f32,
+    side: f32,
+    lo: f32,
+    hi: f32,
+    pa: f32,
+    pb: f32,
+    rho: f32,
+) -> (f32, f32, f32) {
+    let g = |x: f32| side * x * (b - a * x);
+    let (glo, ghi) = (g(lo), g(hi));
+    let pre = |c: f32| -> f32 {
+        let (gmin, gmax) = (glo.min(ghi), glo.max(ghi));
+        if c <= gmin {
+            return if glo <= ghi { lo } else { hi };
+        }
+        if c >= gmax {
+            return if glo <= ghi { hi } else { lo };
+        }
+        // a·x² − b·x + side·c = 0: the root inside [lo, hi].
+        let x = if a.abs() <= 1e-9 * b.abs().max(1e-30) {
+            side * c / b
+        } else {
+            let disc = (b * b - 4.0 * a * side * c).max(0.0);
+            let q = 0.5 * (b + b.signum() * disc.sqrt());
+            let x1 = q / a;
+            let x2 = if q != 0.0 { side * c / q } else { x1 };
+            let mid = 0.5 * (lo + hi);
+            if (x1 - mid).abs() <= (x2 - mid).abs() {
+                x1
+            } else {
+                x2
+            }
+        };
+        x.clamp(lo, hi)
+    };
+    (pre(pa), pre(pb), pre(rho))
+}
+
 impl Csl {
     /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
     /// None outside the image.
@@ -175,6 +269,84 @@ impl Csl {
         (out, n)
     }
 
+    /// The CSL light reaching a pixel whose footprint on the receiver around `x` has side
+    /// `footprint` (m), averaged over it: for each side of the axis and each monotonic branch of
+    /// the ray map, the rays landing in the receiver band [ρ − f, ρ + f] (f = footprint/2) carry
+    /// the flux I·π(r_b² − r_a²) of their light-plane band onto π(ρ_b² − ρ_a²) ([`branch_band`]),
+    /// with the intensity and direction of the ray through the pixel centre (or the nearest
+    /// one of the branch). Where h is smooth on the pixel's scale this is Eq. 4; at a focus or
+    /// fold narrower than the pixel it is the pixel's mean, which a point sample at the centre
+    /// misses. `footprint` 0 is [`Self::arrivals`].
+    pub fn arrivals_filtered(&self, x: Vec3, footprint: f32) -> ([Arrival; MAX_ARRIVALS], usize) {
+        let mut out = [Arrival {
+            dir: Vec3::ZERO,
+            density: Vec3::ZERO,
+        }; MAX_ARRIVALS];
+        if footprint <= 0.0 {
+            let (arr, n) = self.arrivals(x);
+            out[..3].copy_from_slice(&arr);
+            return (out, n);
+        }
+        let d = x - self.origin;
+        let z = d.dot(self.axis);
+        if z <= 0.0 {
+            return (out, 0);
+        }
+        let w = d - self.axis * z;
+        let (wx, wy) = (w.dot(self.x_axis), w.dot(self.y_axis()));
+        let rho = (wx * wx + wy * wy).sqrt();
+        let (ux, uy) = if rho > 0.0 {
+            (wx / rho, wy / rho)
+        } else {
+            (1.0, 0.0)
+        };
+        let (a, b) = (z * self.gamma, 1.0 - z * self.kappa);
+        let rmax = self.half_extent * std::f32::consts::SQRT_2;
+        // The disc of the pixel's area.
+        let f = footprint / std::f32::consts::PI.sqrt();
+        let (pa, pb) = ((rho - f).max(0.0), rho + f);
+        let mut cuts = [0.0f32, rmax, rmax];
+        let mut pieces = 1;
+        if a != 0.0 {
+            let rs = b / (2.0 * a);
+            if rs > 0.0 && rs < rmax {
+                cuts = [0.0, rs, rmax];
+                pieces = 2;
+            }
+        }
+        let mut n = 0;
+        for side in [1.0f32, -1.0] {
+            for k in 0..pieces {
+                let (lo, hi) = (cuts[k], cuts[k + 1]);
+                let (ra, rb, r) = branch_band(a, b, side, lo, hi, pa, pb, rho);
+                let light = (rb * rb - ra * ra).abs();
+                if light <= 0.0 || r.is_nan() || r <= 0.0 {
+                    continue;
+                }
+                let (px, py) = (side * r * ux, side * r * uy);
+                let Some(i) = self.intensity(px, py) else {
+                    continue;
+                };
+                // Mean over a disc of the pixel's area around the centre (Eq. 4's ratio for
+                // the flux the branch puts into it).
+                let m = disc_measure(a, b, side, ra, rb, rho, f);
+                if m.is_nan() || m <= 0.0 {
+                    continue;
+                }
+                let sigma = std::f32::consts::PI * f * f / m;
+                let g = self.kappa + self.gamma * r;
+                let u = self.x_axis * px + self.y_axis() * py;
+                let dir = (self.axis - u * g).normalize();
+                out[n] = Arrival {
+                    dir,
+                    density: i / (sigma * dir.dot(self.axis).max(1e-4)),
+                };
+                n += 1;
+            }
+        }
+        (out, n)
+    }
+
     /// Irradiance on a surface with unit normal `n` at `x`, per unit irradiance of the light.
     pub fn irradiance(&self, x: Vec3, n: Vec3) -> Vec3 {
         let (arr, k) = self.arrivals(x);
@@ -205,6 +377,8 @@ pub fn render_caustics(
     let cam = &world.camera;
     let rays = cam.rays();
     let (w, h) = (cam.width, cam.height);
+    let forward = (cam.target - cam.eye).normalize();
+    let pixel_area = cam.pixel_area();
     let pixels: Vec<Vec3> = (0..w * h)
         .into_par_iter()
         .map(|k| {
@@ -223,7 +397,14 @@ pub fn render_caustics(
                     if mat.is_specular() {
                         continue;
                     }
-                    sum += shade(blockers, csls, &hit, -d, mat) * irradiance;
+                    // The sample's side on the receiver: its solid angle (pixel area at unit
+                    // distance × cos³ off the view axis) × t² / cos at the receiver.
+                    let cos_c = d.dot(forward).max(1e-6);
+                    let t = (hit.point - cam.eye).length();
+                    let cos_r = hit.geo_normal.dot(d).abs().max(1e-3);
+                    let footprint =
+                        (pixel_area * cos_c.powi(3) * t * t / cos_r).sqrt() / spp as f32;
+                    sum += shade(blockers, csls, &hit, -d, mat, footprint) * irradiance;
                 }
             }
             sum / (spp * spp) as f32
@@ -236,18 +417,20 @@ pub fn render_caustics(
     }
 }
 
-/// Outgoing radiance towards `wo` per unit light irradiance at a receiver hit.
+/// Outgoing radiance towards `wo` per unit light irradiance at a receiver hit, averaged over
+/// a sample whose footprint on the receiver has side `footprint` (m).
 pub fn shade(
     blockers: &crate::trace::Accel,
     csls: &[Csl],
     hit: &crate::trace::Hit,
     wo: Vec3,
     mat: &crate::scene::Material,
+    footprint: f32,
 ) -> Vec3 {
     let n = hit.normal;
     let mut out = Vec3::ZERO;
     for c in csls {
-        let (arr, k) = c.arrivals(hit.point);
+        let (arr, k) = c.arrivals_filtered(hit.point, footprint);
         for a in &arr[..k] {
             let wi = -a.dir;
             let cos = n.dot(wi);
