@@ -102,7 +102,12 @@ fn csl_arrival(c: Csl, r: f32, side: f32, ux: f32, uy: f32, a: f32, b: f32, out:
     if (i.x < 0.0) {
         return;
     }
-    let sigma = csl_area_ratio(a, b, r, c.half_extent / f32(c.size));
+    csl_push(c, r, px, py, i, csl_area_ratio(a, b, r, c.half_extent / f32(c.size)), out);
+}
+
+// Appends the ray from light-plane point (px, py) at radius r, with image value i and Eq. 4's
+// area ratio sigma (Csl::arrival).
+fn csl_push(c: Csl, r: f32, px: f32, py: f32, i: vec3<f32>, sigma: f32, out: ptr<function, CslArrivals>) {
     let g = c.kappa + c.gamma * r;
     let u = c.x_axis * px + c.y_axis * py;
     let dir = normalize(c.axis - u * g);
@@ -112,27 +117,50 @@ fn csl_arrival(c: Csl, r: f32, side: f32, ux: f32, uy: f32, a: f32, b: f32, out:
     (*out).count = k + 1u;
 }
 
+// A receiver point in a CSL's frame (Csl::local): height z above the light plane, distance rho
+// from the axis, unit in-plane direction (ux, uy) towards it, ray-map coefficients a = z*gamma,
+// b = 1 - z*kappa.
+struct CslLocal {
+    z: f32,
+    rho: f32,
+    ux: f32,
+    uy: f32,
+    a: f32,
+    b: f32,
+}
+
+fn csl_local(c: Csl, x: vec3<f32>) -> CslLocal {
+    var l: CslLocal;
+    let d = x - c.origin;
+    l.z = dot(d, c.axis);
+    let w = d - c.axis * l.z;
+    let wx = dot(w, c.x_axis);
+    let wy = dot(w, c.y_axis);
+    l.rho = sqrt(wx * wx + wy * wy);
+    l.ux = 1.0;
+    l.uy = 0.0;
+    if (l.rho > 0.0) {
+        l.ux = wx / l.rho;
+        l.uy = wy / l.rho;
+    }
+    l.a = l.z * c.gamma;
+    l.b = 1.0 - l.z * c.kappa;
+    return l;
+}
+
 // The rays of CSL c through point x.
 fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     var out: CslArrivals;
     out.count = 0u;
-    let d = x - c.origin;
-    let z = dot(d, c.axis);
-    if (z <= 0.0) {
+    let l = csl_local(c, x);
+    if (!(l.z > 0.0)) {
         return out;
     }
-    let w = d - c.axis * z;
-    let wx = dot(w, c.x_axis);
-    let wy = dot(w, c.y_axis);
-    let rho = sqrt(wx * wx + wy * wy);
-    var ux = 1.0;
-    var uy = 0.0;
-    if (rho > 0.0) {
-        ux = wx / rho;
-        uy = wy / rho;
-    }
-    let a = z * c.gamma;
-    let b = 1.0 - z * c.kappa;
+    let rho = l.rho;
+    let ux = l.ux;
+    let uy = l.uy;
+    let a = l.a;
+    let b = l.b;
     // Early out: no ray from the image (radii up to rmax) comes this far from the axis at this
     // height. |h(r)| = |r (b - a r)| is largest at rmax or at the extremum r = b / 2a.
     let rmax = c.half_extent * 1.4142136;
@@ -256,23 +284,15 @@ fn csl_disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f3
 fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
     var out: CslArrivals;
     out.count = 0u;
-    let d = x - c.origin;
-    let z = dot(d, c.axis);
-    if (z <= 0.0) {
+    let l = csl_local(c, x);
+    if (!(l.z > 0.0)) {
         return out;
     }
-    let w = d - c.axis * z;
-    let wx = dot(w, c.x_axis);
-    let wy = dot(w, c.y_axis);
-    let rho = sqrt(wx * wx + wy * wy);
-    var ux = 1.0;
-    var uy = 0.0;
-    if (rho > 0.0) {
-        ux = wx / rho;
-        uy = wy / rho;
-    }
-    let a = z * c.gamma;
-    let b = 1.0 - z * c.kappa;
+    let rho = l.rho;
+    let ux = l.ux;
+    let uy = l.uy;
+    let a = l.a;
+    let b = l.b;
     let rmax = c.half_extent * 1.4142135;
     let f = footprint / sqrt(3.141592653589793);
     let pa = max(rho - f, 0.0);
@@ -309,14 +329,7 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
             if (!(m > 0.0)) {
                 continue;
             }
-            let sigma = 3.141592653589793 * f * f / m;
-            let g = c.kappa + c.gamma * r;
-            let u = c.x_axis * px + c.y_axis * py;
-            let dir = normalize(c.axis - u * g);
-            let n = out.count;
-            out.dir[n] = dir;
-            out.density[n] = i / (sigma * max(dot(dir, c.axis), 1e-4));
-            out.count = n + 1u;
+            csl_push(c, r, px, py, i, 3.141592653589793 * f * f / m, &out);
         }
     }
     return out;

@@ -199,27 +199,6 @@ fn main() -> Result<()> {
                 bail!("--bake is only for --method csl");
             }
             let frames: Vec<(&str, Frame)> = match method {
-                Method::Csl => {
-                    let t = Instant::now();
-                    let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
-                    let mut renderer = Renderer::new(ctx)?;
-                    timings.push(("gpu init".into(), t.elapsed()));
-                    let sets = csl_sets(&world, bake.as_deref(), &mut timings)?;
-                    let layer = CslLayer::from_sets(&world, &sets);
-                    let out =
-                        renderer.render_csl(&world, &RenderOptions::default(), Some(&layer))?;
-                    eprintln!("adapter: {}", out.adapter);
-                    timings.extend(out.timings.iter().cloned());
-                    let black = Frame::new(out.direct.width, out.direct.height);
-                    let caustics = out.caustics.clone().unwrap_or_else(|| black.clone());
-                    vec![
-                        ("total", out.total()),
-                        ("direct", out.direct.clone()),
-                        ("caustics", caustics),
-                        ("specular", out.specular.clone()),
-                        ("indirect", black),
-                    ]
-                }
                 Method::Reference => {
                     let t = Instant::now();
                     let accel = Accel::build(&world);
@@ -247,25 +226,22 @@ fn main() -> Result<()> {
                         .map(|n| (n, c.get(n).expect("known component")))
                         .collect()
                 }
-                Method::Direct => {
+                Method::Direct | Method::Csl => {
                     let t = Instant::now();
                     let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
                     let mut renderer = Renderer::new(ctx)?;
                     timings.push(("gpu init".into(), t.elapsed()));
-                    let out = renderer.render(&world, &RenderOptions::default())?;
+                    let layer = if method == Method::Csl {
+                        let sets = csl_sets(&world, bake.as_deref(), &mut timings)?;
+                        Some(CslLayer::from_sets(&world, &sets))
+                    } else {
+                        None
+                    };
+                    let out =
+                        renderer.render_csl(&world, &RenderOptions::default(), layer.as_ref())?;
                     eprintln!("adapter: {}", out.adapter);
                     timings.extend(out.timings.iter().cloned());
-                    let black = Frame::new(out.direct.width, out.direct.height);
-                    vec![
-                        ("total", out.total()),
-                        ("direct", out.direct.clone()),
-                        (
-                            "caustics",
-                            out.caustics.clone().unwrap_or_else(|| black.clone()),
-                        ),
-                        ("specular", out.specular.clone()),
-                        ("indirect", black),
-                    ]
+                    out.components()
                 }
             };
             let main = frames

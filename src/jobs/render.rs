@@ -227,7 +227,6 @@ impl RenderJob {
             t.elapsed().saturating_sub(total_of(&out.timings)),
         ));
         timings.extend(out.timings.iter().cloned());
-        let black = Frame::new(out.direct.width, out.direct.height);
         let info = serde_json::json!({
             "adapter": out.adapter,
             "statistics": {
@@ -241,19 +240,7 @@ impl RenderJob {
                 })).collect::<Vec<_>>(),
             },
         });
-        Ok((
-            vec![
-                ("total", out.total()),
-                ("direct", out.direct.clone()),
-                (
-                    "caustics",
-                    out.caustics.clone().unwrap_or_else(|| black.clone()),
-                ),
-                ("specular", out.specular.clone()),
-                ("indirect", black),
-            ],
-            info,
-        ))
+        Ok((out.components(), info))
     }
 
     fn frames_direct(
@@ -265,21 +252,8 @@ impl RenderJob {
             .render(&self.world, &RenderOptions::default())
             .map_err(|e| JobError::Render(e.to_string()))?;
         timings.extend(out.timings.iter().cloned());
-        let black = Frame::new(out.direct.width, out.direct.height);
         let info = serde_json::json!({ "adapter": out.adapter });
-        Ok((
-            vec![
-                ("total", out.total()),
-                ("direct", out.direct.clone()),
-                (
-                    "caustics",
-                    out.caustics.clone().unwrap_or_else(|| black.clone()),
-                ),
-                ("specular", out.specular.clone()),
-                ("indirect", black),
-            ],
-            info,
-        ))
+        Ok((out.components(), info))
     }
 
     fn frames_reference(

@@ -111,6 +111,22 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
+    /// Every component by name, as the CLI and the service write them (`indirect`, which no
+    /// GPU pass computes, and `caustics` when no caustics method ran, are black).
+    pub fn components(&self) -> Vec<(&'static str, Frame)> {
+        let black = Frame::new(self.direct.width, self.direct.height);
+        vec![
+            ("total", self.total()),
+            ("direct", self.direct.clone()),
+            (
+                "caustics",
+                self.caustics.clone().unwrap_or_else(|| black.clone()),
+            ),
+            ("specular", self.specular.clone()),
+            ("indirect", black),
+        ]
+    }
+
     /// direct + caustics + specular.
     pub fn total(&self) -> Frame {
         let mut t = self.direct.add(&self.specular);

@@ -132,6 +132,17 @@ pub fn disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f3
         * half
 }
 
+/// A receiver point in a CSL's frame: height z above the light plane, distance ρ from the axis, the unit in-plane direction
+/// (ux, uy) towards it, and the ray-map coefficients A = zγ, B = 1 − zκ at its height z.
+struct Local {
+    z: f32,
+    rho: f32,
+    ux: f32,
+    uy: f32,
+    a: f32,
+    b: f32,
+}
+
 /// Most arrivals at a point: three for a point (the paper's r₁, r₂, r₃), four for a pixel
 /// band (each side of the axis has two monotonic branches).
 pub const MAX_ARRIVALS: usize = 4;
@@ -215,16 +226,24 @@ impl Csl {
         self.half_extent / self.size as f32
     }
 
-    /// The CSL rays reaching `x` (same frame as the CSL), at most three.
-    pub fn arrivals(&self, x: Vec3) -> ([Arrival; 3], usize) {
-        let mut out = [Arrival {
-            dir: Vec3::ZERO,
-            density: Vec3::ZERO,
-        }; 3];
+    /// The ray from light-plane point (px, py) at radius r, with image value `i` and Eq. 4's
+    /// area ratio `sigma`.
+    fn arrival(&self, r: f32, px: f32, py: f32, i: Vec3, sigma: f32) -> Arrival {
+        let g = self.kappa + self.gamma * r;
+        let u = self.x_axis * px + self.y_axis() * py;
+        let dir = (self.axis - u * g).normalize();
+        Arrival {
+            dir,
+            density: i / (sigma * dir.dot(self.axis).max(1e-4)),
+        }
+    }
+
+    /// Where `x` is relative to the CSL; None behind the light plane.
+    fn local(&self, x: Vec3) -> Option<Local> {
         let d = x - self.origin;
         let z = d.dot(self.axis);
         if z <= 0.0 {
-            return (out, 0);
+            return None;
         }
         let w = d - self.axis * z;
         let (wx, wy) = (w.dot(self.x_axis), w.dot(self.y_axis()));
@@ -235,7 +254,33 @@ impl Csl {
         } else {
             (1.0, 0.0)
         };
-        let (a, b) = (z * self.gamma, 1.0 - z * self.kappa);
+        Some(Local {
+            z,
+            rho,
+            ux,
+            uy,
+            a: z * self.gamma,
+            b: 1.0 - z * self.kappa,
+        })
+    }
+
+    /// The CSL rays reaching `x` (same frame as the CSL), at most three.
+    pub fn arrivals(&self, x: Vec3) -> ([Arrival; 3], usize) {
+        let mut out = [Arrival {
+            dir: Vec3::ZERO,
+            density: Vec3::ZERO,
+        }; 3];
+        let Some(Local {
+            z,
+            rho,
+            ux,
+            uy,
+            a,
+            b,
+        }) = self.local(x)
+        else {
+            return (out, 0);
+        };
         // No ray from the image (radii up to its corner) comes this far from the axis at this
         // height: |h(r)| = |r(b − ar)| is largest at the corner radius or at r = b/2a.
         let rmax = self.half_extent * std::f32::consts::SQRT_2;
@@ -256,14 +301,7 @@ impl Csl {
             let Some(i) = self.intensity(px, py) else {
                 continue;
             };
-            let sigma = area_ratio(a, b, r, self.patch());
-            let g = self.kappa + self.gamma * r;
-            let u = self.x_axis * px + self.y_axis() * py;
-            let dir = (self.axis - u * g).normalize();
-            out[n] = Arrival {
-                dir,
-                density: i / (sigma * dir.dot(self.axis).max(1e-4)),
-            };
+            out[n] = self.arrival(r, px, py, i, area_ratio(a, b, r, self.patch()));
             n += 1;
         }
         (out, n)
@@ -287,20 +325,12 @@ impl Csl {
             out[..3].copy_from_slice(&arr);
             return (out, n);
         }
-        let d = x - self.origin;
-        let z = d.dot(self.axis);
-        if z <= 0.0 {
+        let Some(Local {
+            rho, ux, uy, a, b, ..
+        }) = self.local(x)
+        else {
             return (out, 0);
-        }
-        let w = d - self.axis * z;
-        let (wx, wy) = (w.dot(self.x_axis), w.dot(self.y_axis()));
-        let rho = (wx * wx + wy * wy).sqrt();
-        let (ux, uy) = if rho > 0.0 {
-            (wx / rho, wy / rho)
-        } else {
-            (1.0, 0.0)
         };
-        let (a, b) = (z * self.gamma, 1.0 - z * self.kappa);
         let rmax = self.half_extent * std::f32::consts::SQRT_2;
         // The disc of the pixel's area.
         let f = footprint / std::f32::consts::PI.sqrt();
@@ -333,14 +363,7 @@ impl Csl {
                 if m.is_nan() || m <= 0.0 {
                     continue;
                 }
-                let sigma = std::f32::consts::PI * f * f / m;
-                let g = self.kappa + self.gamma * r;
-                let u = self.x_axis * px + self.y_axis() * py;
-                let dir = (self.axis - u * g).normalize();
-                out[n] = Arrival {
-                    dir,
-                    density: i / (sigma * dir.dot(self.axis).max(1e-4)),
-                };
+                out[n] = self.arrival(r, px, py, i, std::f32::consts::PI * f * f / m);
                 n += 1;
             }
         }
