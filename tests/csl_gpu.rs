@@ -191,7 +191,7 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
     assert!(open[0] > 0.0 && open[1] > 0.0);
     // The wall stands at z in [0, 1], but the rays cross the axis near the focus, so the light it
     // stops lands at z < 0. Measured on llvmpipe: the z < 0 half keeps 30 % of its caustic
-    // flux (rays leaving the sphere beyond the wall's plane pass), the z > 0 half 95 %.
+    // flux (rays leaving the sphere beyond the wall's plane pass), the z > 0 half 93 %.
     assert!(walled[0] < 0.5 * open[0], "{walled:?} vs {open:?}");
-    assert!(walled[1] > 0.9 * open[1], "{walled:?} vs {open:?}");
+    assert!(walled[1] > 0.85 * open[1], "{walled:?} vs {open:?}");
 }
