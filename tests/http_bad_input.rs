@@ -98,6 +98,10 @@ async fn limits_media_types_and_fields() {
     assert!(head.starts_with("HTTP/1.1 413"), "{head}");
     assert!(head.contains("application/problem+json"), "{head}");
     assert!(head.contains("1048576"), "the limit is named: {head}");
+    assert!(
+        head.to_ascii_lowercase().contains("connection: close"),
+        "{head}"
+    );
     // Streamed (chunked) oversize body.
     let big = vec![b' '; 2 << 20];
     let stream = futures_util::stream::iter(
@@ -105,15 +109,25 @@ async fn limits_media_types_and_fields() {
             .map(|c| Ok::<_, std::io::Error>(c.to_vec()))
             .collect::<Vec<_>>(),
     );
-    let r = srv
-        .client
+    // A client of its own: the answer comes while the body is still being written, and that
+    // connection must not be the one the next request of the shared pool picks up.
+    let r = client()
         .post(srv.url("/v1/scenes"))
         .header("content-type", "application/json")
         .body(reqwest::Body::wrap_stream(stream))
         .send()
         .await;
     if let Ok(r) = r {
+        let close = r
+            .headers()
+            .get("connection")
+            .map(|v| v.to_str().unwrap().to_string());
         problem(r, 413).await;
+        assert_eq!(
+            close.as_deref(),
+            Some("close"),
+            "a 413 closes the connection"
+        );
     }
     healthy(&srv).await;
 
