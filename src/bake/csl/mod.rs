@@ -35,6 +35,11 @@ use std::time::{Duration, Instant};
 
 pub use artifact::ArtifactError;
 
+/// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
+/// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
+/// older algorithm made.
+pub const ALGORITHM: u32 = 2;
+
 /// Parameters of a CSL bake. Lengths relative to the object are in units of its bounding
 /// sphere radius R, so that one preset suits objects of any size.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -358,6 +363,7 @@ pub fn csl_source_hash(
 fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) -> u64 {
     let mut h = Fnv64::new();
     h.write(b"csl");
+    h.write_u32(ALGORITHM);
     let (scale, _, _) = object.transform.to_scale_rotation_translation();
     for v in scale.to_array().into_iter().chain(light.to_array()) {
         h.write_f32(v);
