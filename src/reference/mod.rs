@@ -4,12 +4,17 @@
 //! Components (all linear radiance, W/(m²·sr), averaged over each pixel with a box filter):
 //! - `direct`: camera ray → first non-specular surface → every light, with shadow rays in which
 //!   specular objects block light (light through them is caustics). Background radiance too.
-//! - `caustics`: light paths with at least one specular vertex before a non-specular vertex
-//!   seen directly by the camera, L (S|D)* S (S|D)* D → camera, by *light tracing*: every photon
-//!   vertex on a non-specular surface is connected to the pinhole and splatted into the pixel it
-//!   projects to (the estimator of Mitsuba's `ptracer`). Per pixel it is a histogram density
-//!   estimate whose bin is the pixel footprint, so it converges without bias as photons grow.
-//! - `indirect`: purely diffuse interreflection L D D+ → camera, by the same light tracing.
+//! - `caustics`: light paths whose every vertex before the non-specular one the camera sees is
+//!   specular, L S+ D → camera (Jensen's caustic paths: light from the light, focused by
+//!   specular surfaces onto the first diffuse one; what every caustics method here models), by
+//!   *light tracing*: every such photon vertex is connected to the pinhole and splatted into the
+//!   pixel it projects to (the estimator of Mitsuba's `ptracer`). Per pixel it is a histogram
+//!   density estimate whose bin is the pixel footprint, so it converges without bias as photons
+//!   grow.
+//! - `indirect`: every other light path of two or more bounces, L (S|D)* D (S|D)* D → camera (a
+//!   non-specular vertex before the one seen), by the same light tracing. Light a diffuse
+//!   surface sends into a glass object and the glass focuses (L D S+ D) is indirect light here,
+//!   not caustics: no method that starts from the light's caustic objects can carry it.
 //! - `specular`: camera paths through specular chains (glass and mirrors are visible and
 //!   refract the scene): E S+ D, with direct lighting at D plus caustics at D from a photon map
 //!   of caustic photons (fixed-radius density estimate whose radius shrinks as N^-1/6).
@@ -563,7 +568,8 @@ fn trace_photon_chunk(
                     splats.push(Splat {
                         pixel: s.0,
                         value: s.1,
-                        caustic: specular_seen,
+                        // L S+ D: only specular vertices before this, the first diffuse one.
+                        caustic: specular_seen && diffuse_vertices == 1,
                     });
                 }
                 if specular_seen && diffuse_vertices == 1 {
