@@ -55,6 +55,16 @@ fn ray_terms(r: &CausticRay, b: DVec3, a: DVec3, ell: f64, kappa: f64, gamma: f6
 /// Fit a CSL to `bundle`. `length` is the object's bounding radius (variable scaling), `w` the
 /// paper's far distance (four times the object's bounding box size), `max_angle` the largest
 /// direction error (radians) a kept ray may have, `samples` the most rays used in the objective.
+///
+/// Where the light plane goes: a CSL ray starts on the plane, so a plane beyond a ray's exit
+/// from the object cuts off the start of that ray; where a bundle leaves at a grazing angle (a
+/// mirror ring's side lit from low) such a plane reaches below the floor the light falls on and
+/// the CSL lights nothing there. So the plane is first fitted within the axial range of the
+/// bundle's exits (or through its axis origin); when that puts it beyond the first exit, it is
+/// fitted again before every exit (by at most one bounding radius; the model's rays then only
+/// gain a stretch inside or behind the object, which no receiver sees), and that fit is kept
+/// unless it represents under half the first one's energy (a convex mirror's bundles, whose
+/// lines cross behind the surface, fit only with the plane among the exits).
 pub fn fit_bundle(
     rays: &[CausticRay],
     bundle: &Bundle,
@@ -65,18 +75,56 @@ pub fn fit_bundle(
 ) -> Fit {
     let b = bundle.origin.as_dvec3();
     let a = bundle.axis.as_dvec3();
+    let (lmin, lmax) =
+        bundle
+            .members
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
+                let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
+                (lo.min(t), hi.max(t))
+            });
+    let args = (length, w, max_angle, samples);
+    let free = fit_in_range(rays, bundle, args, (lmin.min(0.0), lmax.max(0.0)));
+    let ell = (free.origin.as_dvec3() - b).dot(a);
+    if ell <= lmin + 1e-6 * length {
+        return free;
+    }
+    let before = fit_in_range(rays, bundle, args, (lmin - length, lmin));
+    let energy = |f: &Fit| -> f64 {
+        f.kept
+            .iter()
+            .map(|&i| rays[i as usize].weight() as f64)
+            .sum()
+    };
+    if energy(&before) >= 0.5 * energy(&free) {
+        Fit {
+            evaluations: before.evaluations + free.evaluations,
+            ..before
+        }
+    } else {
+        Fit {
+            evaluations: before.evaluations + free.evaluations,
+            ..free
+        }
+    }
+}
+
+/// [`fit_bundle`] with the light plane's offset ℓ along the axis from the bundle origin kept in
+/// `range`.
+fn fit_in_range(
+    rays: &[CausticRay],
+    bundle: &Bundle,
+    (length, w, max_angle, samples): (f64, f64, f64, usize),
+    range: (f64, f64),
+) -> Fit {
+    let b = bundle.origin.as_dvec3();
+    let a = bundle.axis.as_dvec3();
     let mut members = bundle.members.clone();
-    // The light plane stays within the axial range of the bundle's ray origins (the CSL stands
-    // in for the object; a plane far beyond it would hide receivers near the object).
-    let (lmin, lmax) = members
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
-            let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
-            (lo.min(t), hi.max(t))
-        });
-    let clamp_ell = |ell: f64| ell.clamp(lmin.min(0.0), lmax.max(0.0));
+    let clamp_ell = |ell: f64| ell.clamp(range.0, range.1);
     let mut evaluations = 0u32;
-    let mut x = initial_guess(rays, &members, b, a, length);
+    let ell0 = clamp_ell(0.0);
+    let mut x = initial_guess(rays, &members, b + a * ell0, a, length);
+    x[2] = ell0 / length;
     let mut dismissed = 0;
     // Graduated dismissal: each round minimises Eq. 5 with the error of a ray capped at the
     // round's threshold (so that rays the CSL cannot represent, e.g. internal reflections, do
@@ -156,7 +204,7 @@ fn unscale(v: &[f64], l: f64) -> (f64, f64, f64) {
     (v[0] / l, v[1] / (l * l), v[2] * l)
 }
 
-/// Start with the light plane through the axis origin and κ, γ from a weighted linear fit of
+/// Start with the light plane through `b` and κ, γ from a weighted linear fit of
 /// each ray's own ideal 1/f at its radius.
 fn initial_guess(rays: &[CausticRay], members: &[u32], b: DVec3, a: DVec3, l: f64) -> Vec<f64> {
     let (mut sw, mut sr, mut srr, mut sg, mut srg) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
