@@ -3,6 +3,7 @@
 //! cores. The stage times of one bake are printed before timing.
 
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+use caustica::bake::transport::{TransportParams, bake_transport};
 use caustica::scene;
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -31,6 +32,32 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(30));
     g.bench_function("csl_static_1280_glass_sphere_65k", |b| {
         b.iter(|| black_box(bake_csl(&w, "glass", light, &params, &|_| true).expect("bake")))
+    });
+    // Light transport table (seed 001 §4) of a 6.4k-vertex glass sphere (112 segments: 6441
+    // vertices) at the paper's 129 directions.
+    let json = r#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+            "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+            "objects": [{"name": "glass", "shape": {"type": "sphere", "radius": 0.5, "segments": 112},
+                         "material": "glass"}]}"#;
+    let w = scene::resolve(
+        &scene::parse_scene(json.as_bytes()).expect("parses"),
+        &scene::MapSource::default(),
+        &Default::default(),
+    )
+    .expect("resolves");
+    let tp = TransportParams::paper();
+    let once = bake_transport(&w, "glass", &tp, &|_| true).expect("bake");
+    println!(
+        "transport: {} vertices, {} samples, {} rays, {} bytes, errors {:?}, stats {:?}",
+        once.vertex_count,
+        once.stats.samples,
+        once.stats.rays,
+        once.to_bytes().len(),
+        once.errors,
+        once.stats
+    );
+    g.bench_function("transport_129_glass_sphere_6k4", |b| {
+        b.iter(|| black_box(bake_transport(&w, "glass", &tp, &|_| true).expect("bake")))
     });
     g.finish();
 }

@@ -4,6 +4,7 @@ use anyhow::{Context, Result, bail};
 use caustica::bake::Progress;
 use caustica::bake::csl::cache as csl_cache;
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+use caustica::bake::transport::{TransportParams, bake_transport};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
@@ -151,6 +152,23 @@ enum BakeCmd {
         #[arg(long)]
         grid: Option<u32>,
     },
+    /// Light transport table (seed 001 §4) of one refractive object: per vertex and sampling
+    /// direction, where the light finally leaves the object. No light needed: one table
+    /// serves every light.
+    Transport {
+        scene: PathBuf,
+        /// The refractive object (default: the first object with a glass material).
+        #[arg(long)]
+        object: Option<String>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Rings of sampling directions between the pole and the horizon (default 8).
+        #[arg(long)]
+        rings: Option<u32>,
+        /// Sampling directions per ring (default 16: 8 × 16 + 1 = 129, the paper's).
+        #[arg(long)]
+        azimuths: Option<u32>,
+    },
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -297,6 +315,73 @@ fn main() -> Result<()> {
             std::fs::write(&out, set.to_bytes())
                 .with_context(|| format!("writing {}", out.display()))?;
             print_bake(&name, &set);
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        Cmd::Bake {
+            what:
+                BakeCmd::Transport {
+                    scene,
+                    object,
+                    out,
+                    rings,
+                    azimuths,
+                },
+        } => {
+            let world = load(&scene)?;
+            let name = match object {
+                Some(n) => n,
+                None => world
+                    .objects
+                    .iter()
+                    .find(|o| {
+                        o.parts.iter().any(|p| {
+                            matches!(
+                                world.materials[p.material as usize],
+                                caustica::scene::Material::Dielectric { .. }
+                            )
+                        })
+                    })
+                    .map(|o| o.name.clone())
+                    .context("the scene has no glass object to bake")?,
+            };
+            let mut params = TransportParams::paper();
+            params.rings = rings.unwrap_or(params.rings);
+            params.azimuths = azimuths.unwrap_or(params.azimuths);
+            let bar = progress_bar(&format!("bake transport {name}"));
+            let table = bake_transport(&world, &name, &params, &|p: Progress| {
+                bar.set_message(format!("bake transport {name}: {}", p.stage));
+                bar.set_position((p.fraction * 1000.0) as u64);
+                true
+            })?;
+            bar.finish_and_clear();
+            let bytes = table.to_bytes();
+            std::fs::write(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+            let (s, e) = (&table.stats, &table.errors);
+            eprintln!(
+                "{name}: {} vertices × {} directions = {} samples ({} self-occluded, {} trapped), \
+                 {} rays, trace {:.0} ms, total {:.0} ms",
+                s.vertices,
+                params.directions(),
+                s.samples,
+                s.occluded,
+                s.trapped,
+                s.rays,
+                s.time_trace.as_secs_f64() * 1e3,
+                s.time_total.as_secs_f64() * 1e3,
+            );
+            eprintln!(
+                "size {:.2} MB ({} bytes a sample; {:.2} MB unquantised, {:.0} %); largest \
+                 quantisation errors: position {:.4} % of the box diagonal, direction {:.4} %, \
+                 transmittance {:.1e}",
+                bytes.len() as f64 / 1e6,
+                table.bytes_per_sample(),
+                table.uncompressed_bytes() as f64 / 1e6,
+                100.0 * bytes.len() as f64 / table.uncompressed_bytes() as f64,
+                100.0 * e.position,
+                100.0 * e.direction,
+                e.transmittance,
+            );
             eprintln!("wrote {}", out.display());
             Ok(())
         }

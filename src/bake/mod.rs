@@ -4,6 +4,7 @@
 //! that it can be cached by content hash.
 
 pub mod csl;
+pub mod transport;
 
 use thiserror::Error;
 
@@ -14,6 +15,8 @@ pub enum BakeError {
     UnknownObject(String),
     #[error("object {0:?} has no reflective or refractive material: it casts no caustics")]
     NotSpecular(String),
+    #[error("object {0:?} has no refractive (dielectric) part: a light transport table needs one")]
+    NotRefractive(String),
     #[error("object {0:?} has no triangles")]
     EmptyObject(String),
     #[error("invalid bake parameter: {0}")]

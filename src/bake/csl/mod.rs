@@ -329,7 +329,7 @@ impl CslSet {
 }
 
 /// The object alone, scaled, at the origin: the world the bake traces.
-fn rigid_frame_world(world: &World, object: &Object) -> World {
+pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
     let (scale, _, _) = object.transform.to_scale_rotation_translation();
     World {
         name: object.name.clone(),
@@ -364,8 +364,20 @@ fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) 
     let mut h = Fnv64::new();
     h.write(b"csl");
     h.write_u32(ALGORITHM);
+    h.write(&object_hash(world, object).to_le_bytes());
+    for v in light.to_array() {
+        h.write_f32(v);
+    }
+    h.write(&params.hash().to_le_bytes());
+    h.finish()
+}
+
+/// Hash of what a bake reads of an object: its scale, meshes and materials (not its rotation
+/// and translation: bakes work in the object's rigid frame).
+pub(crate) fn object_hash(world: &World, object: &Object) -> u64 {
+    let mut h = Fnv64::new();
     let (scale, _, _) = object.transform.to_scale_rotation_translation();
-    for v in scale.to_array().into_iter().chain(light.to_array()) {
+    for v in scale.to_array() {
         h.write_f32(v);
     }
     for p in &object.parts {
@@ -382,7 +394,6 @@ fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) 
         }
         h.write(format!("{:?}", world.materials[p.material as usize]).as_bytes());
     }
-    h.write(&params.hash().to_le_bytes());
     h.finish()
 }
 
