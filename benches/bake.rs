@@ -39,12 +39,7 @@ fn bench(c: &mut Criterion) {
             "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
             "objects": [{"name": "glass", "shape": {"type": "sphere", "radius": 0.5, "segments": 112},
                          "material": "glass"}]}"#;
-    let w = scene::resolve(
-        &scene::parse_scene(json.as_bytes()).expect("parses"),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .expect("resolves");
+    let w = scene::load_scene_json(json.as_bytes()).expect("scene resolves");
     let tp = TransportParams::paper();
     let once = bake_transport(&w, "glass", &tp, &|_| true).expect("bake");
     println!(

@@ -7,12 +7,7 @@ use caustica::scene::{self, World};
 use glam::Vec3;
 
 fn parse(json: &str) -> World {
-    scene::resolve(
-        &scene::parse_scene(json.as_bytes()).expect("parses"),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .expect("resolves")
+    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
 }
 
 fn sphere_world(material: &str) -> World {

@@ -13,12 +13,7 @@ fn load(path: &str) -> World {
 }
 
 fn parse(json: &str) -> World {
-    scene::resolve(
-        &scene::parse_scene(json.as_bytes()).expect("parses"),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .expect("resolves")
+    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
 }
 
 fn render(world: &World, photons: u64, spp: u32, seed: u64) -> Components {

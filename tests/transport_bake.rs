@@ -13,12 +13,7 @@ use caustica::trace::optics::{fresnel_dielectric, refract};
 use glam::Vec3;
 
 fn parse(json: &str) -> World {
-    scene::resolve(
-        &scene::parse_scene(json.as_bytes()).expect("parses"),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .expect("resolves")
+    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
 }
 
 /// One object `shape` of material `mat` over a floor, moved and turned (the table is made in

@@ -141,6 +141,16 @@ pub fn parse_scene(json: &[u8]) -> Result<SceneDesc, SceneError> {
     })
 }
 
+/// Parse and resolve scene JSON that refers to no asset files (procedural shapes only), with
+/// the default limits.
+pub fn load_scene_json(json: &[u8]) -> Result<World, SceneError> {
+    resolve(
+        &parse_scene(json)?,
+        &MapSource::default(),
+        &Limits::default(),
+    )
+}
+
 /// Read a scene file from disk and resolve it, assets relative to its directory.
 pub fn load_scene_file(path: &Path, limits: &Limits) -> Result<World, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::Asset {

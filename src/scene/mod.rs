@@ -8,7 +8,8 @@ pub mod types;
 pub mod world;
 
 pub use load::{
-    AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, parse_scene, resolve,
+    AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, load_scene_json,
+    parse_scene, resolve,
 };
 pub use types::SceneDesc;
 pub use world::{Camera, EnvMap, Light, Material, Mesh, Object, Part, World};

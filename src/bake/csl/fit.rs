@@ -95,7 +95,8 @@ impl Terms {
         Terms { rows }
     }
 
-    /// Eq. 5 with each ray's squared direction error capped at `cap`.
+    /// Eq. 5 with each ray's squared direction error capped at `cap`. Summed in fixed chunks
+    /// (in parallel) and the partial sums in order: deterministic.
     fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
         let term = |t: &[f64; 9]| {
             let [qx, qy, dx, dy, da, dd, s0, inv, wt] = *t;
@@ -215,7 +216,6 @@ fn fit_in_range(
             samples
         };
         let sample = Terms::new(rays, &members, most, b, a);
-        // Summed in fixed chunks (in parallel) and the partial sums in order: deterministic.
         let objective = |v: &[f64]| {
             let (kappa, gamma, ell) = unscale(v, length);
             let ell = clamp_ell(ell);

@@ -168,7 +168,8 @@ pub struct Sample {
     pub trapped: bool,
 }
 
-/// Bake statistics (not in the artifact's deterministic bytes, except the counts).
+/// Bake statistics. The sample counts follow from the records (a loaded table has them too);
+/// rays and times only from a bake.
 #[derive(Clone, Debug, Default)]
 pub struct TransportStats {
     pub vertices: u64,
@@ -410,18 +411,12 @@ pub fn bake_transport(
         return Err(BakeError::Canceled);
     }
     let mut samples = Vec::with_capacity(vertices.len() * dirs);
-    let mut stats = TransportStats {
-        vertices: vertices.len() as u64,
-        ..Default::default()
-    };
+    let mut rays = 0;
     for (s, r) in chunks {
         samples.extend(s);
-        stats.rays += r;
+        rays += r;
     }
-    stats.samples = samples.len() as u64;
-    stats.occluded = samples.iter().filter(|s| s.occluded).count() as u64;
-    stats.trapped = samples.iter().filter(|s| s.trapped).count() as u64;
-    stats.time_trace = t0.elapsed();
+    let time_trace = t0.elapsed();
 
     let t0 = Instant::now();
     progress(Progress {
@@ -429,7 +424,7 @@ pub fn bake_transport(
         fraction: 0.95,
     });
     let absorbing = vertices.iter().any(|v| v.absorption != Vec3::ZERO);
-    let table = TransportTable::quantise(
+    let mut table = TransportTable::quantise(
         source_hash(world, object, params),
         *params,
         (lo, hi),
@@ -437,13 +432,15 @@ pub fn bake_transport(
         absorbing,
         &samples,
     );
-    stats.time_quantise = t0.elapsed();
-    stats.time_total = t_start.elapsed();
+    table.stats.rays = rays;
+    table.stats.time_trace = time_trace;
+    table.stats.time_quantise = t0.elapsed();
+    table.stats.time_total = t_start.elapsed();
     progress(Progress {
         stage: "done",
         fraction: 1.0,
     });
-    Ok(TransportTable { stats, ..table })
+    Ok(table)
 }
 
 /// Hash of everything the bake reads: the object's meshes, materials and scale, and the

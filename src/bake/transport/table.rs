@@ -180,6 +180,7 @@ impl TransportTable {
             }
         }
         table.errors = e;
+        table.count_samples();
         table
     }
 
@@ -326,20 +327,7 @@ impl TransportTable {
                 }
             })
             .collect();
-        let stats = TransportStats {
-            vertices: vertex_count as u64,
-            samples: count,
-            occluded: records
-                .iter()
-                .filter(|r| r.transmittance & OCCLUDED != 0)
-                .count() as u64,
-            trapped: records
-                .iter()
-                .filter(|r| r.transmittance & TRAPPED != 0)
-                .count() as u64,
-            ..Default::default()
-        };
-        Ok(TransportTable {
+        let mut table = TransportTable {
             source_hash,
             params,
             lo,
@@ -349,7 +337,23 @@ impl TransportTable {
             max_path,
             records,
             errors: QuantErrors::default(),
-            stats,
-        })
+            stats: TransportStats::default(),
+        };
+        table.count_samples();
+        Ok(table)
+    }
+
+    /// Fill the sample counts of `stats` (vertices, samples, occluded, trapped) from the records.
+    fn count_samples(&mut self) {
+        let flagged = |bit: u16| {
+            self.records
+                .iter()
+                .filter(|r| r.transmittance & bit != 0)
+                .count() as u64
+        };
+        self.stats.occluded = flagged(OCCLUDED);
+        self.stats.trapped = flagged(TRAPPED);
+        self.stats.vertices = self.vertex_count as u64;
+        self.stats.samples = self.records.len() as u64;
     }
 }
