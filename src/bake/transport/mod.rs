@@ -25,7 +25,9 @@
 //! so the table serves the object wherever it is moved or turned and wherever the light is.
 //! Quantised storage (§6) and the artifact format are in [`table`].
 
+pub mod eval;
 pub mod table;
+pub mod view;
 
 use super::{BakeError, Fnv64, Progress};
 use crate::scene::{Material, Object, World};
@@ -441,6 +443,25 @@ pub fn bake_transport(
         fraction: 1.0,
     });
     Ok(table)
+}
+
+/// Indices into `World::objects` of the objects with a dielectric part (those a table can be
+/// baked for), in scene order.
+pub fn refractive_objects(world: &World) -> Vec<usize> {
+    world
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| {
+            o.parts.iter().any(|p| {
+                matches!(
+                    world.materials[p.material as usize],
+                    Material::Dielectric { .. }
+                )
+            })
+        })
+        .map(|(i, _)| i)
+        .collect()
 }
 
 /// Hash of everything the bake reads: the object's meshes, materials and scale, and the
