@@ -1,6 +1,9 @@
 //! GPU frame time: the direct renderer (shadow maps + direct/specular layers + readback) at
 //! 800×600 on the glass-sphere scene, and the same frame with the CSL caustics layer evaluated
-//! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), on
+//! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), and
+//! at 640×480 the transport-table caustics (method `transport`: per frame the illumination
+//! volumes and view refraction on the CPU, then the G-buffer and volume passes; a paper-settings
+//! table baked once before timing), on
 //! whatever adapter `GpuContext` picks (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The
 //! adapter name is printed: quote it with the median.
 
@@ -96,5 +99,46 @@ fn bench_direct(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_direct);
+fn bench_transport(c: &mut Criterion) {
+    use caustica::bake::transport::{TransportParams, bake_transport, eval};
+    use caustica::render::TransportLayer;
+    let ctx = Arc::new(GpuContext::new(&GpuConfig::default()).expect("no GPU adapter"));
+    println!("adapter: {}", ctx.adapter_info());
+    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let mut world = glass_sphere_world();
+    world.camera.width = 640;
+    world.camera.height = 480;
+    let opts = RenderOptions::default();
+    let table =
+        bake_transport(&world, "sphere", &TransportParams::paper(), &|_| true).expect("bake");
+    let build = |w: &World| {
+        TransportLayer::build(w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).expect("volumes")
+    };
+    let layer = build(&world);
+    println!(
+        "{} vertices, {} volumes",
+        table.vertex_count,
+        layer.volumes.len()
+    );
+    let first = renderer
+        .render_transport(&world, &opts, &layer)
+        .expect("render");
+    println!("one transport frame's stages: {:?}", first.timings);
+    let mut g = c.benchmark_group("gpu");
+    g.sample_size(10).measurement_time(Duration::from_secs(30));
+    g.bench_function("transport_volumes_glass_sphere_8k3", |b| {
+        b.iter(|| build(&world))
+    });
+    g.bench_function("transport_frame_640x480_glass_sphere_8k3", |b| {
+        b.iter(|| {
+            let layer = build(&world);
+            renderer
+                .render_transport(&world, &opts, &layer)
+                .expect("render")
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench_direct, bench_transport);
 criterion_main!(benches);

@@ -4,7 +4,9 @@
 // harmonics (diffuse lobe only), and the visible environment behind everything (fullscreen
 // background draw). `specular`: the specular objects themselves, mirror = reflectance
 // × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
-// the reflected and (first-interface) refracted directions. Specular objects are 0 in `direct`,
+// the reflected and (first-interface) refracted directions, or, under method transport, the
+// reflected environment plus what the vertices' refracted viewing rays see (the `view`
+// attribute, interpolated). Specular objects are 0 in `direct`,
 // receivers 0 in `specular`. `caustics`: the caustic spot lights of seed 000 evaluated per
 // pixel on receivers (Eqs. 2-4 in csl.inc.wgsl), each arriving ray shaded with the receiver's
 // BRDF for its known direction and dropped when an occluder (occlusion.inc.wgsl: everything but
@@ -32,6 +34,9 @@ struct VsOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) @interpolate(flat) material: u32,
+    // Method transport, glass: radiance seen through the object (rgb) and how much of the
+    // pixel it covers (w, 1 inside triangles whose vertices all have it).
+    @location(3) view: vec4<f32>,
 }
 
 struct FsOut {
@@ -41,12 +46,13 @@ struct FsOut {
 }
 
 @vertex
-fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) material: u32) -> VsOut {
+fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) material: u32, @location(3) view: vec4<f32>) -> VsOut {
     var out: VsOut;
     out.clip = g.view_proj * vec4<f32>(position, 1.0);
     out.world = position;
     out.normal = normal;
     out.material = material;
+    out.view = view;
     return out;
 }
 
@@ -142,7 +148,11 @@ fn fs_main(in: VsOut) -> FsOut {
         } else {
             let f = fresnel_schlick_ior(cos_o, m.ior);
             let t = refract(-v, ns, 1.0 / m.ior);
-            out.specular = vec4<f32>(f * env_radiance(r) + (1.0 - f) * env_radiance(t), 1.0);
+            // Through the glass: the transport tables' refracted viewing rays where they were
+            // followed (seed 001 §5.3; the transmittance is in `view`), else the environment
+            // in the first-interface refracted direction.
+            let through = in.view.rgb + (1.0 - clamp(in.view.w, 0.0, 1.0)) * (1.0 - f) * env_radiance(t);
+            out.specular = vec4<f32>(f * env_radiance(r) + through, 1.0);
         }
         return out;
     }

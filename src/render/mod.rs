@@ -5,7 +5,10 @@
 //! - `direct`: receivers lit by every light, with shadows ([`direct`]);
 //! - `specular`: the specular objects themselves and the visible environment;
 //! - `caustics`: the caustics methods' layer (`None` when none ran); method `csl` evaluates
-//!   its caustic spot lights per pixel in the same pass ([`CslLayer`], [`Renderer::render_csl`]).
+//!   its caustic spot lights per pixel in the same pass ([`CslLayer`], [`Renderer::render_csl`]);
+//!   method `transport` draws the illumination volumes of its light transport tables over a
+//!   G-buffer of the receivers in a pass after it ([`TransportLayer`],
+//!   [`Renderer::render_transport`]).
 //!
 //! The frame is `direct + caustics + specular` ([`RenderOutput::total`]).
 
@@ -15,6 +18,9 @@ pub mod direct;
 pub mod lights;
 pub mod scene;
 pub mod shaders;
+pub mod transport;
+
+pub use transport::TransportLayer;
 
 use crate::encode::Frame;
 use crate::gpu::{GpuContext, GpuError};
@@ -52,6 +58,15 @@ impl CslLayer {
             caustic_objects,
         }
     }
+}
+
+/// The caustics method of a frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub enum Caustics<'a> {
+    #[default]
+    None,
+    Csl(&'a CslLayer),
+    Transport(&'a TransportLayer),
 }
 
 /// Which layers to compute and read back.
@@ -157,6 +172,9 @@ struct DeviceCache {
     targets: Option<direct::Targets>,
     atlas: Option<direct::ShadowAtlas>,
     env: Option<direct::EnvTexture>,
+    /// Built on the first transport frame.
+    transport: Option<transport::TransportPipelines>,
+    gbuffer: Option<transport::GBuffer>,
 }
 
 /// The GPU renderer. Not `Sync`: one GPU worker owns it (the context may be shared).
@@ -181,6 +199,8 @@ impl Renderer {
             targets: None,
             atlas: None,
             env: None,
+            transport: None,
+            gbuffer: None,
         })
     }
 
@@ -206,11 +226,32 @@ impl Renderer {
         opts: &RenderOptions,
         csl: Option<&CslLayer>,
     ) -> Result<RenderOutput, RenderError> {
-        match self.render_once(world, opts, csl) {
+        self.render_with(world, opts, csl.map_or(Caustics::None, Caustics::Csl))
+    }
+
+    /// Renders `world` and its caustics layer from the illumination volumes of `layer`
+    /// (`RenderOutput::caustics` is then `Some`).
+    pub fn render_transport(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &TransportLayer,
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_with(world, opts, Caustics::Transport(layer))
+    }
+
+    /// Renders `world` with the caustics method `caustics`.
+    pub fn render_with(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        caustics: Caustics,
+    ) -> Result<RenderOutput, RenderError> {
+        match self.render_once(world, opts, caustics) {
             Err(RenderError::Gpu(e)) if matches!(e, GpuError::Lost(_)) || self.ctx.is_lost() => {
                 tracing::warn!(error = %e, "render failed on a lost device; retrying on a new one");
                 self.ctx.mark_lost();
-                self.render_once(world, opts, csl)
+                self.render_once(world, opts, caustics)
             }
             r => r,
         }
@@ -220,8 +261,28 @@ impl Renderer {
         &mut self,
         world: &World,
         opts: &RenderOptions,
-        csl: Option<&CslLayer>,
+        caustics: Caustics,
     ) -> Result<RenderOutput, RenderError> {
+        let csl = match caustics {
+            Caustics::Csl(l) => Some(l),
+            _ => None,
+        };
+        let tl = match caustics {
+            Caustics::Transport(l) => Some(l),
+            _ => None,
+        };
+        if tl.is_some()
+            && !self
+                .ctx
+                .features()
+                .contains(wgpu::Features::FLOAT32_BLENDABLE)
+        {
+            return Err(RenderError::Limit(format!(
+                "method transport blends into a 32-bit float layer, which adapter {} cannot \
+                 (no FLOAT32_BLENDABLE; use a Vulkan adapter, e.g. CAUSTICA_BACKEND=vulkan)",
+                self.ctx.adapter_info()
+            )));
+        }
         let t0 = Instant::now();
         let mut timings = Vec::new();
         let h = self.ctx.ensure_device()?;
@@ -248,7 +309,10 @@ impl Renderer {
         }
 
         // Prepare: pack the scene, plan the lights, upload.
-        let scene = scene::PackedScene::pack(world);
+        let mut scene = scene::PackedScene::pack(world);
+        if let Some(l) = tl {
+            l.apply_view(world, &mut scene);
+        }
         let mut plan = lights::LightPlan::new(world, res);
         // Every layer shares one depth array: many lights (a line light alone is 48 cube faces)
         // would need gigabytes at full resolution, so halve it until the array fits the budget.
@@ -310,7 +374,25 @@ impl Renderer {
                     blockers::Blockers::build(world, |i| !l.caustic_objects.contains(&i));
                 direct::CslBuffers::new(&l.csls, blockers)
             }
-            None => direct::CslBuffers::new(&[], blockers::Blockers::from_triangles(&[])),
+            None => match tl {
+                Some(l) => {
+                    let bytes =
+                        l.volumes.len() as u64 * std::mem::size_of::<transport::GpuVolume>() as u64;
+                    let max_storage = limits.max_storage_buffer_binding_size;
+                    if bytes > max_storage {
+                        return Err(RenderError::Limit(format!(
+                            "{} illumination volumes ({bytes} bytes) over the adapter's \
+                             storage binding limit of {max_storage}",
+                            l.volumes.len()
+                        )));
+                    }
+                    direct::CslBuffers::new(
+                        &[],
+                        blockers::Blockers::build(world, |i| !l.caustic_objects.contains(&i)),
+                    )
+                }
+                None => direct::CslBuffers::new(&[], blockers::Blockers::from_triangles(&[])),
+            },
         };
         let dev = &h.device;
         let c = &mut self.cache;
@@ -337,21 +419,33 @@ impl Renderer {
                 let map = plan.env.map.as_ref().map(|(m, _)| m.as_ref());
                 c.env = Some(direct::EnvTexture::new(dev, &h.queue, map, key));
             }
+            if tl.is_some() {
+                if c.transport.is_none() {
+                    c.transport = Some(transport::TransportPipelines::new(dev));
+                }
+                if !c
+                    .gbuffer
+                    .as_ref()
+                    .is_some_and(|g| g.width == width && g.height == height)
+                {
+                    c.gbuffer = Some(transport::GBuffer::new(dev, width, height));
+                }
+            }
             if with_ts {
                 let q = dev.create_query_set(&wgpu::QuerySetDescriptor {
                     label: Some("pass timestamps"),
                     ty: wgpu::QueryType::Timestamp,
-                    count: 4,
+                    count: 6,
                 });
                 let resolve = dev.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("timestamps"),
-                    size: 32,
+                    size: 48,
                     usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 });
                 let read = dev.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("timestamps read"),
-                    size: 32,
+                    size: 48,
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
@@ -360,8 +454,11 @@ impl Renderer {
                 (None, None, None)
             }
         })?;
-        let bufs = self.ctx.scoped(dev, || {
-            direct::FrameBuffers::upload(dev, &scene, &globals, &plan, &csl_bufs)
+        let (bufs, volumes) = self.ctx.scoped(dev, || {
+            (
+                direct::FrameBuffers::upload(dev, &scene, &globals, &plan, &csl_bufs),
+                tl.map(|l| transport::upload_volumes(dev, &l.volumes)),
+            )
         })?;
         let c = &self.cache;
         let (Some(targets), Some(atlas), Some(env)) = (&c.targets, &c.atlas, &c.env) else {
@@ -386,11 +483,27 @@ impl Renderer {
                 env,
                 queries.as_ref(),
             )?;
+            if let (Some(l), Some(vb), Some(tp), Some(gb)) =
+                (tl, &volumes, &c.transport, &c.gbuffer)
+            {
+                transport::encode(
+                    dev,
+                    &mut enc,
+                    tp,
+                    gb,
+                    &bufs,
+                    vb,
+                    l.volumes.len() as u32,
+                    targets,
+                    queries.as_ref().map(|q| (q, 4)),
+                );
+            }
             if let (Some(q), Some(rb), Some(read)) = (&queries, &query_buf, &query_read) {
-                // Slots 0/1 are only written when there are shadow passes.
+                // Slots 0/1 are only written when there are shadow passes, 4/5 with transport.
                 let first = if plan.layers.is_empty() { 2 } else { 0 };
-                enc.resolve_query_set(q, first..4, rb, 0);
-                enc.copy_buffer_to_buffer(rb, 0, read, 0, 32);
+                let last = if tl.is_some() { 6 } else { 4 };
+                enc.resolve_query_set(q, first..last, rb, 0);
+                enc.copy_buffer_to_buffer(rb, 0, read, 0, 48);
             }
             h.queue.submit([enc.finish()]);
             Ok(())
@@ -422,6 +535,9 @@ impl Renderer {
                 "gpu:direct"
             };
             timings.push((main.to_string(), span(ts(2), ts(3))));
+            if tl.is_some() {
+                timings.push(("gpu:transport".to_string(), span(ts(4), ts(5))));
+            }
         }
 
         let t3 = Instant::now();
@@ -443,9 +559,9 @@ impl Renderer {
         } else {
             Frame::new(width, height)
         };
-        let caustics_frame = match csl {
-            Some(_) => Some(to_frame(self.ctx.readback_rgba32f(&targets.caustics)?)),
-            None => None,
+        let caustics_frame = match caustics {
+            Caustics::None => None,
+            _ => Some(to_frame(self.ctx.readback_rgba32f(&targets.caustics)?)),
         };
         timings.push(("readback".to_string(), t3.elapsed()));
         timings.push(("total".to_string(), t0.elapsed()));

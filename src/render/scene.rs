@@ -5,17 +5,21 @@
 use crate::scene::{Material, World};
 use bytemuck::{Pod, Zeroable};
 
-/// One vertex as the passes read it (28 bytes, locations 0, 1, 2).
+/// One vertex as the passes read it (44 bytes, locations 0..=3).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Vertex {
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub material: u32,
+    /// Glass vertices under method `transport`: the radiance seen through the object along
+    /// the viewing ray the vertex's table refracts (rgb), w = 1 where set (§5.3 of seed 001);
+    /// zero elsewhere.
+    pub view: [f32; 4],
 }
 
-pub const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
-    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32];
+pub const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32, 3 => Float32x4];
 
 pub fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     wgpu::VertexBufferLayout {
@@ -85,6 +89,24 @@ pub struct PackedScene {
 }
 
 impl PackedScene {
+    /// Index of the first vertex of each part of object `oi` (parts in order).
+    pub fn part_bases(world: &World, oi: usize) -> Vec<usize> {
+        let mut base: usize = world.objects[..oi]
+            .iter()
+            .flat_map(|o| &o.parts)
+            .map(|p| p.mesh.positions.len())
+            .sum();
+        world.objects[oi]
+            .parts
+            .iter()
+            .map(|p| {
+                let b = base;
+                base += p.mesh.positions.len();
+                b
+            })
+            .collect()
+    }
+
     pub fn pack(world: &World) -> PackedScene {
         let mut s = PackedScene::default();
         for o in &world.objects {
@@ -101,6 +123,7 @@ impl PackedScene {
                         position: wp.to_array(),
                         normal: wn.to_array(),
                         material: part.material,
+                        view: [0.0; 4],
                     });
                 }
                 for t in &mesh.indices {

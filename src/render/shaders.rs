@@ -12,6 +12,11 @@ pub const FILES: &[(&str, &str)] = &[
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
     ("csl.wgsl", include_str!("../../shaders/csl.wgsl")),
+    ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
+    (
+        "transport.wgsl",
+        include_str!("../../shaders/transport.wgsl"),
+    ),
     (
         "occlusion.inc.wgsl",
         include_str!("../../shaders/occlusion.inc.wgsl"),

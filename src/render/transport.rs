@@ -1,0 +1,461 @@
+//! The transport-table caustics pass (seed 001 §5.2, method `transport`): the illumination
+//! volumes of the frame ([`crate::bake::transport::eval::build_volumes`], built on the CPU
+//! from the tables) are uploaded as one storage buffer and drawn over a G-buffer of the
+//! receivers, so caustics land on any scene geometry, not only a plane. See
+//! `shaders/transport.wgsl` for the evaluation and `shaders/gbuffer.wgsl` for the G-buffer.
+//!
+//! The pass blends additively into the 32-bit float caustics layer, which needs
+//! `FLOAT32_BLENDABLE` (Vulkan adapters, lavapipe included, have it; the GL backend does not:
+//! the render then fails with a message saying so).
+
+use super::direct::{FrameBuffers, HDR_FORMAT, Targets};
+use super::scene::vertex_layout;
+use super::shaders;
+use crate::bake::transport::TransportTable;
+use crate::bake::transport::eval::{self, EvalError, Source, Volume, VolumeStats};
+use crate::scene::World;
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// `Volume` of transport.wgsl (144 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuVolume {
+    pub e: [[f32; 4]; 3],
+    pub d: [[f32; 4]; 3],
+    pub f: [[f32; 4]; 3],
+}
+
+impl GpuVolume {
+    pub fn pack(v: &Volume) -> GpuVolume {
+        let w = [v.source_area, v.length, 0.0];
+        GpuVolume {
+            e: std::array::from_fn(|i| v.exits[i].extend(w[i]).to_array()),
+            d: std::array::from_fn(|i| v.dirs[i].extend(0.0).to_array()),
+            f: std::array::from_fn(|i| v.flux_density[i].extend(0.0).to_array()),
+        }
+    }
+}
+
+/// The caustics of a frame from transport tables: the illumination volumes of every caustic
+/// object under the scene's lights.
+#[derive(Clone, Debug, Default)]
+pub struct TransportLayer {
+    pub volumes: Vec<Volume>,
+    /// Indices into `World::objects` of the caustic objects: they do not occlude their own
+    /// caustic light (and are shadowed from the light by everything else).
+    pub caustic_objects: Vec<usize>,
+    pub stats: VolumeStats,
+    /// Per caustic object, per table vertex: the radiance seen through it
+    /// ([`crate::bake::transport::view::view_refraction`]); the direct pass draws the glass with
+    /// it.
+    pub view: Vec<(usize, Vec<[f32; 4]>)>,
+}
+
+impl TransportLayer {
+    /// The volumes of `tables` (object index, its table) for the delta lights of `world`, line
+    /// lights as `line_points` point lights.
+    pub fn build(
+        world: &World,
+        tables: &[(usize, &TransportTable)],
+        line_points: u32,
+    ) -> Result<TransportLayer, EvalError> {
+        let sources: Vec<Source> = eval::sources(&world.lights, line_points);
+        let caustic_objects: Vec<usize> = tables.iter().map(|t| t.0).collect();
+        let blockers = crate::trace::Accel::build_with(
+            world,
+            |i| !caustic_objects.contains(&i),
+            obvhs::BvhBuildParams::fast_build(),
+        );
+        let mut layer = TransportLayer {
+            caustic_objects: caustic_objects.clone(),
+            ..Default::default()
+        };
+        for &(oi, table) in tables {
+            let name = &world.objects[oi].name;
+            let (v, s) = eval::build_volumes(world, name, table, &sources, Some(&blockers))?;
+            layer.volumes.extend(v);
+            layer.stats.vertices += s.vertices;
+            layer.stats.lit_vertices += s.lit_vertices;
+            layer.stats.volumes += s.volumes;
+            layer.stats.flux += s.flux;
+        }
+        // Viewing rays through each object see the others' caustics too.
+        let scene =
+            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
+        for &(oi, table) in tables {
+            let view = crate::bake::transport::view::view_refraction(
+                world,
+                &world.objects[oi].name,
+                table,
+                world.camera.eye,
+                &sources,
+                &layer.volumes,
+                &blockers,
+                &scene,
+            )?;
+            layer.view.push((oi, view));
+        }
+        Ok(layer)
+    }
+
+    /// Writes the view-refraction radiance into the packed vertices of the caustic objects'
+    /// glass parts (in the tables' vertex order).
+    pub fn apply_view(&self, world: &World, scene: &mut super::scene::PackedScene) {
+        use crate::scene::Material;
+        for (oi, view) in &self.view {
+            let bases = super::scene::PackedScene::part_bases(world, *oi);
+            let mut k = 0usize;
+            for (part, base) in world.objects[*oi].parts.iter().zip(bases) {
+                if !matches!(
+                    world.materials[part.material as usize],
+                    Material::Dielectric { .. }
+                ) {
+                    continue;
+                }
+                for j in 0..part.mesh.positions.len() {
+                    if let (Some(v), Some(dst)) = (view.get(k), scene.vertices.get_mut(base + j)) {
+                        dst.view = *v;
+                    }
+                    k += 1;
+                }
+            }
+        }
+    }
+}
+
+/// The G-buffer and volume pipelines, created once per device.
+pub struct TransportPipelines {
+    pub gbuffer: wgpu::RenderPipeline,
+    pub gbuffer_layout: wgpu::BindGroupLayout,
+    pub volume: wgpu::RenderPipeline,
+    pub volume_layout: wgpu::BindGroupLayout,
+}
+
+/// Vertices drawn per volume (`HULL_VERTICES` of transport.wgsl).
+pub const HULL_VERTICES: u32 = 12;
+
+pub const GBUF_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+impl TransportPipelines {
+    pub fn new(device: &wgpu::Device) -> TransportPipelines {
+        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty,
+            count: None,
+        };
+        let vf = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let frag = wgpu::ShaderStages::FRAGMENT;
+        let uniform = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let storage = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let texture = wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        };
+        let gbuffer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gbuffer"),
+            entries: &[entry(0, vf, uniform), entry(2, frag, storage)],
+        });
+        let volume_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("transport volumes"),
+            entries: &[
+                entry(0, vf, uniform),
+                entry(2, frag, storage),
+                entry(8, frag, storage),
+                entry(9, frag, storage),
+                entry(10, frag, texture),
+                entry(11, frag, texture),
+                entry(12, vf, storage),
+            ],
+        });
+        let module = |name: &str| {
+            device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(shaders::source(name).into()),
+            })
+        };
+        let gmod = module("gbuffer.wgsl");
+        let tmod = module("transport.wgsl");
+        let layout = |l: &wgpu::BindGroupLayout| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: None,
+                bind_group_layouts: &[Some(l)],
+                immediate_size: 0,
+            })
+        };
+        let primitive = wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        };
+        let gtarget = Some(wgpu::ColorTargetState {
+            format: GBUF_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        });
+        let gbuffer = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("gbuffer"),
+            layout: Some(&layout(&gbuffer_layout)),
+            vertex: wgpu::VertexState {
+                module: &gmod,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive,
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: super::direct::DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &gmod,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[gtarget.clone(), gtarget],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let add = wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::One,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+        };
+        let volume = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("transport volumes"),
+            layout: Some(&layout(&volume_layout)),
+            vertex: wgpu::VertexState {
+                module: &tmod,
+                entry_point: Some("vs_volume"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive,
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &tmod,
+                entry_point: Some("fs_volume"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend: Some(add),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        TransportPipelines {
+            gbuffer,
+            gbuffer_layout,
+            volume,
+            volume_layout,
+        }
+    }
+}
+
+/// G-buffer textures kept between frames of one size.
+pub struct GBuffer {
+    pub width: u32,
+    pub height: u32,
+    pub position: wgpu::Texture,
+    pub normal: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+impl GBuffer {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
+        let tex = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        GBuffer {
+            width,
+            height,
+            position: tex("gbuffer position", GBUF_FORMAT, color),
+            normal: tex("gbuffer normal", GBUF_FORMAT, color),
+            depth: tex(
+                "gbuffer depth",
+                super::direct::DEPTH_FORMAT,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            ),
+        }
+    }
+}
+
+/// The volumes buffer of a frame (never empty: a zero volume that covers nothing when there is
+/// none, so the binding stays valid).
+pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> wgpu::Buffer {
+    let mut packed: Vec<GpuVolume> = volumes.iter().map(GpuVolume::pack).collect();
+    if packed.is_empty() {
+        packed.push(GpuVolume::zeroed());
+    }
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("transport volumes"),
+        contents: bytemuck::cast_slice(&packed),
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+/// Encodes the G-buffer pass and the volume pass (after the direct pass, which cleared the
+/// caustics layer). `timestamps`: (query set, begin slot) for the volume pass.
+#[allow(clippy::too_many_arguments)]
+pub fn encode(
+    device: &wgpu::Device,
+    enc: &mut wgpu::CommandEncoder,
+    p: &TransportPipelines,
+    gbuf: &GBuffer,
+    bufs: &FrameBuffers,
+    volumes: &wgpu::Buffer,
+    count: u32,
+    targets: &Targets,
+    timestamps: Option<(&wgpu::QuerySet, u32)>,
+) {
+    let gbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("gbuffer"),
+        layout: &p.gbuffer_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: bufs.globals.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: bufs.materials.as_entire_binding(),
+            },
+        ],
+    });
+    let pos_view = gbuf.position.create_view(&Default::default());
+    let nrm_view = gbuf.normal.create_view(&Default::default());
+    let depth_view = gbuf.depth.create_view(&Default::default());
+    let clear = |view| {
+        Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Store,
+            },
+        })
+    };
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("gbuffer"),
+            color_attachments: &[clear(&pos_view), clear(&nrm_view)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if let (Some(vb), Some(ib)) = (&bufs.vertices, &bufs.indices) {
+            pass.set_pipeline(&p.gbuffer);
+            pass.set_bind_group(0, &gbg, &[]);
+            pass.set_vertex_buffer(0, vb.slice(..));
+            pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..bufs.index_count, 0, 0..1);
+        }
+    }
+    let vbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("transport volumes"),
+        layout: &p.volume_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: bufs.globals.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: bufs.materials.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 8,
+                resource: bufs.blocker_nodes.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 9,
+                resource: bufs.blocker_tris.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 10,
+                resource: wgpu::BindingResource::TextureView(&pos_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 11,
+                resource: wgpu::BindingResource::TextureView(&nrm_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 12,
+                resource: volumes.as_entire_binding(),
+            },
+        ],
+    });
+    let cv = targets.caustics.create_view(&Default::default());
+    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("transport volumes"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &cv,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: timestamps.map(|(q, first)| wgpu::RenderPassTimestampWrites {
+            query_set: q,
+            beginning_of_pass_write_index: Some(first),
+            end_of_pass_write_index: Some(first + 1),
+        }),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    if count > 0 {
+        pass.set_pipeline(&p.volume);
+        pass.set_bind_group(0, &vbg, &[]);
+        pass.draw(0..HULL_VERTICES, 0..count);
+    }
+}

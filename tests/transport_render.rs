@@ -1,0 +1,384 @@
+//! The render side of the light transport tables (seed 001 §5.1–5.2): lookup and interpolation
+//! against the sphere in closed form, flux conservation of the illumination volumes, the GPU
+//! pass against the CPU evaluation (diffuse and glossy receivers, an occluder), rigid motion
+//! with no new bake, and the caustics against the reference for the directional, spot and
+//! point lights.
+//!
+//! The sphere is the canonical one with 96 segments instead of 256 (4.8 k vertices instead of
+//! 33 k: the same shape with smooth normals, and a bake a test can afford); the stored
+//! references were rendered with 256.
+
+use caustica::bake::transport::{
+    TransportParams, TransportTable, bake_transport, eval, table_vertices,
+};
+use caustica::encode::{Frame, decode_frame};
+use caustica::reference::compare;
+use caustica::render::{Renderer, TransportLayer};
+use caustica::scene::{self, World};
+use caustica::trace::Accel;
+use caustica::trace::optics::{fresnel_dielectric, refract};
+use glam::Vec3;
+
+fn sphere_scene(file: &str, segments: u32, edit: impl Fn(String) -> String) -> World {
+    let text = std::fs::read_to_string(file).unwrap();
+    let text = text.replace("\"segments\": 256", &format!("\"segments\": {segments}"));
+    scene::load_scene_json(edit(text).as_bytes()).unwrap()
+}
+
+fn bake(world: &World, rings: u32, azimuths: u32) -> TransportTable {
+    let params = TransportParams {
+        rings,
+        azimuths,
+        ..TransportParams::paper()
+    };
+    bake_transport(world, "glass", &params, &|_| true).unwrap()
+}
+
+fn glass_index(world: &World) -> usize {
+    world
+        .objects
+        .iter()
+        .position(|o| o.name == "glass")
+        .unwrap()
+}
+
+/// The CPU caustics layer of `world` from `table`.
+fn cpu_caustics(world: &World, table: &TransportTable) -> (Frame, TransportLayer) {
+    let oi = glass_index(world);
+    let layer = TransportLayer::build(world, &[(oi, table)], eval::DEFAULT_LINE_POINTS).unwrap();
+    let accel = Accel::build(world);
+    let blockers = Accel::build_with(world, |i| i != oi, obvhs::BvhBuildParams::fast_build());
+    let img = eval::render_caustics(world, &accel, Some(&blockers), &layer.volumes);
+    (img, layer)
+}
+
+fn gpu_caustics(world: &World, layer: &TransportLayer) -> Frame {
+    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
+    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let out = r
+        .render_transport(world, &Default::default(), layer)
+        .unwrap();
+    out.caustics.expect("a caustics layer")
+}
+
+fn floor_mask(world: &World) -> Vec<bool> {
+    compare::object_mask(world, &Accel::build(world), "floor")
+}
+
+/// Interpolated lookups (four nearest sampling directions, bilinear position and
+/// transmittance, slerped direction) against Snell + Fresnel through a sphere in closed form,
+/// at random incident directions: a lookup at a sampling direction returns its sample, the
+/// errors are small at the paper's 129 directions and shrink with finer sampling.
+#[test]
+fn lookup_interpolates_the_sphere_in_closed_form() {
+    let world = sphere_scene("scenes/glass-sphere-directional.json", 32, |s| s);
+    let verts = table_vertices(&world, world.object("glass").unwrap());
+    let mut means = Vec::new();
+    for (rings, az) in [(8, 16), (16, 32)] {
+        let table = bake(&world, rings, az);
+        // At the sampling directions themselves: the stored samples.
+        let p = table.params;
+        for i in [0, verts.len() / 3, verts.len() - 1] {
+            for j in [0, 5, p.directions() - p.azimuths as usize - 3] {
+                let (phi, theta) = p.angles(j);
+                let frame = caustica::bake::transport::tangent_frame(verts[i].normal);
+                let w = caustica::bake::transport::sampling_direction(frame, phi, theta);
+                let s = table.sample(i, j);
+                let e = eval::lookup(&table, i, &verts[i], w).unwrap();
+                assert!((e.position - s.position).length() < 1e-4, "{i} {j}");
+                assert!((e.direction - s.direction).length() < 1e-3, "{i} {j}");
+                assert!(
+                    (e.transmittance.x - s.transmittance).abs() < 1e-3,
+                    "{i} {j}"
+                );
+            }
+        }
+        let mut rng = 0x2545_f491_u64;
+        let mut rnd = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut ep, mut ed, mut et, mut n) = (0f32, 0f32, 0f32, 0);
+        while n < 4000 {
+            let i = (rnd() * verts.len() as f32) as usize % verts.len();
+            let v = verts[i];
+            let w = Vec3::new(rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0, rnd() * 2.0 - 1.0);
+            let w = w.normalize_or(Vec3::Y);
+            let nn = v.position.normalize();
+            // Incidence up to 78° (the last ring is grazing, where nothing transmits).
+            if w.dot(nn) > -0.2 {
+                continue;
+            }
+            let Some(e) = eval::lookup(&table, i, &v, w) else {
+                panic!("vertex {i} normal {:?} w {w:?}: no exit", v.normal);
+            };
+            let d1 = refract(w, nn, 1.0 / 1.5).unwrap();
+            let ct = -d1.dot(nn);
+            let p2 = v.position + d1 * (2.0 * 0.5 * ct);
+            let d2 = refract(d1, -p2.normalize(), 1.5).unwrap();
+            let t = (1.0 - fresnel_dielectric(-w.dot(nn), 1.0 / 1.5))
+                * (1.0 - fresnel_dielectric(ct, 1.5));
+            ep += (e.position - p2).length();
+            ed += (e.direction - d2).length();
+            et += (e.transmittance.x - t).abs();
+            n += 1;
+        }
+        let m = (ep / n as f32, ed / n as f32, et / n as f32);
+        eprintln!(
+            "{rings}×{az}: mean errors position {:.4} m, direction {:.4}, T {:.4}",
+            m.0, m.1, m.2
+        );
+        means.push(m);
+    }
+    // 8 × 16 + 1: within 1 cm (a sphere of 0.5 m), 0.015 rad, 0.015.
+    assert!(
+        means[0].0 < 0.01 && means[0].1 < 0.015 && means[0].2 < 0.015,
+        "{means:?}"
+    );
+    // Four times the directions: closer (measured: position 0.46×, direction 0.62×).
+    assert!(
+        means[1].0 < 0.6 * means[0].0 && means[1].1 < 0.75 * means[0].1,
+        "{means:?}"
+    );
+    // From below the tangent plane: no light.
+    let i = 0;
+    assert!(eval::lookup(&bake(&world, 8, 16), i, &verts[i], verts[i].normal).is_none());
+}
+
+/// Every volume's flux lands: integrating the footprint-averaged irradiance over cells that
+/// tile the floor gives back S·mean(F) of every volume whose cross-section lies on it, to
+/// rounding (the footprint evaluation integrates the piecewise linear field exactly).
+#[test]
+fn volumes_conserve_flux_on_a_plane() {
+    let world = sphere_scene("scenes/glass-sphere-directional.json", 16, |s| s);
+    let table = bake(&world, 8, 16);
+    let sources = eval::sources(&world.lights, 16);
+    let (vols, stats) = eval::build_volumes(&world, "glass", &table, &sources, None).unwrap();
+    assert!(stats.volumes > 50, "{stats:?}");
+    let half = 4.0f32;
+    let mut expect = 0.0f64;
+    for v in &vols {
+        if let Some(q) = v.cross_section(glam::DVec3::ZERO, glam::DVec3::Y)
+            && q.iter()
+                .all(|p| p.x.abs() < half as f64 && p.z.abs() < half as f64)
+        {
+            expect +=
+                (v.flux_density.iter().map(|f| f.x).sum::<f32>() / 3.0 * v.source_area) as f64;
+        }
+    }
+    assert!(
+        expect > 0.5 * stats.flux.x as f64,
+        "flux onto the floor {expect} of {stats:?}"
+    );
+    let cells = 64;
+    let side = 2.0 * half / cells as f32;
+    let mut got = 0.0f64;
+    for cy in 0..cells {
+        for cx in 0..cells {
+            let (x0, z0) = (-half + cx as f32 * side, -half + cy as f32 * side);
+            let fp = [
+                Vec3::new(x0, 0.0, z0),
+                Vec3::new(x0 + side, 0.0, z0),
+                Vec3::new(x0 + side, 0.0, z0 + side),
+                Vec3::new(x0, 0.0, z0 + side),
+            ];
+            let c = Vec3::new(x0 + 0.5 * side, 0.0, z0 + 0.5 * side);
+            for v in &vols {
+                if let Some(a) = v.arrival(c, Vec3::Y, Some(&fp)) {
+                    got += (a.irradiance.x * side * side) as f64;
+                }
+            }
+        }
+    }
+    eprintln!("flux on the floor: volumes {expect:.5} W, integrated {got:.5} W");
+    assert!((got / expect - 1.0).abs() < 1e-3, "{got} vs {expect}");
+}
+
+/// The GPU pass (transport.wgsl over the G-buffer) against the CPU evaluation of the same
+/// volumes, on a diffuse floor, on a glossy floor, and with a box between the sphere and the
+/// floor that must hide part of the caustic (and catch it on its top). Away from the focus the
+/// two agree to a fraction of a percent; at the focus, which is narrower than a pixel, single
+/// precision moves light between neighbouring pixels.
+#[test]
+fn gpu_pass_matches_the_cpu_evaluation() {
+    let glossy = |s: String| {
+        s.replace(
+            r#""floor": {"type": "diffuse", "albedo": 0.6}"#,
+            r#""floor": {"type": "glossy", "albedo": 0.4, "specular": 0.5, "roughness": 0.4}"#,
+        )
+    };
+    let boxed = |s: String| {
+        s.replace(
+            r#"{"name": "floor","#,
+            r#"{"name": "block", "shape": {"type": "box", "size": [0.3, 0.06, 0.3]}, "material": "floor",
+              "transform": {"translation": [0.45, 0.03, 0.0]}},
+             {"name": "floor","#,
+        )
+    };
+    let mut flux = Vec::new();
+    for (name, edit) in [
+        ("diffuse", &(|s| s) as &dyn Fn(String) -> String),
+        ("glossy", &glossy),
+        ("occluder", &boxed),
+    ] {
+        let world = sphere_scene("scenes/glass-sphere-directional.json", 64, edit);
+        let table = bake(&world, 8, 16);
+        let (cpu, layer) = cpu_caustics(&world, &table);
+        let gpu = gpu_caustics(&world, &layer);
+        let mask = floor_mask(&world);
+        let c = compare::compare(&gpu, &cpu, &mask);
+        eprintln!("{name}: GPU vs CPU {c:?}");
+        assert!(
+            c.rel_l1 < 0.1 && (c.flux_ratio - 1.0).abs() < 0.01,
+            "{name}: {c:?}"
+        );
+        let total: f32 = cpu
+            .pixels
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(p, _)| p.x)
+            .sum();
+        assert!(total > 0.0, "{name}: no caustic");
+        flux.push(total);
+    }
+    // The block hides the focus from the floor.
+    assert!(flux[2] < 0.7 * flux[0], "{flux:?}");
+}
+
+/// The table lives in the object's rigid frame: the same table serves the sphere moved and
+/// turned (a sphere's caustic only moves with it), and a table for another mesh is refused.
+#[test]
+fn moving_and_turning_the_object_reuses_the_table() {
+    let world = sphere_scene("scenes/glass-sphere-directional.json", 48, |s| s);
+    let table = bake(&world, 8, 16);
+    let place = |transform: &'static str| {
+        sphere_scene("scenes/glass-sphere-directional.json", 48, move |s| {
+            s.replace(r#""transform": {"translation": [0, 0.58, 0]}"#, transform)
+        })
+    };
+    let moved = place(r#""transform": {"translation": [0.2, 0.58, -0.1]}"#);
+    let turned =
+        place(r#""transform": {"translation": [0.2, 0.58, -0.1], "rotation_deg": [20, 35, -10]}"#);
+    let (a, _) = cpu_caustics(&world, &table);
+    let (b, _) = cpu_caustics(&moved, &table);
+    let (c, _) = cpu_caustics(&turned, &table);
+    // Turned: the same caustic as moved only (a sphere), up to its tessellation, which now
+    // meets the light elsewhere (measured L1 0.13, flux 1.008; a wrongly turned table puts
+    // the light somewhere else entirely, L1 above 1).
+    let mask = floor_mask(&moved);
+    let cmp = compare::compare(&c, &b, &mask);
+    eprintln!("turned vs moved: {cmp:?}");
+    assert!(
+        cmp.rel_l1 < 0.2 && (cmp.flux_ratio - 1.0).abs() < 0.02,
+        "{cmp:?}"
+    );
+    // Moved: the focus moved with the sphere.
+    let peak = |f: &Frame| {
+        let k = (0..f.pixels.len())
+            .max_by(|&i, &j| f.pixels[i].x.total_cmp(&f.pixels[j].x))
+            .unwrap();
+        (k as u32 % f.width, k as u32 / f.width)
+    };
+    let cam = &world.camera;
+    let (pa, pb) = (peak(&a), peak(&b));
+    let d = cam.rays().dir(pa.0 as f32 + 0.5, pa.1 as f32 + 0.5);
+    let on_floor = cam.eye + d * (-cam.eye.y / d.y) + Vec3::new(0.2, 0.0, -0.1);
+    let (ex, ey, _) = cam.project(on_floor).unwrap();
+    assert!(
+        (pb.0 as f32 + 0.5 - ex).abs() <= 1.5 && (pb.1 as f32 + 0.5 - ey).abs() <= 1.5,
+        "{pa:?} {pb:?} ({ex}, {ey})"
+    );
+    // Another mesh: refused with a message.
+    let other = sphere_scene("scenes/glass-sphere-directional.json", 40, |s| s);
+    let err = eval::build_volumes(&other, "glass", &table, &[], None).unwrap_err();
+    assert!(err.to_string().contains("does not fit object"), "{err}");
+}
+
+/// Caustics against the stored references (caustics component, floor pixels, 3×3 blur), for
+/// the three lights of the canonical sphere, at the paper's 129 directions and at 513.
+///
+/// Measured (this test, 96 segments, the CPU evaluation; the GPU pass agrees with it, see
+/// above), relative L1 / flux ratio:
+/// - 129 directions (the paper's): directional 0.166 / 0.918, spot 0.197 / 0.940,
+///   point 0.222 / 0.943;
+/// - 513 directions (16 rings of 32): directional 0.100 / 0.928, spot 0.104 / 0.944,
+///   point 0.100 / 0.947: the issue's L1 target (≤ 0.15) is met, asserted here.
+///
+/// At 129 directions the interpolation between samples 11° apart is what is left: exit
+/// positions 9 mm and directions 0.011 rad off on average (the closed-form test above), which
+/// blurs the focus.
+///
+/// What no table resolution closes is the flux: the reference's caustics include light that
+/// reflects inside the glass before it leaves (T R T paths, 6 % of the floor's caustic flux
+/// under the sphere: single-refraction photon tracing gives 0.938 of the reference), and a
+/// table holds one exit per direction, the refracted one, as the paper's does.
+#[test]
+fn sphere_caustics_against_the_reference() {
+    let mut report = Vec::new();
+    for (light, reference) in [
+        ("directional", "glass-sphere-directional.caustics.64M.exr"),
+        ("spot", "glass-sphere-spot.caustics.32M.exr"),
+        ("point", "glass-sphere-point.caustics.32M.exr"),
+    ] {
+        let world = sphere_scene(&format!("scenes/glass-sphere-{light}.json"), 96, |s| s);
+        let reference =
+            decode_frame(&std::fs::read(format!("tests/data/reference/{reference}")).unwrap())
+                .unwrap();
+        let mask = floor_mask(&world);
+        for (rings, az) in [(8, 16), (16, 32)] {
+            let table = bake(&world, rings, az);
+            let (cpu, layer) = cpu_caustics(&world, &table);
+            let c = compare::compare(&cpu, &reference, &mask);
+            let line = format!(
+                "{light} {}×{}+1: {c:?} ({} volumes)",
+                rings,
+                az,
+                layer.volumes.len()
+            );
+            eprintln!("{line}");
+            report.push((light, rings, c));
+        }
+    }
+    for (light, rings, c) in &report {
+        let (l1, lo) = if *rings == 8 {
+            (0.25, 0.90)
+        } else {
+            (0.15, 0.90)
+        };
+        assert!(
+            c.rel_l1 <= l1 && (lo..=1.02).contains(&c.flux_ratio),
+            "{light} {rings}: {c:?}"
+        );
+    }
+}
+
+/// §5.3: the glass drawn by refracting the viewing rays through the tables. The `specular`
+/// layer over the sphere's pixels against the reference's (what the camera sees in and through
+/// the glass: the floor, its shadow and the caustic, refracted). Measured (96 segments,
+/// llvmpipe): relative L1 0.061, flux 0.941; the `direct` method, which draws the glass from the
+/// environment only (none here), is black there.
+#[test]
+fn glass_seen_through_the_tables_matches_the_reference() {
+    let world = sphere_scene("scenes/glass-sphere-directional.json", 96, |s| s);
+    let table = bake(&world, 8, 16);
+    let layer = TransportLayer::build(&world, &[(glass_index(&world), &table)], 16).unwrap();
+    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
+    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let out = r
+        .render_transport(&world, &Default::default(), &layer)
+        .unwrap();
+    let reference = decode_frame(
+        &std::fs::read("tests/data/reference/glass-sphere-directional.specular.8M.exr").unwrap(),
+    )
+    .unwrap();
+    let mask = compare::object_mask(&world, &Accel::build(&world), "glass");
+    let c = compare::compare(&out.specular, &reference, &mask);
+    eprintln!("specular over the glass: {c:?}");
+    assert!(
+        c.rel_l1 < 0.12 && (0.9..=1.1).contains(&c.flux_ratio),
+        "{c:?}"
+    );
+}
