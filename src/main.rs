@@ -4,11 +4,11 @@ use anyhow::{Context, Result, bail};
 use caustica::bake::Progress;
 use caustica::bake::csl::cache as csl_cache;
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
-use caustica::bake::transport::{TransportParams, bake_transport};
+use caustica::bake::transport::{TransportParams, TransportTable, bake_transport};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
-use caustica::render::{CslLayer, RenderOptions, Renderer};
+use caustica::render::{CslLayer, RenderOptions, Renderer, TransportLayer};
 use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use clap::{Parser, Subcommand, ValueEnum};
@@ -39,6 +39,10 @@ enum Method {
     /// caustics component from baked CSL sets. The caustics layer is evaluated on the CPU for
     /// now (the same Eqs. 2-4 the GPU pass will use).
     Csl,
+    /// Light transport tables (seed 001): direct lighting on the GPU, the caustics component
+    /// from illumination volumes of per-vertex tables, for directional, point, spot and line
+    /// lights. Needs a Vulkan (float-blendable) adapter.
+    Transport,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
@@ -100,9 +104,13 @@ enum Cmd {
         time_budget: Option<f64>,
         /// CSL: a baked CSL set (`caustica bake csl`) for the scene's caustic object; without
         /// it every caustic object is baked (cached by content hash in CAUSTICA_CACHE or the
-        /// temp directory).
+        /// temp directory). Transport: a table (`caustica bake transport`) for one glass
+        /// object, found by its content hash; without it every glass object is baked first.
         #[arg(long)]
         bake: Option<PathBuf>,
+        /// Transport: point lights a line light is split into (§5.1).
+        #[arg(long, default_value_t = caustica::bake::transport::eval::DEFAULT_LINE_POINTS)]
+        line_points: u32,
     },
     /// Precompute a method's data for a scene.
     Bake {
@@ -200,6 +208,7 @@ fn main() -> Result<()> {
             seed,
             time_budget,
             bake,
+            line_points,
         } => {
             let mut timings: Vec<(String, Duration)> = Vec::new();
             let t = Instant::now();
@@ -213,8 +222,11 @@ fn main() -> Result<()> {
             scene::load::resolve_camera(&camera_desc(&world), &scene::Limits::default())
                 .context("--width/--height")?;
             timings.push(("load".into(), t.elapsed()));
-            if bake.is_some() && method != Method::Csl {
-                bail!("--bake is only for --method csl");
+            if bake.is_some() && !matches!(method, Method::Csl | Method::Transport) {
+                bail!("--bake is only for --method csl and --method transport");
+            }
+            if !(1..=256).contains(&line_points) {
+                bail!("--line-points must be in 1..=256");
             }
             let frames: Vec<(&str, Frame)> = match method {
                 Method::Reference => {
@@ -257,6 +269,29 @@ fn main() -> Result<()> {
                     };
                     let out =
                         renderer.render_csl(&world, &RenderOptions::default(), layer.as_ref())?;
+                    eprintln!("adapter: {}", out.adapter);
+                    timings.extend(out.timings.iter().cloned());
+                    out.components()
+                }
+                Method::Transport => {
+                    let tables = transport_tables(&world, bake.as_deref(), &mut timings)?;
+                    let t = Instant::now();
+                    let refs: Vec<(usize, &TransportTable)> =
+                        tables.iter().map(|(i, t)| (*i, t)).collect();
+                    let layer = TransportLayer::build(&world, &refs, line_points)?;
+                    timings.push(("volumes".into(), t.elapsed()));
+                    eprintln!(
+                        "{} illumination volumes from {} lit vertices, {:.3} W leaving the glass",
+                        layer.stats.volumes,
+                        layer.stats.lit_vertices,
+                        layer.stats.flux.element_sum() / 3.0
+                    );
+                    let t = Instant::now();
+                    let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
+                    let mut renderer = Renderer::new(ctx)?;
+                    timings.push(("gpu init".into(), t.elapsed()));
+                    let out =
+                        renderer.render_transport(&world, &RenderOptions::default(), &layer)?;
                     eprintln!("adapter: {}", out.adapter);
                     timings.extend(out.timings.iter().cloned());
                     out.components()
@@ -331,18 +366,9 @@ fn main() -> Result<()> {
             let world = load(&scene)?;
             let name = match object {
                 Some(n) => n,
-                None => world
-                    .objects
-                    .iter()
-                    .find(|o| {
-                        o.parts.iter().any(|p| {
-                            matches!(
-                                world.materials[p.material as usize],
-                                caustica::scene::Material::Dielectric { .. }
-                            )
-                        })
-                    })
-                    .map(|o| o.name.clone())
+                None => caustica::bake::transport::refractive_objects(&world)
+                    .first()
+                    .map(|&i| world.objects[i].name.clone())
                     .context("the scene has no glass object to bake")?,
             };
             let mut params = TransportParams::paper();
@@ -410,6 +436,52 @@ fn main() -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The transport tables of a render: the one in `bake` (for the glass object whose content
+/// hash it carries), or a fresh bake of every glass object.
+fn transport_tables(
+    world: &World,
+    bake: Option<&Path>,
+    timings: &mut Vec<(String, Duration)>,
+) -> Result<Vec<(usize, TransportTable)>> {
+    let t = Instant::now();
+    let objects = caustica::bake::transport::refractive_objects(world);
+    if objects.is_empty() {
+        bail!("method transport needs a glass (dielectric) object; the scene has none");
+    }
+    let out = if let Some(path) = bake {
+        let bytes = std::fs::read(path).with_context(|| path.display().to_string())?;
+        let table = TransportTable::from_bytes(&bytes)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let Some(&oi) = objects.iter().find(|&&i| {
+            caustica::bake::transport::source_hash(world, &world.objects[i], &table.params)
+                == table.source_hash
+        }) else {
+            bail!(
+                "{}: the table fits no glass object of this scene (baked for another mesh, \
+                 material or scale)",
+                path.display()
+            );
+        };
+        vec![(oi, table)]
+    } else {
+        let mut out = Vec::new();
+        for oi in objects {
+            let name = world.objects[oi].name.clone();
+            let bar = progress_bar(&format!("bake transport {name}"));
+            let table = bake_transport(world, &name, &TransportParams::paper(), &|p| {
+                bar.set_message(format!("bake transport {name}: {}", p.stage));
+                bar.set_position((p.fraction * 1000.0) as u64);
+                true
+            })?;
+            bar.finish_and_clear();
+            out.push((oi, table));
+        }
+        out
+    };
+    timings.push(("transport bake".into(), t.elapsed()));
+    Ok(out)
 }
 
 /// The caustic object (named, or the first glass/mirror object) and the scene's first

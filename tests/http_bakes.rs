@@ -411,3 +411,74 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
         "{p}"
     );
 }
+
+/// `method: transport` bakes the light transport table of a glass object: the artifact is the
+/// library's bytes for the same parameters; an object without glass is refused naming it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn transport_bake_job_gives_the_library_bake_bytes() {
+    use caustica::bake::transport::{TransportParams, TransportTable, bake_transport};
+    let srv = Server::start("bake-transport", |_, _| {}).await;
+    let mut scene = scene_sized(16, 16);
+    scene["objects"][1]["shape"]["segments"] = 24.into();
+    let body = serde_json::json!({
+        "scene": scene, "object": "glass", "method": "transport",
+        "params": {"rings": 4, "azimuths": 8},
+    });
+    let r = srv.post_json("/v1/bakes", &body).await;
+    assert_eq!(r.status(), 202);
+    let v: serde_json::Value = r.json().await.unwrap();
+    let id = v["id"].as_str().unwrap().to_string();
+    let done = poll(
+        "transport bake to succeed",
+        Duration::from_secs(120),
+        || async {
+            let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
+            assert_ne!(v["state"], "failed", "{v}");
+            (v["state"] == "succeeded").then_some(v)
+        },
+    )
+    .await;
+    assert_eq!(done["info"]["statistics"]["directions"], 33, "{done}");
+    let r = srv
+        .client
+        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let bytes = r.bytes().await.unwrap().to_vec();
+    TransportTable::from_bytes(&bytes).expect("a valid table");
+    let world = caustica::scene::resolve(
+        &caustica::scene::parse_scene(scene.to_string().as_bytes()).unwrap(),
+        &caustica::scene::MapSource::default(),
+        &Default::default(),
+    )
+    .unwrap();
+    let lib = tokio::task::spawn_blocking(move || {
+        let params = TransportParams {
+            rings: 4,
+            azimuths: 8,
+            ..TransportParams::paper()
+        };
+        bake_transport(&world, "glass", &params, &|_| true)
+            .unwrap()
+            .to_bytes()
+    })
+    .await
+    .unwrap();
+    assert!(
+        lib == bytes,
+        "the service's artifact differs from the library bake"
+    );
+
+    // The floor has no glass; bad parameters name their field.
+    let mut bad = body.clone();
+    bad["object"] = "floor".into();
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert!(p["detail"].as_str().unwrap().contains("glass"), "{p}");
+    let mut bad = body.clone();
+    bad["params"] = serde_json::json!({"rings": 0});
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert!(p["detail"].as_str().unwrap().contains("rings"), "{p}");
+    srv.stop().await;
+}

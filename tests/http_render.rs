@@ -338,3 +338,94 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
     assert!(p["detail"].as_str().unwrap().contains("directional"), "{p}");
     srv.stop().await;
 }
+
+/// `method: transport` bakes the glass object's table first (on the CPU pool), builds the
+/// frame's illumination volumes, renders them on the GPU, and gives the library path's image;
+/// a second render finds the table by content hash; a scene without glass is refused.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn transport_render_bakes_first_then_reuses_the_table() {
+    use caustica::bake::transport::{TransportParams, bake_transport, eval};
+    use caustica::render::{Renderer, TransportLayer};
+    let srv = Server::start("render-transport", |_, _| {}).await;
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["objects"][1]["shape"]["segments"] = 32.into();
+    let req = serde_json::json!({
+        "scene": scene, "method": "transport", "width": 64, "height": 64, "format": "exr",
+        "component": "caustics",
+    });
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200);
+    let timing = r.headers()["server-timing"].to_str().unwrap().to_string();
+    for stage in ["bake", "volumes", "gpu_wait", "encode"] {
+        assert!(timing.contains(&format!("{stage};dur=")), "{timing}");
+    }
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let got = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["method"], "transport");
+    assert_eq!(
+        rec["info"]["statistics"]["bakes"][0]["cached"], false,
+        "{rec}"
+    );
+
+    let text = scene.to_string();
+    let want = tokio::task::spawn_blocking(move || {
+        let desc = parse_scene(text.as_bytes()).unwrap();
+        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        w.camera.width = 64;
+        w.camera.height = 64;
+        let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
+        let layer = TransportLayer::build(&w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).unwrap();
+        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
+        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        r.render_transport(&w, &Default::default(), &layer)
+            .unwrap()
+            .caustics
+            .unwrap()
+    })
+    .await
+    .unwrap();
+    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    assert!(peak > 1.0, "a caustic: {peak}");
+    let worst = got
+        .pixels
+        .iter()
+        .zip(&want.pixels)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 1e-3 * peak,
+        "differs from the library by {worst} (peak {peak})"
+    );
+
+    // Again with a point light: the table serves every light, found by content hash.
+    let mut req2 = req.clone();
+    req2["lights"] =
+        serde_json::json!([{"type": "point", "position": [-1.5, 2.5, 0], "intensity": 20}]);
+    let r = srv.post_json("/v1/renders", &req2).await;
+    assert_eq!(r.status(), 200);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let img = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert!(
+        img.pixels.iter().any(|p| p.x > 0.1),
+        "a caustic under the point light"
+    );
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(
+        rec["info"]["statistics"]["bakes"][0]["cached"], true,
+        "{rec}"
+    );
+
+    // No glass in the scene: refused up front, naming the field.
+    let mut no_glass = scene.clone();
+    no_glass["objects"][1]["material"] = "floor".into();
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": no_glass, "method": "transport"}),
+        )
+        .await;
+    let p = problem(r, 422).await;
+    assert!(p["detail"].as_str().unwrap().contains("glass"), "{p}");
+    srv.stop().await;
+}

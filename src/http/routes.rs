@@ -394,9 +394,13 @@ fn canonical_bake_params(
         "csl" => {
             Ok(serde_json::to_value(CslBakeParams::from_value(&v)?).expect("params serialise"))
         }
+        "transport" => Ok(serde_json::to_value(
+            crate::jobs::transport_bake::TransportBakeParams::from_value(&v)?,
+        )
+        .expect("params serialise")),
         m => Err(AppError::invalid(
             "method",
-            format!("method: unknown bake method '{m}' (available: reference, csl)"),
+            format!("method: unknown bake method '{m}' (available: reference, csl, transport)"),
         )),
     }
 }

@@ -16,6 +16,7 @@ pub mod reference_bake;
 pub mod render;
 pub mod scenes;
 pub mod store;
+pub mod transport_bake;
 
 use crate::render::Renderer;
 use crate::scene::{SceneError, World};
@@ -194,6 +195,11 @@ pub fn build_job(
             spec.object.as_deref(),
             &spec.params,
         )?)),
+        ("bake", "transport") => Ok(Box::new(transport_bake::TransportBake::new(
+            world,
+            spec.object.as_deref(),
+            &spec.params,
+        )?)),
         ("render", _) => Ok(Box::new(render::RenderJob::new(
             world,
             &spec.method,
@@ -201,7 +207,7 @@ pub fn build_job(
             limits,
         )?)),
         ("bake", m) => Err(JobError::Params(format!(
-            "method: unknown bake method '{m}' (available: reference, csl)"
+            "method: unknown bake method '{m}' (available: reference, csl, transport)"
         ))),
         (k, _) => Err(JobError::Params(format!("unknown job kind '{k}'"))),
     }

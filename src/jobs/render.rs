@@ -116,9 +116,11 @@ impl RenderJob {
             "direct" => "direct",
             "reference" => "reference",
             "csl" => "csl",
+            "transport" => "transport",
             m => {
                 return Err(JobError::Params(format!(
-                    "method: unknown render method '{m}' (available: direct, reference, csl)"
+                    "method: unknown render method '{m}' (available: direct, reference, csl, \
+                     transport)"
                 )));
             }
         };
@@ -186,12 +188,84 @@ impl RenderJob {
                 "scene.lights: method csl needs a directional light; the scene has none".into(),
             ));
         }
+        if method == "transport" && crate::bake::transport::refractive_objects(&world).is_empty() {
+            return Err(JobError::Params(
+                "scene.objects: method transport needs a glass (dielectric) object; the scene \
+                 has none"
+                    .into(),
+            ));
+        }
         Ok(RenderJob {
             world,
             method,
             p,
             csl,
         })
+    }
+
+    /// Finds (or bakes) the transport table of every glass object on this CPU worker, builds
+    /// the frame's illumination volumes, then renders on the shared renderer.
+    fn frames_transport(
+        &self,
+        ctx: &JobCtx<'_>,
+        timings: &mut Vec<(String, Duration)>,
+    ) -> Result<Frames, JobError> {
+        use crate::jobs::transport_bake::table_for_render;
+        let cache = ctx.data_dir().join("transport-cache");
+        let objects = crate::bake::transport::refractive_objects(&self.world);
+        let t = Instant::now();
+        let mut tables = Vec::new();
+        for (k, &oi) in objects.iter().enumerate() {
+            let (table, cached) = table_for_render(&self.world, oi, &cache, &|p| {
+                ctx.progress(0.8 * (k as f32 + p.fraction) / objects.len() as f32, "bake");
+                ctx.keep_going()
+            })
+            .map_err(|e| match e {
+                BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
+                other => JobError::Params(other.to_string()),
+            })?;
+            tables.push((oi, table, cached));
+        }
+        timings.push(("bake".into(), t.elapsed()));
+        ctx.check()?;
+        ctx.progress(0.8, "volumes");
+        let t = Instant::now();
+        let refs: Vec<(usize, &crate::bake::transport::TransportTable)> =
+            tables.iter().map(|(i, t, _)| (*i, t)).collect();
+        let layer = crate::render::TransportLayer::build(
+            &self.world,
+            &refs,
+            crate::bake::transport::eval::DEFAULT_LINE_POINTS,
+        )
+        .map_err(|e| JobError::Params(e.to_string()))?;
+        timings.push(("volumes".into(), t.elapsed()));
+        ctx.progress(0.9, "render");
+        let t = Instant::now();
+        let out = ctx.with_renderer(|r| {
+            r.render_transport(&self.world, &RenderOptions::default(), &layer)
+                .map_err(|e| JobError::Render(e.to_string()))
+        })?;
+        timings.push((
+            "gpu_lock".into(),
+            t.elapsed().saturating_sub(total_of(&out.timings)),
+        ));
+        timings.extend(out.timings.iter().cloned());
+        let info = serde_json::json!({
+            "adapter": out.adapter,
+            "statistics": {
+                "volumes": layer.stats.volumes,
+                "lit_vertices": layer.stats.lit_vertices,
+                "flux_leaving_w": layer.stats.flux.to_array(),
+                "bakes": tables.iter().map(|(oi, t, cached)| serde_json::json!({
+                    "object": self.world.objects[*oi].name,
+                    "cached": cached,
+                    "source_hash": format!("{:016x}", t.source_hash),
+                    "vertices": t.vertex_count,
+                    "directions": t.params.directions(),
+                })).collect::<Vec<_>>(),
+            },
+        });
+        Ok((out.components(), info))
     }
 
     /// Bakes (or finds) the CSL sets on this CPU worker, then renders on the shared renderer.
@@ -317,6 +391,7 @@ impl Job for RenderJob {
         let (frames, mut info) = match self.method {
             "direct" => ctx.with_renderer(|r| self.frames_direct(r, &mut timings))?,
             "csl" => self.frames_csl(ctx, &mut timings)?,
+            "transport" => self.frames_transport(ctx, &mut timings)?,
             _ => self.frames_reference(ctx, &mut timings)?,
         };
         ctx.check()?;
