@@ -281,10 +281,13 @@ fn main() -> Result<()> {
                     let layer = TransportLayer::build(&world, &refs, line_points)?;
                     timings.push(("volumes".into(), t.elapsed()));
                     eprintln!(
-                        "{} illumination volumes from {} lit vertices, {:.3} W leaving the glass",
+                        "{} illumination volumes ({} of reflected light) from {} lit vertices, \
+                         {:.3} W leaving the glass, {:.3} W reflected",
                         layer.stats.volumes,
+                        layer.stats.reflection_volumes,
                         layer.stats.lit_vertices,
-                        layer.stats.flux.element_sum() / 3.0
+                        layer.stats.flux.element_sum() / 3.0,
+                        layer.stats.reflected_flux.element_sum() / 3.0
                     );
                     let t = Instant::now();
                     let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);

@@ -256,6 +256,8 @@ impl RenderJob {
                 "volumes": layer.stats.volumes,
                 "lit_vertices": layer.stats.lit_vertices,
                 "flux_leaving_w": layer.stats.flux.to_array(),
+                "reflection_volumes": layer.stats.reflection_volumes,
+                "flux_reflected_w": layer.stats.reflected_flux.to_array(),
                 "bakes": tables.iter().map(|(oi, t, cached)| serde_json::json!({
                     "object": self.world.objects[*oi].name,
                     "cached": cached,

@@ -71,18 +71,23 @@ impl TransportLayer {
             caustic_objects: caustic_objects.clone(),
             ..Default::default()
         };
+        let scene =
+            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
             let name = &world.objects[oi].name;
             let (v, s) = eval::build_volumes(world, name, table, &sources, Some(&blockers))?;
+            let (r, rs) =
+                eval::build_reflection_volumes(world, name, &sources, &scene, Some(&blockers))?;
             layer.volumes.extend(v);
+            layer.volumes.extend(r);
             layer.stats.vertices += s.vertices;
             layer.stats.lit_vertices += s.lit_vertices;
-            layer.stats.volumes += s.volumes;
+            layer.stats.volumes += s.volumes + rs.volumes;
             layer.stats.flux += s.flux;
+            layer.stats.reflection_volumes += rs.reflection_volumes;
+            layer.stats.reflected_flux += rs.reflected_flux;
         }
         // Viewing rays through each object see the others' caustics too.
-        let scene =
-            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
             let view = crate::bake::transport::view::view_refraction(
                 world,
