@@ -117,15 +117,26 @@ pub fn view_refraction(
             plo = plo.min(*p);
             phi = phi.max(*p);
         }
-        let res = ((pts.len() as f32).cbrt().ceil() as usize).clamp(1, 64);
+        // Receivers are surfaces: cells sized for about one point each over the two longest
+        // extents (a cube root of the count per axis would put a flat floor's points into a
+        // few thick cells, and a long beam's bounds would test most of them).
         let ext = (phi - plo).max(Vec3::splat(1e-6));
+        let thin = ext.min_position();
+        let mut e = ext.to_array();
+        e.sort_by(f32::total_cmp);
+        let side = (e[1] * e[2] / pts.len() as f32).sqrt().max(1e-6);
+        let res = (ext / side)
+            .ceil()
+            .clamp(Vec3::ONE, Vec3::splat(256.0))
+            .as_uvec3();
+        let resf = res.as_vec3();
         let cell_of = |p: Vec3| {
-            let c = ((p - plo) / ext * res as f32).floor();
-            c.clamp(Vec3::ZERO, Vec3::splat(res as f32 - 1.0))
-                .as_uvec3()
+            let c = ((p - plo) / ext * resf).floor();
+            c.clamp(Vec3::ZERO, resf - Vec3::ONE).as_uvec3()
         };
-        let idx = |c: glam::UVec3| (c.z as usize * res + c.y as usize) * res + c.x as usize;
-        let mut start = vec![0usize; res * res * res + 1];
+        let (rx, ry) = (res.x as usize, res.y as usize);
+        let idx = |c: glam::UVec3| (c.z as usize * ry + c.y as usize) * rx + c.x as usize;
+        let mut start = vec![0usize; rx * ry * res.z as usize + 1];
         for (_, p, _) in &pts {
             start[idx(cell_of(*p)) + 1] += 1;
         }
@@ -144,10 +155,27 @@ pub fn view_refraction(
             .fold(
                 || vec![Vec3::ZERO; pts.len()],
                 |mut acc, vol| {
+                    // Bounds of the volume's rays where they cross the points' slab along
+                    // its thinnest axis (a long beam over a floor covers its landing, not
+                    // all the cells below its path).
                     let (mut vlo, mut vhi) =
                         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                     for k in 0..3 {
-                        for q in [vol.exits[k], vol.exits[k] + vol.dirs[k] * vol.length] {
+                        let (e, d) = (vol.exits[k], vol.dirs[k]);
+                        let (ea, da) = (e[thin], d[thin]);
+                        let (t0, t1) = if da.abs() < 1e-6 {
+                            if ea < plo[thin] || ea > phi[thin] {
+                                continue;
+                            }
+                            (0.0, vol.length)
+                        } else {
+                            let (a, b) = ((plo[thin] - ea) / da, (phi[thin] - ea) / da);
+                            (a.min(b).max(0.0), a.max(b).min(vol.length))
+                        };
+                        if t0 > t1 {
+                            continue;
+                        }
+                        for q in [e + d * t0, e + d * t1] {
                             vlo = vlo.min(q);
                             vhi = vhi.max(q);
                         }
