@@ -125,6 +125,7 @@ pub fn view_refraction(
         let mut e = ext.to_array();
         e.sort_by(f32::total_cmp);
         let side = (e[1] * e[2] / pts.len() as f32).sqrt().max(1e-6);
+        let flat = e[0] <= 1e-3 * e[1];
         let res = (ext / side)
             .ceil()
             .clamp(Vec3::ONE, Vec3::splat(256.0))
@@ -155,15 +156,19 @@ pub fn view_refraction(
             .fold(
                 || vec![Vec3::ZERO; pts.len()],
                 |mut acc, vol| {
-                    // Bounds of the volume's rays where they cross the points' slab along
-                    // its thinnest axis (a long beam over a floor covers its landing, not
-                    // all the cells below its path).
+                    // Bounds of the volume's rays over the points. When the points lie in a
+                    // plane (a floor), their receivers' tangent plane is that plane and the
+                    // cross-sections are where the rays cross it: a long beam over a floor
+                    // covers its landing, not all the cells below its path. Otherwise, its
+                    // exits and far ends.
                     let (mut vlo, mut vhi) =
                         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
                     for k in 0..3 {
                         let (e, d) = (vol.exits[k], vol.dirs[k]);
                         let (ea, da) = (e[thin], d[thin]);
-                        let (t0, t1) = if da.abs() < 1e-6 {
+                        let (t0, t1) = if !flat {
+                            (0.0, vol.length)
+                        } else if da.abs() < 1e-6 {
                             if ea < plo[thin] || ea > phi[thin] {
                                 continue;
                             }
