@@ -653,6 +653,13 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
                 "no_gpu" => (StatusCode::SERVICE_UNAVAILABLE, "no-gpu", "No GPU"),
                 "timeout" => (StatusCode::GATEWAY_TIMEOUT, "job-timeout", "Job time limit"),
                 "canceled" => (StatusCode::CONFLICT, "canceled", "Canceled"),
+                // Input that only the work itself finds unworkable (e.g. more illumination
+                // volumes than a frame may hold).
+                "invalid_params" | "invalid_input" => (
+                    StatusCode::UNPROCESSABLE_ENTITY,
+                    "invalid-render",
+                    "Render input cannot be rendered",
+                ),
                 _ => (
                     StatusCode::INTERNAL_SERVER_ERROR,
                     "render-failed",

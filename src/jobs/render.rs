@@ -211,6 +211,11 @@ impl RenderJob {
         timings: &mut Vec<(String, Duration)>,
     ) -> Result<Frames, JobError> {
         use crate::jobs::transport_bake::table_for_render;
+        // An adapter that cannot draw the volumes fails the render before any bake.
+        ctx.with_renderer(|r| match r.transport_unsupported() {
+            Some(why) => Err(JobError::NoGpu(why)),
+            None => Ok(()),
+        })?;
         let cache = ctx.data_dir().join("transport-cache");
         let objects = crate::bake::transport::refractive_objects(&self.world);
         let t = Instant::now();

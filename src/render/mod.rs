@@ -229,6 +229,22 @@ impl Renderer {
         self.render_with(world, opts, csl.map_or(Caustics::None, Caustics::Csl))
     }
 
+    /// Why this adapter cannot render method `transport` (None when it can): the volume pass
+    /// blends into a 32-bit float layer.
+    pub fn transport_unsupported(&self) -> Option<String> {
+        (!self
+            .ctx
+            .features()
+            .contains(wgpu::Features::FLOAT32_BLENDABLE))
+        .then(|| {
+            format!(
+                "method transport blends into a 32-bit float layer, which adapter {} cannot \
+                 (no FLOAT32_BLENDABLE; use a Vulkan adapter, e.g. CAUSTICA_BACKEND=vulkan)",
+                self.ctx.adapter_info()
+            )
+        })
+    }
+
     /// Renders `world` and its caustics layer from the illumination volumes of `layer`
     /// (`RenderOutput::caustics` is then `Some`).
     pub fn render_transport(
@@ -272,16 +288,9 @@ impl Renderer {
             _ => None,
         };
         if tl.is_some()
-            && !self
-                .ctx
-                .features()
-                .contains(wgpu::Features::FLOAT32_BLENDABLE)
+            && let Some(why) = self.transport_unsupported()
         {
-            return Err(RenderError::Limit(format!(
-                "method transport blends into a 32-bit float layer, which adapter {} cannot \
-                 (no FLOAT32_BLENDABLE; use a Vulkan adapter, e.g. CAUSTICA_BACKEND=vulkan)",
-                self.ctx.adapter_info()
-            )));
+            return Err(RenderError::Limit(why));
         }
         let t0 = Instant::now();
         let mut timings = Vec::new();
