@@ -49,6 +49,10 @@ struct VsOut {
 // drawn as a fan of at most four triangles.
 const HULL_VERTICES: u32 = 12u;
 
+// Clip-space w of the plane just in front of the eye that volumes crossing behind it are cut
+// at.
+const NEAR_W: f32 = 1e-4;
+
 @vertex
 fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VsOut {
     let v = volumes[ii];
@@ -61,23 +65,53 @@ fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -
     out.volume = ii;
     // Pixel coordinates of the corners (y up, like NDC).
     var pts: array<vec2<f32>, 6>;
-    var whole = false;
+    var clip: array<vec4<f32>, 6>;
+    var behind = false;
     let half = 0.5 * g.viewport.xy;
     for (var k = 0u; k < 6u; k++) {
         let c = g.view_proj * vec4<f32>(corners[k], 1.0);
-        if c.w <= 1e-6 {
-            whole = true;
+        clip[k] = c;
+        if c.w <= NEAR_W {
+            behind = true;
         } else {
             pts[k] = (c.xy / c.w + 1.0) * half;
         }
     }
-    if whole {
-        // A corner behind the eye: the whole screen (two triangles, the rest degenerate).
-        var uv = array<vec2<f32>, 6>(
-            vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
-            vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
+    if behind {
+        // Corners behind the eye: the volume (the convex hull of its corners) cut by the plane
+        // just in front of it has as vertices the corners in front and the points where the
+        // edges between a corner in front and one behind cross that plane; drawn as the
+        // rectangle around them projected (two triangles, the rest degenerate), nothing when
+        // no corner is in front.
+        var lo = vec2<f32>(3.0e38);
+        var hi = vec2<f32>(-3.0e38);
+        for (var i = 0u; i < 6u; i++) {
+            if clip[i].w <= NEAR_W {
+                continue;
+            }
+            lo = min(lo, pts[i]);
+            hi = max(hi, pts[i]);
+            for (var j = 0u; j < 6u; j++) {
+                if clip[j].w > NEAR_W {
+                    continue;
+                }
+                let f = (clip[i].w - NEAR_W) / (clip[i].w - clip[j].w);
+                let c = mix(clip[i], clip[j], f);
+                let q = (c.xy / NEAR_W + 1.0) * half;
+                lo = min(lo, q);
+                hi = max(hi, q);
+            }
+        }
+        if vi >= 6u || lo.x > hi.x {
+            out.clip = vec4<f32>(0.0, 0.0, 0.0, 0.0);
+            return out;
+        }
+        lo = max(lo - vec2<f32>(1.5), vec2<f32>(-1.0));
+        hi = min(hi + vec2<f32>(1.5), g.viewport.xy + vec2<f32>(1.0));
+        var rect = array<vec2<f32>, 6>(
+            lo, vec2<f32>(hi.x, lo.y), hi, lo, hi, vec2<f32>(lo.x, hi.y),
         );
-        out.clip = vec4<f32>(uv[min(vi, 5u)], 0.0, select(1.0, 0.0, vi >= 6u));
+        out.clip = vec4<f32>(rect[vi] / half - 1.0, 0.0, 1.0);
         return out;
     }
     // Sort by x, then y (insertion sort of six), then Andrew's monotone chain.

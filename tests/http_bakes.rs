@@ -480,5 +480,15 @@ async fn transport_bake_job_gives_the_library_bake_bytes() {
     bad["params"] = serde_json::json!({"rings": 0});
     let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
     assert!(p["detail"].as_str().unwrap().contains("rings"), "{p}");
+    // A table that would not fit in memory is refused before any tracing, with its sizes.
+    let mut big = body.clone();
+    big["scene"]["objects"][1]["shape"]["segments"] = 96.into();
+    big["params"] = serde_json::json!({"rings": 64, "azimuths": 256});
+    let p = problem(srv.post_json("/v1/bakes", &big).await, 422).await;
+    let detail = p["detail"].as_str().unwrap();
+    assert!(
+        detail.contains("16385 sampling directions") && detail.contains("table samples"),
+        "{p}"
+    );
     srv.stop().await;
 }

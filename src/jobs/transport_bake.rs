@@ -77,6 +77,9 @@ impl TransportBake {
                  refractive objects"
             )));
         }
+        let vertices = crate::bake::transport::table_vertices(&world, &world.objects[oi]).len();
+        crate::bake::transport::check_table_size(vertices, &params.params())
+            .map_err(|e| JobError::Params(format!("params: {e}")))?;
         Ok(TransportBake {
             world,
             object: object.into(),

@@ -76,8 +76,7 @@ impl TransportLayer {
         for &(oi, table) in tables {
             let name = &world.objects[oi].name;
             let (v, s) = eval::build_volumes(world, name, table, &sources, Some(&blockers))?;
-            let (r, rs) =
-                eval::build_reflection_volumes(world, name, &sources, &scene, Some(&blockers))?;
+            let (r, rs) = eval::build_reflection_volumes(world, name, &sources, Some(&blockers))?;
             layer.volumes.extend(v);
             layer.volumes.extend(r);
             layer.stats.vertices += s.vertices;
@@ -86,6 +85,12 @@ impl TransportLayer {
             layer.stats.flux += s.flux;
             layer.stats.reflection_volumes += rs.reflection_volumes;
             layer.stats.reflected_flux += rs.reflected_flux;
+            if layer.volumes.len() > eval::MAX_VOLUMES {
+                return Err(EvalError::TooManyVolumes {
+                    limit: eval::MAX_VOLUMES,
+                    light_sources: sources.len(),
+                });
+            }
         }
         // Viewing rays through each object see the others' caustics too.
         for &(oi, table) in tables {

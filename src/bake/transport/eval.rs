@@ -15,8 +15,9 @@
 //!   point and spot (per vertex, with 1/r² and Mitsuba's spot falloff), line lights as N point
 //!   lights (§5.1).
 //! - **Volumes** ([`build_volumes`]): a triangle is lit when its three vertices are (the light
-//!   comes from above each vertex's tangent plane, its table sample transmits, nothing of the
-//!   rest of the scene lies between the vertex and the light). Its volume holds the three exit
+//!   comes from above each vertex's tangent plane, its table sample transmits, nothing opaque
+//!   lies between the vertex and the light: other glass objects let it through as if they were
+//!   clear, their own caustics being their volumes). Its volume holds the three exit
 //!   points eᵢ and directions dᵢ and, per corner, the flux per unit triangle area entering
 //!   there and leaving the object: Fᵢ = Eᵢ · max(0, −ωᵢ·n_tri) · Tᵢ (Eq. 2's L_in cos θ F_t).
 //! - **Irradiance** ([`Volume::arrival`]): Eq. 2, L_p = L_in cos θ · F_t · F_p · ρ_d with the
@@ -450,6 +451,25 @@ pub enum EvalError {
         table: u64,
         object_hash: u64,
     },
+    #[error(
+        "the lights sweep more than {limit} illumination volumes over the glass ({light_sources} \
+         light sources, line lights counting as their points); use fewer lights (or fewer \
+         points per line light) or a coarser glass mesh"
+    )]
+    TooManyVolumes { limit: usize, light_sources: usize },
+}
+
+/// Most illumination volumes one frame may hold (144 bytes each on the GPU: 288 MB).
+pub const MAX_VOLUMES: usize = 2_000_000;
+
+fn check_volume_count(count: usize, sources: &[Source]) -> Result<(), EvalError> {
+    if count > MAX_VOLUMES {
+        return Err(EvalError::TooManyVolumes {
+            limit: MAX_VOLUMES,
+            light_sources: sources.len(),
+        });
+    }
+    Ok(())
 }
 
 /// A vertex the light reaches: its exit (world space), the light's travel direction (rigid
@@ -609,7 +629,7 @@ fn emit(
 
 /// The illumination volumes of object `object_name` (with its `table`) for `sources`, in world
 /// space. `blockers` holds what may shadow the object's vertices from the light (the scene
-/// without the object); `None` shadows nothing.
+/// without its caustic objects: other glass is taken as clear); `None` shadows nothing.
 pub fn build_volumes(
     world: &World,
     object_name: &str,
@@ -683,6 +703,7 @@ pub fn build_volumes(
         };
         stats.lit_vertices += lit.iter().filter(|l| l.is_some()).count();
         stats.flux += glass.sweep(&lit, blockers.is_some(), (lo, hi), &mut volumes);
+        check_volume_count(volumes.len(), sources)?;
     }
     stats.volumes = volumes.len();
     Ok((volumes, stats))
@@ -695,15 +716,14 @@ pub fn build_volumes(
 /// and a lit triangle sweeps its three mirror rays into an illumination volume exactly like
 /// its exit rays (Fᵢ = Eᵢ cos θᵢ Rᵢ, the same Eq. 2 at the receiver). It carries the light the
 /// table's (1 − R) at entry leaves out, so the two together conserve the light that falls on
-/// the glass. A vertex is lit when nothing of the whole `scene` (the object included) lies
-/// between it and the light; a mirror ray that meets the object again (light reflected into
-/// another part of it) is not followed, and its triangles sweep no volume. `blockers` is the
-/// scene without the object, as for [`build_volumes`].
+/// the glass. Shadows as for [`build_volumes`]: a vertex is lit when neither the object itself
+/// (the tables' self-occlusion flag, here traced) nor `blockers` (the scene without its caustic
+/// objects) lies between it and the light; a mirror ray that meets the object again (light
+/// reflected into another part of it) is not followed, and its triangles sweep no volume.
 pub fn build_reflection_volumes(
     world: &World,
     object_name: &str,
     sources: &[Source],
-    scene: &Accel,
     blockers: Option<&Accel>,
 ) -> Result<(Vec<Volume>, VolumeStats), EvalError> {
     let oi = world
@@ -712,6 +732,7 @@ pub fn build_reflection_volumes(
         .position(|o| o.name == object_name)
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
     let glass = Glass::new(world, &world.objects[oi]);
+    let own = Accel::build_with(world, |i| i == oi, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = world.bounds();
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
     let mut stats = VolumeStats {
@@ -736,15 +757,17 @@ pub fn build_reflection_volumes(
                     }
                     let o = pw + n * (1e-4 * scale);
                     let (to, dist) = src.towards(pw);
-                    if scene.occluded(o, to, dist) {
+                    if own.occluded(o, to, dist)
+                        || blockers.is_some_and(|b| b.occluded(o, to, dist))
+                    {
                         return None;
                     }
                     let dir = reflect(w, n);
-                    let reach = match scene.intersect(o, dir, f32::INFINITY) {
-                        Some(h) if h.object as usize == oi => return None,
-                        Some(h) => Some(h.t),
-                        None => None,
-                    };
+                    if own.occluded(o, dir, f32::INFINITY) {
+                        return None;
+                    }
+                    let reach =
+                        blockers.and_then(|b| b.intersect(o, dir, f32::INFINITY).map(|h| h.t));
                     let exit = Exit {
                         position: pw,
                         direction: dir,
@@ -756,6 +779,7 @@ pub fn build_reflection_volumes(
         };
         stats.lit_vertices += lit.iter().filter(|l| l.is_some()).count();
         stats.reflected_flux += glass.sweep(&lit, blockers.is_some(), (lo, hi), &mut volumes);
+        check_volume_count(volumes.len(), sources)?;
     }
     stats.volumes = volumes.len();
     stats.reflection_volumes = volumes.len();
@@ -777,22 +801,41 @@ fn box_exit(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 }
 
 /// The image-space rectangle (pixels, inclusive-exclusive) a volume can cover: the bounds of
-/// its six corners (exits and far ends) projected; the whole image when a corner is behind the
-/// camera. `None` when it lies off the image.
+/// its six corners (exits and far ends) projected. Where corners lie behind the eye, the
+/// volume (the convex hull of its corners) is cut by a plane just in front of it: the corners
+/// in front and the points where the edges between one in front and one behind cross that
+/// plane (as the GPU pass does). `None` when it lies off the image or wholly behind the eye.
 pub fn screen_bounds(cam: &crate::scene::Camera, v: &Volume) -> Option<[u32; 4]> {
+    const NEAR: f32 = 1e-4;
     let (w, h) = (cam.width as f32, cam.height as f32);
+    let (_, _, forward) = cam.basis();
+    let mut corners = [Vec3::ZERO; 6];
+    for i in 0..3 {
+        corners[i] = v.exits[i];
+        corners[i + 3] = v.exits[i] + v.dirs[i] * v.length;
+    }
+    let depth = corners.map(|p| (p - cam.eye).dot(forward));
     let mut lo = glam::Vec2::splat(f32::INFINITY);
     let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
-    for i in 0..3 {
-        for p in [v.exits[i], v.exits[i] + v.dirs[i] * v.length] {
-            let Some((x, y, _)) = cam.project(p) else {
-                return Some([0, 0, cam.width, cam.height]);
-            };
+    let mut add = |p: Vec3| {
+        if let Some((x, y, _)) = cam.project(p) {
             lo = lo.min(glam::Vec2::new(x, y));
             hi = hi.max(glam::Vec2::new(x, y));
         }
+    };
+    for i in 0..6 {
+        if depth[i] <= NEAR {
+            continue;
+        }
+        add(corners[i]);
+        for j in 0..6 {
+            if depth[j] <= NEAR {
+                let f = (depth[i] - NEAR) / (depth[i] - depth[j]);
+                add(corners[i].lerp(corners[j], f));
+            }
+        }
     }
-    if hi.x < 0.0 || hi.y < 0.0 || lo.x > w || lo.y > h {
+    if lo.x > hi.x || hi.x < 0.0 || hi.y < 0.0 || lo.x > w || lo.y > h {
         return None;
     }
     Some([
@@ -912,6 +955,63 @@ mod tests {
     /// A prism of parallel rays: the irradiance is the flux density times cos, everywhere in
     /// the beam, and nothing outside it; a beam converging to half its size at the receiver is
     /// four times as bright there; a pixel footprint half inside gets half.
+    /// Volumes that reach behind the eye are cut at the plane in front of it, not drawn over
+    /// the whole image: the rectangle still holds every pixel of a floor they light (brute
+    /// force over the image), and is smaller than the image.
+    #[test]
+    fn screen_bounds_of_volumes_behind_the_eye_hold_what_they_light() {
+        let cam = crate::scene::Camera {
+            eye: Vec3::new(0.0, 1.0, 0.0),
+            target: Vec3::new(0.0, 0.0, -3.0),
+            up: Vec3::Y,
+            fov_y: 60.0,
+            width: 64,
+            height: 48,
+        };
+        let rays = cam.rays();
+        let mut checked = 0;
+        for (k, spread) in [(0, 0.05f32), (1, 0.2), (2, 0.5)] {
+            // Beams from ahead of the eye, coming back down past it onto the floor and beyond.
+            let e = Vec3::new(0.3 * k as f32 - 0.3, 1.5, -4.0);
+            let d = Vec3::new(0.1, -0.6, 1.0).normalize();
+            let v = Volume {
+                exits: [
+                    e,
+                    e + Vec3::new(spread, 0.0, 0.0),
+                    e + Vec3::new(0.0, 0.0, spread),
+                ],
+                dirs: [d, (d + Vec3::new(0.05, 0.0, 0.0)).normalize(), d],
+                flux_density: [Vec3::ONE; 3],
+                source_area: 0.5 * spread * spread,
+                length: 12.0,
+            };
+            let behind = (0..3)
+                .any(|i| (v.exits[i] + v.dirs[i] * v.length - cam.eye).dot(cam.basis().2) <= 0.0);
+            assert!(behind);
+            let [x0, y0, x1, y1] = screen_bounds(&cam, &v).expect("in view");
+            assert!((x1 - x0) * (y1 - y0) < cam.width * cam.height, "{k}");
+            for y in 0..cam.height {
+                for x in 0..cam.width {
+                    let dir = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+                    if dir.y >= 0.0 {
+                        continue;
+                    }
+                    let p = cam.eye + dir * (cam.eye.y / -dir.y);
+                    let fp = footprint(&cam, &rays, x, y, p, Vec3::Y);
+                    if v.arrival(p, Vec3::Y, fp.as_ref()).is_some() {
+                        checked += 1;
+                        assert!(
+                            (x0..x1).contains(&x) && (y0..y1).contains(&y),
+                            "pixel ({x}, {y}) lit outside {:?}",
+                            [x0, y0, x1, y1]
+                        );
+                    }
+                }
+            }
+        }
+        assert!(checked > 20, "{checked}");
+    }
+
     #[test]
     fn volume_irradiance_is_the_flux_ratio() {
         let down = Vec3::NEG_Y;

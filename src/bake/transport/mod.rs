@@ -359,6 +359,7 @@ pub fn bake_transport(
     if vertices.is_empty() {
         return Err(BakeError::NotRefractive(object_name.to_string()));
     }
+    check_table_size(vertices.len(), params)?;
     let local = super::csl::rigid_frame_world(world, object);
     let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = local.bounds();
@@ -443,6 +444,23 @@ pub fn bake_transport(
         fraction: 1.0,
     });
     Ok(table)
+}
+
+/// Most samples (vertices × directions) one table may hold: 12–14 bytes each stored, about 90
+/// while baking (traced samples, their copy and the records), so about 3 GB at the limit.
+pub const MAX_TABLE_SAMPLES: u64 = 32 << 20;
+
+/// Refuses a table of more than [`MAX_TABLE_SAMPLES`] samples, naming the sizes.
+pub fn check_table_size(vertices: usize, params: &TransportParams) -> Result<(), BakeError> {
+    let samples = vertices as u64 * params.directions() as u64;
+    if samples > MAX_TABLE_SAMPLES {
+        return Err(BakeError::InvalidParams(format!(
+            "{vertices} vertices × {} sampling directions is {samples} table samples, more than \
+             {MAX_TABLE_SAMPLES}; use fewer rings or azimuths, or a coarser mesh",
+            params.directions()
+        )));
+    }
+    Ok(())
 }
 
 /// Indices into `World::objects` of the objects with a dielectric part (those a table can be
