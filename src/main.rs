@@ -105,7 +105,7 @@ enum Cmd {
         /// CSL: a baked CSL set (`caustica bake csl`) for the scene's caustic object; without
         /// it every caustic object is baked (cached by content hash in CAUSTICA_CACHE or the
         /// temp directory). Transport: a table (`caustica bake transport`) for one glass
-        /// object, found by its content hash; without it every glass object is baked first.
+        /// object, found by its content hash; every other glass object is baked first.
         #[arg(long)]
         bake: Option<PathBuf>,
         /// Transport: point lights a line light is split into (§5.1).
@@ -453,36 +453,43 @@ fn transport_tables(
     if objects.is_empty() {
         bail!("method transport needs a glass (dielectric) object; the scene has none");
     }
-    let out = if let Some(path) = bake {
-        let bytes = std::fs::read(path).with_context(|| path.display().to_string())?;
-        let table = TransportTable::from_bytes(&bytes)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        let Some(&oi) = objects.iter().find(|&&i| {
-            caustica::bake::transport::source_hash(world, &world.objects[i], &table.params)
-                == table.source_hash
-        }) else {
-            bail!(
-                "{}: the table fits no glass object of this scene (baked for another mesh, \
-                 material or scale)",
-                path.display()
-            );
-        };
-        vec![(oi, table)]
-    } else {
-        let mut out = Vec::new();
-        for oi in objects {
-            let name = world.objects[oi].name.clone();
-            let bar = progress_bar(&format!("bake transport {name}"));
-            let table = bake_transport(world, &name, &TransportParams::paper(), &|p| {
-                bar.set_message(format!("bake transport {name}: {}", p.stage));
-                bar.set_position((p.fraction * 1000.0) as u64);
-                true
-            })?;
-            bar.finish_and_clear();
-            out.push((oi, table));
+    // A given table serves the glass object it was baked for (found by content hash); every
+    // other glass object is baked here, so that all of them cast caustics.
+    let mut given = match bake {
+        Some(path) => {
+            let bytes = std::fs::read(path).with_context(|| path.display().to_string())?;
+            let table = TransportTable::from_bytes(&bytes)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            let Some(&oi) = objects.iter().find(|&&i| {
+                caustica::bake::transport::source_hash(world, &world.objects[i], &table.params)
+                    == table.source_hash
+            }) else {
+                bail!(
+                    "{}: the table fits no glass object of this scene (baked for another mesh, \
+                     material or scale)",
+                    path.display()
+                );
+            };
+            Some((oi, table))
         }
-        out
+        None => None,
     };
+    let mut out = Vec::new();
+    for oi in objects {
+        if given.as_ref().is_some_and(|g| g.0 == oi) {
+            out.extend(given.take());
+            continue;
+        }
+        let name = world.objects[oi].name.clone();
+        let bar = progress_bar(&format!("bake transport {name}"));
+        let table = bake_transport(world, &name, &TransportParams::paper(), &|p| {
+            bar.set_message(format!("bake transport {name}: {}", p.stage));
+            bar.set_position((p.fraction * 1000.0) as u64);
+            true
+        })?;
+        bar.finish_and_clear();
+        out.push((oi, table));
+    }
     timings.push(("transport bake".into(), t.elapsed()));
     Ok(out)
 }

@@ -641,7 +641,9 @@ pub fn build_volumes(
         .object(object_name)
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
     let expect = super::source_hash(world, object, &table.params);
-    if expect != table.source_hash {
+    if expect != table.source_hash
+        || table.vertex_count as usize != table_vertices(world, object).len()
+    {
         return Err(EvalError::Mismatch {
             object: object_name.to_string(),
             table: table.source_hash,
