@@ -389,6 +389,18 @@ fn a_mirrored_object_casts_the_same_caustic() {
     );
 }
 
+/// Building a frame's volumes stops when told to (a canceled or timed-out render job).
+#[test]
+fn building_the_volumes_can_be_canceled() {
+    let world = sphere_scene("scenes/glass-sphere-directional.json", 16, |s| s);
+    let table = bake(&world, 4, 8);
+    let tables = [(glass_index(&world), &table)];
+    let err = TransportLayer::build_with(&world, &tables, 16, &|| false).unwrap_err();
+    assert!(matches!(err, eval::EvalError::Canceled), "{err}");
+    let layer = TransportLayer::build_with(&world, &tables, 16, &|| true).unwrap();
+    assert!(layer.stats.volumes > 0);
+}
+
 /// Caustics against the stored references (caustics component, floor pixels, 3×3 blur), for
 /// the three lights of the canonical sphere, at the paper's 129 directions and at 513. The
 /// layer holds the tables' refracted light and the light the glass reflects (7 % of the

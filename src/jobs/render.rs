@@ -237,12 +237,18 @@ impl RenderJob {
         let t = Instant::now();
         let refs: Vec<(usize, &crate::bake::transport::TransportTable)> =
             tables.iter().map(|(i, t, _)| (*i, t)).collect();
-        let layer = crate::render::TransportLayer::build(
+        let layer = crate::render::TransportLayer::build_with(
             &self.world,
             &refs,
             crate::bake::transport::eval::DEFAULT_LINE_POINTS,
+            &|| ctx.keep_going(),
         )
-        .map_err(|e| JobError::Params(e.to_string()))?;
+        .map_err(|e| match e {
+            crate::bake::transport::eval::EvalError::Canceled => {
+                ctx.check().err().unwrap_or(JobError::Canceled)
+            }
+            other => JobError::Params(other.to_string()),
+        })?;
         timings.push(("volumes".into(), t.elapsed()));
         ctx.progress(0.9, "render");
         let t = Instant::now();

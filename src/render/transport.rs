@@ -60,6 +60,25 @@ impl TransportLayer {
         tables: &[(usize, &TransportTable)],
         line_points: u32,
     ) -> Result<TransportLayer, EvalError> {
+        Self::build_with(world, tables, line_points, &|| true)
+    }
+
+    /// [`TransportLayer::build`] that stops with [`EvalError::Canceled`] soon after
+    /// `keep_going` returns false (checked between objects and stages, and while gathering the
+    /// caustics seen through the glass).
+    pub fn build_with(
+        world: &World,
+        tables: &[(usize, &TransportTable)],
+        line_points: u32,
+        keep_going: &(dyn Fn() -> bool + Sync),
+    ) -> Result<TransportLayer, EvalError> {
+        let go = || {
+            if keep_going() {
+                Ok(())
+            } else {
+                Err(EvalError::Canceled)
+            }
+        };
         let sources: Vec<Source> = eval::sources(&world.lights, line_points);
         let caustic_objects: Vec<usize> = tables.iter().map(|t| t.0).collect();
         let blockers = crate::trace::Accel::build_with(
@@ -74,8 +93,10 @@ impl TransportLayer {
         let scene =
             crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
+            go()?;
             let name = &world.objects[oi].name;
             let (v, s) = eval::build_volumes(world, name, table, &sources, Some(&blockers))?;
+            go()?;
             let (r, rs) = eval::build_reflection_volumes(world, name, &sources, Some(&blockers))?;
             layer.volumes.extend(v);
             layer.volumes.extend(r);
@@ -103,6 +124,7 @@ impl TransportLayer {
                 &layer.volumes,
                 &blockers,
                 &scene,
+                keep_going,
             )?;
             layer.view.push((oi, view));
         }

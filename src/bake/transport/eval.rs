@@ -457,6 +457,8 @@ pub enum EvalError {
          points per line light) or a coarser glass mesh"
     )]
     TooManyVolumes { limit: usize, light_sources: usize },
+    #[error("canceled")]
+    Canceled,
 }
 
 /// Most illumination volumes one frame may hold (144 bytes each on the GPU: 288 MB).

@@ -19,7 +19,8 @@ use glam::Vec3;
 /// the environment's light (diffuse lobe, unshadowed, as the direct pass); where the ray leaves
 /// the scene, the environment in its direction. The renderer interpolates the vertex values
 /// across the object's triangles, as the paper maps the sliced object images with texture
-/// coordinates at the vertices.
+/// coordinates at the vertices. Stops with [`EvalError::Canceled`] soon after `keep_going`
+/// returns false.
 #[allow(clippy::too_many_arguments)]
 pub fn view_refraction(
     world: &World,
@@ -30,6 +31,7 @@ pub fn view_refraction(
     volumes: &[Volume],
     blockers: &Accel,
     scene: &Accel,
+    keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<Vec<[f32; 4]>, EvalError> {
     use rayon::prelude::*;
     let object = world
@@ -151,11 +153,18 @@ pub fn view_refraction(
             order[fill[c]] = k;
             fill[c] += 1;
         }
+        let stop = std::sync::atomic::AtomicBool::new(false);
         let acc = volumes
             .par_iter()
+            .enumerate()
             .fold(
                 || vec![Vec3::ZERO; pts.len()],
-                |mut acc, vol| {
+                |mut acc, (k, vol)| {
+                    use std::sync::atomic::Ordering::Relaxed;
+                    if stop.load(Relaxed) || (k % 1024 == 0 && !keep_going()) {
+                        stop.store(true, Relaxed);
+                        return acc;
+                    }
                     // Bounds of the volume's rays over the points. When the points lie in a
                     // plane (a floor), their receivers' tangent plane is that plane and the
                     // cross-sections are where the rays cross it: a long beam over a floor
@@ -228,6 +237,9 @@ pub fn view_refraction(
                     a
                 },
             );
+        if stop.into_inner() {
+            return Err(EvalError::Canceled);
+        }
         for (k, (vi, _, _)) in pts.iter().enumerate() {
             caustic[*vi] = acc[k];
         }
