@@ -128,3 +128,14 @@ fn sh_irradiance(sh: array<vec4<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
     e += sh[8].rgb * (0.546274 * (n.x * n.x - n.y * n.y));
     return max(e, vec3<f32>(0.0));
 }
+
+// Unit geometric normal from the screen derivatives dx, dy of the world position, turned to the
+// side of the shading normal n (n itself where the derivatives are degenerate).
+fn facing_geometric_normal(dx: vec3<f32>, dy: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let ng = cross(dx, dy);
+    let l = length(ng);
+    if l <= 0.0 {
+        return n;
+    }
+    return select(ng / l, -ng / l, dot(ng, n) < 0.0);
+}

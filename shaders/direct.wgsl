@@ -117,18 +117,10 @@ fn shadow_factor(i: u32, p: vec3<f32>, n_l: vec3<f32>, dist: f32) -> f32 {
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
     let p = in.world;
-    // Geometric normal from screen derivatives, oriented like the shading normal.
-    var ng = cross(dpdx(p), dpdy(p));
-    var n = normalize(in.normal);
-    let ng_len = length(ng);
-    if ng_len > 0.0 {
-        ng = ng / ng_len;
-    } else {
-        ng = n;
-    }
-    if dot(ng, n) < 0.0 {
-        ng = -ng;
-    }
+    let n = normalize(in.normal);
+    let dx = dpdx(p);
+    let dy = dpdy(p);
+    let ng = facing_geometric_normal(dx, dy, n);
     let v = normalize(g.eye.xyz - p);
     let m = materials[in.material];
     var out: FsOut;
@@ -202,7 +194,7 @@ fn fs_main(in: VsOut) -> FsOut {
     out.direct = vec4<f32>(l, 1.0);
     if CSL_LAYER && g.counts.w > 0u {
         // The pixel's side on the receiver: |dp/dx × dp/dy| is its area.
-        let footprint = sqrt(ng_len);
+        let footprint = sqrt(length(cross(dx, dy)));
         out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m, footprint) * g.csl_irradiance.rgb, 1.0);
     }
     return out;

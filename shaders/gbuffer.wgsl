@@ -33,17 +33,8 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @lo
 @fragment
 fn fs_main(in: VsOut) -> GOut {
     let p = in.world;
-    var ng = cross(dpdx(p), dpdy(p));
-    var n = normalize(in.normal);
-    let ng_len = length(ng);
-    if ng_len > 0.0 {
-        ng = ng / ng_len;
-    } else {
-        ng = n;
-    }
-    if dot(ng, n) < 0.0 {
-        ng = -ng;
-    }
+    let n = normalize(in.normal);
+    let ng = facing_geometric_normal(dpdx(p), dpdy(p), n);
     let v = normalize(g.eye.xyz - p);
     let kind = materials[in.material].kind;
     var out: GOut;

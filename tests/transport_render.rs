@@ -205,7 +205,6 @@ fn reflection_volumes_carry_the_fresnel_reflected_flux() {
     let world = sphere_scene("scenes/glass-sphere-directional.json", 96, |s| s);
     let sources = eval::sources(&world.lights, 16);
     let (vols, stats) = eval::build_reflection_volumes(&world, "glass", &sources, None).unwrap();
-    assert_eq!(stats.reflection_volumes, vols.len());
     let n = 20_000;
     let mean_r: f64 = (0..n)
         .map(|k| {

@@ -9,7 +9,7 @@ use crate::bake::BakeError;
 use crate::bake::csl::cache as csl_cache;
 use crate::encode::{self, Frame, PngSettings, ToneMap};
 use crate::reference::{self, ReferenceParams};
-use crate::render::{CslLayer, RenderOptions, Renderer};
+use crate::render::{CslLayer, RenderError, RenderOptions, RenderOutput, Renderer};
 use crate::scene::types::{CameraDesc, LightDesc};
 use crate::scene::{Limits, MapSource, World};
 use crate::trace::Accel;
@@ -102,6 +102,23 @@ fn total_of(t: &[(String, Duration)]) -> Duration {
     t.iter()
         .find(|(n, _)| n == "total")
         .map_or(Duration::ZERO, |(_, d)| *d)
+}
+
+/// Runs `render` on the shared renderer: the wait for it shows as the `gpu_lock` stage, then
+/// the render's own stages.
+fn on_gpu(
+    ctx: &JobCtx<'_>,
+    timings: &mut Vec<(String, Duration)>,
+    render: impl FnOnce(&mut Renderer) -> Result<RenderOutput, RenderError>,
+) -> Result<RenderOutput, JobError> {
+    let t = Instant::now();
+    let out = ctx.with_renderer(|r| render(r).map_err(|e| JobError::Render(e.to_string())))?;
+    timings.push((
+        "gpu_lock".into(),
+        t.elapsed().saturating_sub(total_of(&out.timings)),
+    ));
+    timings.extend(out.timings.iter().cloned());
+    Ok(out)
 }
 
 impl RenderJob {
@@ -251,16 +268,9 @@ impl RenderJob {
         })?;
         timings.push(("volumes".into(), t.elapsed()));
         ctx.progress(0.9, "render");
-        let t = Instant::now();
-        let out = ctx.with_renderer(|r| {
+        let out = on_gpu(ctx, timings, |r| {
             r.render_transport(&self.world, &RenderOptions::default(), &layer)
-                .map_err(|e| JobError::Render(e.to_string()))
         })?;
-        timings.push((
-            "gpu_lock".into(),
-            t.elapsed().saturating_sub(total_of(&out.timings)),
-        ));
-        timings.extend(out.timings.iter().cloned());
         let info = serde_json::json!({
             "adapter": out.adapter,
             "statistics": {
@@ -304,16 +314,9 @@ impl RenderJob {
         ctx.check()?;
         ctx.progress(0.9, "render");
         let layer = CslLayer::from_sets(&self.world, &sets);
-        let t = Instant::now();
-        let out = ctx.with_renderer(|r| {
+        let out = on_gpu(ctx, timings, |r| {
             r.render_csl(&self.world, &RenderOptions::default(), Some(&layer))
-                .map_err(|e| JobError::Render(e.to_string()))
         })?;
-        timings.push((
-            "gpu_lock".into(),
-            t.elapsed().saturating_sub(total_of(&out.timings)),
-        ));
-        timings.extend(out.timings.iter().cloned());
         let info = serde_json::json!({
             "adapter": out.adapter,
             "statistics": {

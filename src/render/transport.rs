@@ -90,8 +90,6 @@ impl TransportLayer {
             caustic_objects: caustic_objects.clone(),
             ..Default::default()
         };
-        let scene =
-            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
             go()?;
             let name = &world.objects[oi].name;
@@ -106,14 +104,11 @@ impl TransportLayer {
             layer.stats.flux += s.flux;
             layer.stats.reflection_volumes += rs.reflection_volumes;
             layer.stats.reflected_flux += rs.reflected_flux;
-            if layer.volumes.len() > eval::MAX_VOLUMES {
-                return Err(EvalError::TooManyVolumes {
-                    limit: eval::MAX_VOLUMES,
-                    light_sources: sources.len(),
-                });
-            }
+            eval::check_volume_count(layer.volumes.len(), &sources)?;
         }
         // Viewing rays through each object see the others' caustics too.
+        let scene =
+            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
             let view = crate::bake::transport::view::view_refraction(
                 world,

@@ -464,7 +464,8 @@ pub enum EvalError {
 /// Most illumination volumes one frame may hold (144 bytes each on the GPU: 288 MB).
 pub const MAX_VOLUMES: usize = 2_000_000;
 
-fn check_volume_count(count: usize, sources: &[Source]) -> Result<(), EvalError> {
+/// Refuses more than [`MAX_VOLUMES`] volumes for `sources`.
+pub fn check_volume_count(count: usize, sources: &[Source]) -> Result<(), EvalError> {
     if count > MAX_VOLUMES {
         return Err(EvalError::TooManyVolumes {
             limit: MAX_VOLUMES,
@@ -643,16 +644,14 @@ pub fn build_volumes(
         .object(object_name)
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
     let expect = super::source_hash(world, object, &table.params);
-    if expect != table.source_hash
-        || table.vertex_count as usize != table_vertices(world, object).len()
-    {
+    let glass = Glass::new(world, object);
+    if expect != table.source_hash || table.vertex_count as usize != glass.vertices.len() {
         return Err(EvalError::Mismatch {
             object: object_name.to_string(),
             table: table.source_hash,
             object_hash: expect,
         });
     }
-    let glass = Glass::new(world, object);
     let Glass {
         vertices,
         world_pos,
