@@ -407,7 +407,7 @@ impl<'a> Extractor<'a> {
             }
             let mut converged = same;
             if !same {
-                let (o, a) = self.optimise_axis(&members, origin);
+                let (o, a) = optimise_axis(self.rays, &members, origin);
                 let moved = (o - origin).length() / scale;
                 let turned = 1.0 - a.dot(axis);
                 origin = o;
@@ -437,66 +437,66 @@ impl<'a> Extractor<'a> {
             iterations,
         })
     }
+}
 
-    /// Least-squares axis: direction the energy-weighted mean direction; origin the point of
-    /// least summed squared distance to the member lines (slightly regularised towards the old
-    /// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
-    /// mean ray origin.
-    fn optimise_axis(&self, members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
-        #[derive(Clone, Copy)]
-        struct Acc {
-            w: f64,
-            d: DVec3,
-            q: DVec3,
-            m: DMat3,
-            rhs: DVec3,
-        }
-        impl std::ops::Add for Acc {
-            type Output = Acc;
-            fn add(self, o: Acc) -> Acc {
-                Acc {
-                    w: self.w + o.w,
-                    d: self.d + o.d,
-                    q: self.q + o.q,
-                    m: self.m + o.m,
-                    rhs: self.rhs + o.rhs,
-                }
-            }
-        }
-        let zero = Acc {
-            w: 0.0,
-            d: DVec3::ZERO,
-            q: DVec3::ZERO,
-            m: DMat3::ZERO,
-            rhs: DVec3::ZERO,
-        };
-        let acc = det_sum(members, zero, |&i| {
-            let r = &self.rays[i as usize];
-            let w = r.weight() as f64;
-            let d = r.dir.as_dvec3();
-            let q = r.origin.as_dvec3();
-            let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-            Acc {
-                w,
-                d: d * w,
-                q: q * w,
-                m: p * w,
-                rhs: (p * q) * w,
-            }
-        });
-        let axis = acc.d.normalize();
-        let lambda = 1e-4 * acc.w;
-        let m = acc.m + DMat3::IDENTITY * lambda;
-        let rhs = acc.rhs + prev.as_dvec3() * lambda;
-        let mut o = if m.determinant().abs() > 1e-30 {
-            m.inverse() * rhs
-        } else {
-            prev.as_dvec3()
-        };
-        let qbar = acc.q / acc.w;
-        o += axis * (qbar - o).dot(axis);
-        (o.as_vec3(), axis.as_vec3())
+/// Least-squares axis: direction the energy-weighted mean direction; origin the point of
+/// least summed squared distance to the member lines (slightly regularised towards the old
+/// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
+/// mean ray origin.
+pub fn optimise_axis(rays: &[CausticRay], members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
+    #[derive(Clone, Copy)]
+    struct Acc {
+        w: f64,
+        d: DVec3,
+        q: DVec3,
+        m: DMat3,
+        rhs: DVec3,
     }
+    impl std::ops::Add for Acc {
+        type Output = Acc;
+        fn add(self, o: Acc) -> Acc {
+            Acc {
+                w: self.w + o.w,
+                d: self.d + o.d,
+                q: self.q + o.q,
+                m: self.m + o.m,
+                rhs: self.rhs + o.rhs,
+            }
+        }
+    }
+    let zero = Acc {
+        w: 0.0,
+        d: DVec3::ZERO,
+        q: DVec3::ZERO,
+        m: DMat3::ZERO,
+        rhs: DVec3::ZERO,
+    };
+    let acc = det_sum(members, zero, |&i| {
+        let r = &rays[i as usize];
+        let w = r.weight() as f64;
+        let d = r.dir.as_dvec3();
+        let q = r.origin.as_dvec3();
+        let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+        Acc {
+            w,
+            d: d * w,
+            q: q * w,
+            m: p * w,
+            rhs: (p * q) * w,
+        }
+    });
+    let axis = acc.d.normalize();
+    let lambda = 1e-4 * acc.w;
+    let m = acc.m + DMat3::IDENTITY * lambda;
+    let rhs = acc.rhs + prev.as_dvec3() * lambda;
+    let mut o = if m.determinant().abs() > 1e-30 {
+        m.inverse() * rhs
+    } else {
+        prev.as_dvec3()
+    };
+    let qbar = acc.q / acc.w;
+    o += axis * (qbar - o).dot(axis);
+    (o.as_vec3(), axis.as_vec3())
 }
 
 #[cfg(test)]

@@ -21,6 +21,7 @@
 pub mod artifact;
 pub mod bundle;
 pub mod cache;
+pub mod dynamic;
 pub mod eval;
 pub mod fit;
 pub mod image;

@@ -1,0 +1,1620 @@
+//! Caustic spot lights under dynamic lighting (seed 000 §4): static CSL sets baked for the light
+//! directions at the vertices of a subdivided icosahedron, CSLs of neighbouring directions
+//! matched by tracking their axes while the light moves along each icosahedron edge (§4.2),
+//! matches propagated into CSL triples on every face (§4.3), and per frame a set for any light
+//! direction interpolated from the triples of the face it passes through (§4.1,
+//! [`DynamicSet::interpolate`]).
+//!
+//! All directions are light *travel* directions in the object's rigid frame, as for a static
+//! set. A CSL of one direction that finds no partner at a neighbouring direction is matched to a
+//! *black* CSL there: the axis it was tracked to, its own focus law, no image. Blacks live in
+//! [`DynamicSet::blacks`] and are addressed after the real CSLs of their direction.
+
+use super::bundle::{self, Thresholds};
+use super::trace::{self, CausticRay, RayGrid};
+use super::{
+    ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl, object_hash, rigid_frame_world,
+};
+use crate::bake::{Fnv64, Progress};
+use crate::scene::World;
+use crate::trace::Accel;
+use glam::{Mat3, Quat, Vec3};
+use rayon::prelude::*;
+use std::collections::{BTreeSet, HashMap};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+/// The light directions of a dynamic bake: a regularly subdivided icosahedron on the unit
+/// sphere (0 subdivisions: 12 directions; 1: 42; 2: 162, the paper's; 3: 642).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Icosphere {
+    pub vertices: Vec<Vec3>,
+    /// Counter-clockwise seen from outside.
+    pub faces: Vec<[u32; 3]>,
+}
+
+impl Icosphere {
+    pub fn new(subdivisions: u32) -> Icosphere {
+        let t = (1.0 + 5f32.sqrt()) / 2.0;
+        let mut vertices: Vec<Vec3> = [
+            [-1.0, t, 0.0],
+            [1.0, t, 0.0],
+            [-1.0, -t, 0.0],
+            [1.0, -t, 0.0],
+            [0.0, -1.0, t],
+            [0.0, 1.0, t],
+            [0.0, -1.0, -t],
+            [0.0, 1.0, -t],
+            [t, 0.0, -1.0],
+            [t, 0.0, 1.0],
+            [-t, 0.0, -1.0],
+            [-t, 0.0, 1.0],
+        ]
+        .iter()
+        .map(|v| Vec3::from_array(*v).normalize())
+        .collect();
+        let mut faces: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..subdivisions {
+            let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut midpoint = |a: u32, b: u32, vertices: &mut Vec<Vec3>| {
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    vertices.push((vertices[a as usize] + vertices[b as usize]).normalize());
+                    vertices.len() as u32 - 1
+                })
+            };
+            let mut next = Vec::with_capacity(faces.len() * 4);
+            for &[a, b, c] in &faces {
+                let ab = midpoint(a, b, &mut vertices);
+                let bc = midpoint(b, c, &mut vertices);
+                let ca = midpoint(c, a, &mut vertices);
+                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+            }
+            faces = next;
+        }
+        Icosphere { vertices, faces }
+    }
+
+    /// Every edge once, as (lower, higher) vertex index, in ascending order.
+    pub fn edges(&self) -> Vec<[u32; 2]> {
+        let set: BTreeSet<[u32; 2]> = self
+            .faces
+            .iter()
+            .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        set.into_iter().collect()
+    }
+
+    /// The face the ray from the centre along `dir` passes through, and the barycentric
+    /// coordinates (summing to 1) of the point where it meets the face's plane.
+    pub fn locate(&self, dir: Vec3) -> (usize, [f32; 3]) {
+        let d = dir.normalize();
+        let mut best = (0usize, [1.0, 0.0, 0.0], f32::NEG_INFINITY);
+        for (fi, f) in self.faces.iter().enumerate() {
+            let m = Mat3::from_cols(
+                self.vertices[f[0] as usize],
+                self.vertices[f[1] as usize],
+                self.vertices[f[2] as usize],
+            );
+            let l = m.inverse() * d;
+            let s = l.element_sum();
+            if s <= 0.0 {
+                continue;
+            }
+            let w = l / s;
+            let min = w.min_element();
+            if min > best.2 {
+                best = (fi, w.to_array(), min);
+            }
+            if min >= 0.0 {
+                break;
+            }
+        }
+        let w = Vec3::from_array(best.1).max(Vec3::ZERO);
+        (best.0, (w / w.element_sum()).to_array())
+    }
+}
+
+/// Parameters of a dynamic bake.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DynamicParams {
+    /// Subdivisions of the icosahedron of light directions. 0..=3; the paper's 2 (162).
+    pub subdivisions: u32,
+    /// Steps of the light along an edge while the axes are tracked. 1..=200; the paper's 20.
+    pub steps: u32,
+    /// Rays per side of the grid traced at each tracking step. 16..=2048.
+    pub track_grid: u32,
+    /// Largest axis distance (§4.2) of a match, in units of the bounding-sphere radius R. > 0.
+    pub match_threshold: f32,
+    /// The static bake of each direction.
+    pub csl: CslParams,
+}
+
+impl DynamicParams {
+    /// The paper's settings: 162 directions, 20 tracking steps, 1280² rays per direction;
+    /// tracking steps trace 256² rays (the paper does not give its count).
+    pub const fn paper() -> Self {
+        DynamicParams {
+            subdivisions: 2,
+            steps: 20,
+            track_grid: 256,
+            match_threshold: 0.5,
+            csl: CslParams::paper(),
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), BakeError> {
+        let bad = |what: &str| Err(BakeError::InvalidParams(what.to_string()));
+        if self.subdivisions > 3 {
+            return bad("subdivisions must be in 0..=3");
+        }
+        if !(1..=200).contains(&self.steps) {
+            return bad("steps must be in 1..=200");
+        }
+        if !(16..=2048).contains(&self.track_grid) {
+            return bad("track_grid must be in 16..=2048");
+        }
+        if !(self.match_threshold > 0.0 && self.match_threshold.is_finite()) {
+            return bad("match_threshold must be > 0");
+        }
+        self.csl.validate()
+    }
+
+    pub fn hash(&self) -> u64 {
+        let mut h = Fnv64::new();
+        h.write_u32(self.subdivisions);
+        h.write_u32(self.steps);
+        h.write_u32(self.track_grid);
+        h.write_f32(self.match_threshold);
+        h.write(&self.csl.hash().to_le_bytes());
+        h.finish()
+    }
+}
+
+impl Default for DynamicParams {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+/// One member of a triple: a CSL of the face's corner (index into the corner's real CSLs, then
+/// its blacks) and whether its intensity image is added (§4.3: a CSL reused in a second triple
+/// of a face lends its axis, not its light).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Member {
+    pub csl: u16,
+    pub image: bool,
+}
+
+/// CSLs of a face's three corners interpolated together.
+pub type Triple = [Member; 3];
+
+/// Figures of a dynamic bake. Times are zero after loading.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DynamicStats {
+    pub directions: u32,
+    /// Real CSLs over all directions.
+    pub csls: u32,
+    /// Black partners made for unmatched CSLs.
+    pub blacks: u32,
+    /// Pairs matched by axis distance (not counting black partners).
+    pub matched: u32,
+    pub edges: u32,
+    pub triples: u32,
+    /// Triples whose three members are matched with each other on all three edges (rule 1).
+    pub consistent_triples: u32,
+    /// Grid rays traced over all tracking steps.
+    pub tracking_rays: u64,
+    pub time_bakes: Duration,
+    pub time_tracking: Duration,
+    pub time_triples: Duration,
+    pub time_total: Duration,
+}
+
+/// A dynamic CSL bake of one object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DynamicSet {
+    /// Hash of the object (meshes, materials, scale) and the parameters: the cache key.
+    pub source_hash: u64,
+    pub object_hash: u64,
+    pub params_hash: u64,
+    pub subdivisions: u32,
+    /// The static set of every icosahedron vertex, in vertex order.
+    pub sets: Vec<CslSet>,
+    /// Black partners per vertex (texels empty).
+    pub blacks: Vec<Vec<Csl>>,
+    /// Triples per icosahedron face, members in the face's corner order.
+    pub triples: Vec<Vec<Triple>>,
+    pub stats: DynamicStats,
+}
+
+/// Progress stages of a dynamic bake: "directions" (static sets done / total), "tracking"
+/// (edges done / total), "triples".
+fn report(progress: &(dyn Fn(Progress) -> bool + Sync), stage: &'static str, f: f32) -> bool {
+    progress(Progress { stage, fraction: f })
+}
+
+/// Hash of a dynamic bake's inputs.
+pub fn dynamic_source_hash(
+    world: &World,
+    object_name: &str,
+    params: &DynamicParams,
+) -> Option<u64> {
+    let object = world.object(object_name)?;
+    let mut h = Fnv64::new();
+    h.write(b"csl-dynamic");
+    h.write_u32(super::ALGORITHM);
+    h.write_u32(ALGORITHM);
+    h.write(&object_hash(world, object).to_le_bytes());
+    h.write(&params.hash().to_le_bytes());
+    Some(h.finish())
+}
+
+/// Revision of the matching and triple algorithm (part of the source hash).
+pub const ALGORITHM: u32 = 1;
+
+/// The point of the axis line (b, a) nearest to `c`.
+fn axis_point(b: Vec3, a: Vec3, c: Vec3) -> Vec3 {
+    b + a * (c - b).dot(a)
+}
+
+/// §4.2's axis distance, with B = R² so that both terms are squared lengths.
+fn axis_distance(p: (Vec3, Vec3), q: (Vec3, Vec3), centre: Vec3, radius: f32) -> f32 {
+    let (bp, bq) = (axis_point(p.0, p.1, centre), axis_point(q.0, q.1, centre));
+    ((bp - bq).length_squared() + radius * radius * (p.1 - q.1).length_squared()).sqrt()
+}
+
+/// A black CSL standing for `src` at the tracked axis (b, a): the light plane as far along the
+/// axis from the bounding centre as `src`'s, the image frame turned with the axis, no texels.
+fn black_partner(src: &Csl, b: Vec3, a: Vec3, centre: Vec3) -> Csl {
+    let depth = (src.origin - centre).dot(src.axis);
+    let p = axis_point(b, a, centre);
+    let rot = Quat::from_rotation_arc(src.axis, a);
+    let x = rot * src.x_axis;
+    Csl {
+        origin: p + a * depth,
+        axis: a,
+        x_axis: (x - a * x.dot(a)).normalize(),
+        scale: 0.0,
+        flux: 0.0,
+        texels: Vec::new(),
+        ..src.clone()
+    }
+}
+
+/// A CSL's axis followed while the light moves (§4.2 step 3): at each step the rays of the new
+/// light that the CSL's model still describes (crossing its light plane inside the band of
+/// radii its image covers, in a direction within the fit threshold of what its focus law
+/// gives there) are taken as its bundle, and the axis is moved to their least-squares fit
+/// (§3.1.1 steps 4–5), until it settles. Assigning by the thresholds of §3.1.1 step 3 alone
+/// lets every CSL of a sphere slide onto the axis of its brightest one (measured: all fifteen
+/// CSLs of one set ended within 0.01 R of one axis), so the fit threshold of §3.1.2 takes part.
+struct Tracked {
+    origin: Vec3,
+    axis: Vec3,
+    kappa: f32,
+    gamma: f32,
+    band: (f32, f32),
+    /// The CSL's flux (m² per unit irradiance).
+    flux: f32,
+}
+
+impl Tracked {
+    fn new(c: &Csl) -> Tracked {
+        let (lo, hi, _) = image_band(c);
+        let margin = 2.0 * c.patch();
+        Tracked {
+            origin: c.origin,
+            axis: c.axis,
+            kappa: c.kappa,
+            gamma: c.gamma,
+            band: ((lo - margin).max(0.0), hi + margin),
+            flux: c.flux,
+        }
+    }
+
+    fn members(&self, rays: &[CausticRay], cos_angle: f32, fit_cos: f32) -> Vec<u32> {
+        let (o, a) = (self.origin, self.axis);
+        (0..rays.len() as u32)
+            .filter(|&i| {
+                let r = &rays[i as usize];
+                let da = r.dir.dot(a);
+                if da < cos_angle {
+                    return false;
+                }
+                let p = r.origin + r.dir * ((o - r.origin).dot(a) / da) - o;
+                let rho = p.length();
+                if rho < self.band.0 || rho > self.band.1 {
+                    return false;
+                }
+                let want = (a - p * (self.kappa + self.gamma * rho)).normalize_or_zero();
+                r.dir.dot(want) >= fit_cos
+            })
+            .collect()
+    }
+
+    /// `area`: cross-section of one traced ray (m²). A membership carrying more than twice or
+    /// less than half the CSL's flux has taken in another bundle's rays or lost its own: the
+    /// predicted axis is kept.
+    fn step(&mut self, rays: &[CausticRay], cos_angle: f32, fit_cos: f32, area: f32) {
+        let mut members: Vec<u32> = Vec::new();
+        for _ in 0..8 {
+            let next = self.members(rays, cos_angle, fit_cos);
+            if next.is_empty() || next == members {
+                return;
+            }
+            let flux = area * next.iter().map(|&i| rays[i as usize].weight()).sum::<f32>();
+            if !(0.5 * self.flux..=2.0 * self.flux).contains(&flux) {
+                return;
+            }
+            let (o, a) = bundle::optimise_axis(rays, &next, self.origin);
+            // Keep the light plane where it was along the axis.
+            let o = axis_point(o, a, self.origin);
+            let settled = (o - self.origin).length() < 1e-4 * (1.0 + self.band.1)
+                && a.dot(self.axis) > 1.0 - 5e-7;
+            self.origin = o;
+            self.axis = a;
+            members = next;
+            if settled {
+                return;
+            }
+        }
+    }
+}
+
+/// Radii of the light plane a CSL's image covers: (smallest, largest) of the texels above
+/// 1/1000 of its peak, and the flux-weighted mean radius.
+fn image_band(c: &Csl) -> (f32, f32, f32) {
+    let n = c.size as usize;
+    if c.texels.is_empty() || n == 0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let pix = 2.0 * c.half_extent / n as f32;
+    let peak = c
+        .texels
+        .iter()
+        .map(|t| t[0].max(t[1]).max(t[2]))
+        .max()
+        .unwrap_or(0) as f32;
+    let (mut lo, mut hi, mut sw, mut swr) = (f32::INFINITY, 0.0f32, 0.0f64, 0.0f64);
+    for j in 0..n {
+        let y = -c.half_extent + (j as f32 + 0.5) * pix;
+        for i in 0..n {
+            let t = c.texels[j * n + i];
+            let v = (t[0] as f32 + t[1] as f32 + t[2] as f32) / 3.0;
+            if v <= 1e-3 * peak {
+                continue;
+            }
+            let x = -c.half_extent + (i as f32 + 0.5) * pix;
+            let r = (x * x + y * y).sqrt();
+            lo = lo.min(r);
+            hi = hi.max(r);
+            sw += v as f64;
+            swr += (v * r) as f64;
+        }
+    }
+    if sw <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    (lo, hi, (swr / sw) as f32)
+}
+
+/// A matched pair on an edge: the CSL at the edge's first end, the CSL at its second end (real
+/// ones first, then blacks) and their axis distance (infinite for a black partner).
+type Match = (u16, u16, f32);
+
+/// A CSL's partner at a neighbouring corner of a face, with the match distance.
+type Partner = Option<(u16, f32)>;
+
+/// Result of tracking one edge.
+struct EdgeMatch {
+    /// (index at the lower vertex, index at the higher vertex, distance); indices of blacks are
+    /// provisional (`u16::MAX - k` for the k-th black of this edge at that end) until placed.
+    pairs: Vec<Match>,
+    /// Blacks this edge adds at its lower and its higher vertex.
+    blacks: [Vec<Csl>; 2],
+    matched: u32,
+    rays: u64,
+}
+
+/// Track the CSLs of both ends of edge (s0, s1) across it and match them.
+fn match_edge(
+    accel: &Accel,
+    sets: [&CslSet; 2],
+    params: &DynamicParams,
+    cancel: &AtomicBool,
+) -> Option<EdgeMatch> {
+    let (s0, s1) = (sets[0].light_dir, sets[1].light_dir);
+    let (centre, radius) = (sets[0].centre, sets[0].radius);
+    let th = Thresholds {
+        distance: params.csl.distance_threshold * radius,
+        cos_angle: params.csl.angle_threshold_deg.to_radians().cos(),
+        max_iterations: params.csl.max_iterations,
+    };
+    let trace_params = CslParams {
+        grid: params.track_grid,
+        ..params.csl
+    };
+    let n = params.steps;
+    let angle = s0.angle_between(s1);
+    let dir_at = |k: u32| -> Vec3 {
+        let t = k as f32 / n as f32;
+        if angle < 1e-6 {
+            return s0;
+        }
+        ((s0 * ((1.0 - t) * angle).sin() + s1 * (t * angle).sin()) / angle.sin()).normalize()
+    };
+    // Rays of every step; step 0 is s0 and step n is s1.
+    let mut rays = Vec::with_capacity(n as usize + 1);
+    let mut traced = 0u64;
+    for k in 0..=n {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let light = dir_at(k);
+        let (u, v) = light.any_orthonormal_pair();
+        let grid = RayGrid {
+            light,
+            u,
+            v,
+            centre,
+            radius,
+            n: params.track_grid,
+        };
+        let (r, tot) = trace::trace_grid(accel, &grid, &trace_params, &|_| {
+            !cancel.load(Ordering::Relaxed)
+        })?;
+        traced += tot.hits;
+        rays.push(r);
+    }
+    let fit_cos = params.csl.fit_threshold_deg.to_radians().cos();
+    let area = (2.0 * radius / params.track_grid as f32).powi(2);
+    // Each step first turns the axes with the light about the bounding centre (exact for a
+    // sphere, a prediction otherwise; a CSL whose rays are lost keeps moving that way), then
+    // corrects them on the step's rays.
+    let track = |csls: &[Csl], steps: &[usize]| -> Vec<(Vec3, Vec3)> {
+        let mut axes: Vec<Tracked> = csls.iter().map(Tracked::new).collect();
+        for w in steps.windows(2) {
+            let q = Quat::from_rotation_arc(dir_at(w[0] as u32), dir_at(w[1] as u32));
+            axes.par_iter_mut().for_each(|t| {
+                t.origin = centre + q * (t.origin - centre);
+                t.axis = (q * t.axis).normalize();
+                t.step(&rays[w[1]], th.cos_angle, fit_cos, area)
+            });
+        }
+        axes.iter().map(|t| (t.origin, t.axis)).collect()
+    };
+    let steps: Vec<usize> = (0..=n as usize).collect();
+    let back: Vec<usize> = steps.iter().rev().copied().collect();
+    let fwd = track(&sets[0].csls, &steps);
+    let bwd = track(&sets[1].csls, &back);
+    let band = |c: &Csl| image_band(c).2;
+
+    // Pairs by increasing distance between s0's moved axes and s1's axes.
+    let mut cand: Vec<(f32, u16, u16)> = Vec::new();
+    for (i, a) in fwd.iter().enumerate() {
+        for (j, c) in sets[1].csls.iter().enumerate() {
+            let dr = band(&sets[0].csls[i]) - band(c);
+            let d =
+                (axis_distance(*a, (c.origin, c.axis), centre, radius).powi(2) + dr * dr).sqrt();
+            if d <= params.match_threshold * radius {
+                cand.push((d, i as u16, j as u16));
+            }
+        }
+    }
+    cand.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let mut used = [
+        vec![false; sets[0].csls.len()],
+        vec![false; sets[1].csls.len()],
+    ];
+    let mut pairs = Vec::new();
+    for (d, i, j) in cand {
+        if used[0][i as usize] || used[1][j as usize] {
+            continue;
+        }
+        used[0][i as usize] = true;
+        used[1][j as usize] = true;
+        pairs.push((i, j, d));
+    }
+    let matched = pairs.len() as u32;
+    let mut blacks: [Vec<Csl>; 2] = [Vec::new(), Vec::new()];
+    // Unmatched CSLs of s0 get a black partner at s1 where they were tracked to, and those of
+    // s1 one at s0 (the paper's rule, applied from both ends so that every CSL has a partner).
+    for (i, c) in sets[0].csls.iter().enumerate() {
+        if !used[0][i] {
+            let (b, a) = fwd[i];
+            blacks[1].push(black_partner(c, b, a, centre));
+            pairs.push((
+                i as u16,
+                u16::MAX - (blacks[1].len() as u16 - 1),
+                f32::INFINITY,
+            ));
+        }
+    }
+    for (j, c) in sets[1].csls.iter().enumerate() {
+        if !used[1][j] {
+            let (b, a) = bwd[j];
+            blacks[0].push(black_partner(c, b, a, centre));
+            pairs.push((
+                u16::MAX - (blacks[0].len() as u16 - 1),
+                j as u16,
+                f32::INFINITY,
+            ));
+        }
+    }
+    Some(EdgeMatch {
+        pairs,
+        blacks,
+        matched,
+        rays: traced,
+    })
+}
+
+/// §4.3: the triples of one face from the matches of its three edges. `matches[e]` are the
+/// pairs of the face's edge e = (corner e, corner e+1 mod 3), oriented that way; `len[k]` is the
+/// number of CSLs (real and black) at corner k; `lit[k][i]` whether CSL i at corner k has light.
+///
+/// Every CSL of every corner is matched on both of its edges of the face. First each cycle of
+/// matches through the three corners becomes a triple whose members all add their image
+/// (rule 1). The remaining matches are taken by increasing distance: a match whose ends both
+/// already add their image in a triple is covered; otherwise it makes a triple with, at the
+/// third corner, a partner of one of its ends there (preferring one not yet used, then the
+/// closer match), and each member adds its image only if it does not already. So at a corner's
+/// own direction every CSL there adds its image exactly once (rule 3); where a face's matches
+/// form cycles, the triples along an edge are exactly the edge's matches, the same for the
+/// faces on either side (rule 2).
+fn face_triples(matches: [&[Match]; 3], len: [usize; 3]) -> (Vec<Triple>, u32) {
+    // partner[k][i][0]: the partner of CSL i of corner k at the next corner (k+1), [1] at the
+    // previous one (k+2), with the match distance.
+    let mut partner: [Vec<[Partner; 2]>; 3] = [
+        vec![[None; 2]; len[0]],
+        vec![[None; 2]; len[1]],
+        vec![[None; 2]; len[2]],
+    ];
+    for (e, m) in matches.iter().enumerate() {
+        let (k0, k1) = (e, (e + 1) % 3);
+        for &(a, b, d) in m.iter() {
+            partner[k0][a as usize][0] = Some((b, d));
+            partner[k1][b as usize][1] = Some((a, d));
+        }
+    }
+    let mut used: [Vec<bool>; 3] = [
+        vec![false; len[0]],
+        vec![false; len[1]],
+        vec![false; len[2]],
+    ];
+    let mut triples = Vec::new();
+    let mut consistent = 0u32;
+    for a in 0..len[0] {
+        let Some((b, _)) = partner[0][a][0] else {
+            continue;
+        };
+        let Some((c, _)) = partner[1][b as usize][0] else {
+            continue;
+        };
+        if partner[2][c as usize][0].map(|p| p.0) == Some(a as u16) {
+            used[0][a] = true;
+            used[1][b as usize] = true;
+            used[2][c as usize] = true;
+            let m = |csl| Member { csl, image: true };
+            triples.push([m(a as u16), m(b), m(c)]);
+            consistent += 1;
+        }
+    }
+    let mut rest: Vec<(f32, usize, u16, u16)> = Vec::new();
+    for (e, m) in matches.iter().enumerate() {
+        for &(a, b, d) in m.iter() {
+            rest.push((d, e, a, b));
+        }
+    }
+    rest.sort_by(|x, y| {
+        x.0.total_cmp(&y.0)
+            .then(x.1.cmp(&y.1))
+            .then(x.2.cmp(&y.2))
+            .then(x.3.cmp(&y.3))
+    });
+    for (_, e, a, b) in rest {
+        let (k0, k1, k2) = (e, (e + 1) % 3, (e + 2) % 3);
+        if used[k0][a as usize] && used[k1][b as usize] {
+            continue;
+        }
+        // Partners at k2: a's at its previous corner, b's at its next corner.
+        let cands = [partner[k0][a as usize][1], partner[k1][b as usize][0]];
+        let pick = cands
+            .iter()
+            .flatten()
+            .filter(|(c, _)| !used[k2][*c as usize])
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .or_else(|| cands.iter().flatten().min_by(|x, y| x.1.total_cmp(&y.1)));
+        let Some(&(c, _)) = pick else { continue };
+        let mut t = [Member {
+            csl: 0,
+            image: false,
+        }; 3];
+        for (k, i) in [(k0, a), (k1, b), (k2, c)] {
+            t[k] = Member {
+                csl: i,
+                image: !used[k][i as usize],
+            };
+            used[k][i as usize] = true;
+        }
+        triples.push(t);
+    }
+    (triples, consistent)
+}
+
+/// Bake the dynamic CSL set of object `object_name`: a static set per icosahedron direction
+/// (directions in parallel), axis tracking and matching per edge (edges in parallel), triples
+/// per face. `progress` may return false to cancel.
+pub fn bake_dynamic(
+    world: &World,
+    object_name: &str,
+    params: &DynamicParams,
+    progress: &(dyn Fn(Progress) -> bool + Sync),
+) -> Result<DynamicSet, BakeError> {
+    let t_start = Instant::now();
+    params.validate()?;
+    let object = world
+        .object(object_name)
+        .ok_or_else(|| BakeError::UnknownObject(object_name.to_string()))?;
+    let ico = Icosphere::new(params.subdivisions);
+    let cancel = AtomicBool::new(false);
+    let check = |stage, f| {
+        if !cancel.load(Ordering::Relaxed) && !report(progress, stage, f) {
+            cancel.store(true, Ordering::Relaxed);
+        }
+        !cancel.load(Ordering::Relaxed)
+    };
+    // 1. A static set per direction.
+    let t0 = Instant::now();
+    let nv = ico.vertices.len();
+    let done = AtomicU32::new(0);
+    check("directions", 0.0);
+    let sets: Vec<Result<CslSet, BakeError>> = ico
+        .vertices
+        .par_iter()
+        .map(|&dir| {
+            let set = bake_csl(world, object_name, dir, &params.csl, &|_| {
+                !cancel.load(Ordering::Relaxed)
+            })?;
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if !check("directions", d as f32 / nv as f32) {
+                return Err(BakeError::Canceled);
+            }
+            Ok(set)
+        })
+        .collect();
+    let sets: Vec<CslSet> = sets.into_iter().collect::<Result<_, _>>()?;
+    let time_bakes = t0.elapsed();
+
+    // 2. Tracking and matching per edge.
+    let t0 = Instant::now();
+    let local = rigid_frame_world(world, object);
+    let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
+    let edges = ico.edges();
+    let done = AtomicU32::new(0);
+    check("tracking", 0.0);
+    let matches: Vec<Option<EdgeMatch>> = edges
+        .par_iter()
+        .map(|&[i, j]| {
+            let m = match_edge(
+                &accel,
+                [&sets[i as usize], &sets[j as usize]],
+                params,
+                &cancel,
+            )?;
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            check("tracking", d as f32 / edges.len() as f32).then_some(m)
+        })
+        .collect();
+    if cancel.load(Ordering::Relaxed) || matches.iter().any(Option::is_none) {
+        return Err(BakeError::Canceled);
+    }
+    let time_tracking = t0.elapsed();
+
+    // Place the blacks (edge order) and resolve their provisional indices.
+    let t0 = Instant::now();
+    let mut blacks: Vec<Vec<Csl>> = vec![Vec::new(); nv];
+    let mut edge_pairs: HashMap<(u32, u32), Vec<Match>> = HashMap::new();
+    let mut stats = DynamicStats {
+        directions: nv as u32,
+        csls: sets.iter().map(|s| s.csls.len() as u32).sum(),
+        edges: edges.len() as u32,
+        ..Default::default()
+    };
+    for (&[i, j], m) in edges.iter().zip(matches.into_iter().flatten()) {
+        let base = [
+            (sets[i as usize].csls.len() + blacks[i as usize].len()) as u16,
+            (sets[j as usize].csls.len() + blacks[j as usize].len()) as u16,
+        ];
+        let place = |x: u16, end: usize| {
+            if x > u16::MAX - m.blacks[end].len() as u16 {
+                base[end] + (u16::MAX - x)
+            } else {
+                x
+            }
+        };
+        let pairs = m
+            .pairs
+            .iter()
+            .map(|&(a, b, d)| (place(a, 0), place(b, 1), d))
+            .collect();
+        stats.blacks += (m.blacks[0].len() + m.blacks[1].len()) as u32;
+        stats.matched += m.matched;
+        stats.tracking_rays += m.rays;
+        let [b0, b1] = m.blacks;
+        blacks[i as usize].extend(b0);
+        blacks[j as usize].extend(b1);
+        edge_pairs.insert((i, j), pairs);
+    }
+    if sets
+        .iter()
+        .zip(&blacks)
+        .any(|(s, b)| s.csls.len() + b.len() >= u16::MAX as usize)
+    {
+        return Err(BakeError::InvalidParams(
+            "too many CSLs at one direction for a dynamic set".into(),
+        ));
+    }
+
+    // 3. Triples per face.
+    check("triples", 0.0);
+    let mut triples = Vec::with_capacity(ico.faces.len());
+    for f in &ico.faces {
+        let oriented: Vec<Vec<Match>> = (0..3)
+            .map(|e| {
+                let (a, b) = (f[e], f[(e + 1) % 3]);
+                let p = &edge_pairs[&(a.min(b), a.max(b))];
+                if a < b {
+                    p.clone()
+                } else {
+                    p.iter().map(|&(x, y, d)| (y, x, d)).collect()
+                }
+            })
+            .collect();
+        let len = [0, 1, 2].map(|k| {
+            let v = f[k] as usize;
+            sets[v].csls.len() + blacks[v].len()
+        });
+        let (t, consistent) = face_triples([&oriented[0], &oriented[1], &oriented[2]], len);
+        stats.triples += t.len() as u32;
+        stats.consistent_triples += consistent;
+        triples.push(t);
+    }
+    stats.time_bakes = time_bakes;
+    stats.time_tracking = time_tracking;
+    stats.time_triples = t0.elapsed();
+    stats.time_total = t_start.elapsed();
+    report(progress, "done", 1.0);
+    Ok(DynamicSet {
+        source_hash: dynamic_source_hash(world, object_name, params).unwrap_or_default(),
+        object_hash: object_hash(world, object),
+        params_hash: params.hash(),
+        subdivisions: params.subdivisions,
+        sets,
+        blacks,
+        triples,
+        stats,
+    })
+}
+
+impl DynamicSet {
+    /// Whether this bake was made for `object` (its meshes, materials and scale) of `world`.
+    pub fn is_for(&self, world: &World, object: &crate::scene::Object) -> bool {
+        self.object_hash == object_hash(world, object)
+    }
+
+    pub fn icosphere(&self) -> Icosphere {
+        Icosphere::new(self.subdivisions)
+    }
+
+    /// CSL `i` of direction `v`: a real one, then the blacks.
+    pub fn csl(&self, v: usize, i: u16) -> &Csl {
+        let real = &self.sets[v].csls;
+        if (i as usize) < real.len() {
+            &real[i as usize]
+        } else {
+            &self.blacks[v][i as usize - real.len()]
+        }
+    }
+
+    /// The CSLs of face `fi` at barycentric weights `w` (corner order): one per triple that has
+    /// light there.
+    pub fn interpolate_face(&self, fi: usize, w: [f32; 3]) -> Vec<Csl> {
+        let f = self.icosphere().faces[fi];
+        let centre = self.sets[0].centre;
+        self.triples[fi]
+            .par_iter()
+            .filter_map(|t| {
+                let c = [0, 1, 2].map(|k| self.csl(f[k] as usize, t[k].csl));
+                interpolate_triple(c, [t[0].image, t[1].image, t[2].image], w, centre)
+            })
+            .collect()
+    }
+
+    /// The CSL set for light travel direction `light_dir` (object rigid frame), interpolated
+    /// from the triples of the face it passes through (§4.1): axes by spherical interpolation,
+    /// light-plane origins and the focus law (κ = 1/α, γ = β/α) linearly, and the intensity
+    /// images, each turned onto the new axis by the rotation about â × âᵢ, blended linearly.
+    pub fn interpolate(&self, light_dir: Vec3) -> CslSet {
+        let (fi, w) = self.icosphere().locate(light_dir);
+        let csls = self.interpolate_face(fi, w);
+        let s0 = &self.sets[0];
+        let mut h = Fnv64::new();
+        h.write(&self.source_hash.to_le_bytes());
+        for v in light_dir.normalize().to_array() {
+            h.write_f32(v);
+        }
+        CslSet {
+            source_hash: h.finish(),
+            params_hash: self.params_hash,
+            light_dir: light_dir.normalize(),
+            centre: s0.centre,
+            radius: s0.radius,
+            spacing: s0.spacing,
+            csls,
+            stats: Default::default(),
+        }
+    }
+}
+
+/// Spherical interpolation of unit vectors with the barycentric weights of [`Icosphere::locate`]:
+/// those are gnomonic (the point on the face's plane), so the blend that agrees with them is the
+/// normalised weighted sum, which carries the three icosahedron directions exactly onto the
+/// light direction; on an edge it runs along the great arc, and at a corner it is that corner's
+/// vector. (Nested slerps of the same weights missed a face centre by 1.5° at 63° spacing.)
+fn blend_axes(a: [Vec3; 3], w: [f32; 3]) -> Vec3 {
+    (a[0] * w[0] + a[1] * w[1] + a[2] * w[2]).normalize_or(a[0])
+}
+
+/// One interpolated CSL, or None when no member with weight lends it light.
+fn interpolate_triple(c: [&Csl; 3], image: [bool; 3], w: [f32; 3], centre: Vec3) -> Option<Csl> {
+    let lit: Vec<usize> = (0..3)
+        .filter(|&k| image[k] && w[k] > 1e-6 && !c[k].texels.is_empty() && c[k].scale > 0.0)
+        .collect();
+    if lit.is_empty() {
+        return None;
+    }
+    let axis = blend_axes([c[0].axis, c[1].axis, c[2].axis], w);
+    let kappa = c[0].kappa * w[0] + c[1].kappa * w[1] + c[2].kappa * w[2];
+    let gamma = c[0].gamma * w[0] + c[1].gamma * w[1] + c[2].gamma * w[2];
+    let rot: [Quat; 3] = [0, 1, 2].map(|k| Quat::from_rotation_arc(c[k].axis, axis));
+    // Light-plane origins relative to the bounding centre, each turned with its axis: the
+    // paper's linear blend of the origins, but one that does not pull the plane towards the
+    // centre when the axes differ (by 1 - cos(θ/2) of its distance between axes θ apart).
+    let origin = centre
+        + (0..3)
+            .map(|k| rot[k] * (c[k].origin - centre) * w[k])
+            .fold(Vec3::ZERO, |a, b| a + b);
+    // The new image frame: the members' x axes turned onto the new axis, blended with the
+    // weights (symmetric in the members, so the two faces of an edge agree on it).
+    let xs = (0..3)
+        .map(|k| rot[k] * c[k].x_axis * w[k])
+        .fold(Vec3::ZERO, |a, b| a + b);
+    let xs = xs - axis * xs.dot(axis);
+    let x_axis = if xs.length() > 1e-3 {
+        xs.normalize()
+    } else {
+        axis.any_orthonormal_vector()
+    };
+    let y_axis = axis.cross(x_axis);
+    let size = lit.iter().map(|&k| c[k].size).max().unwrap_or(128);
+    let half = lit.iter().map(|&k| c[k].half_extent).fold(0.0f32, f32::max);
+    // Member k's image coordinates of the new plane's in-plane vector p: rot[k]⁻¹ p in k's frame.
+    let frames: Vec<(usize, Vec3, Vec3)> = lit
+        .iter()
+        .map(|&k| {
+            let inv = rot[k].inverse();
+            let (xk, yk) = (c[k].x_axis, c[k].y_axis());
+            // (x̄ · …, ȳ · …) → k's (x, y): columns of the 2×2 map.
+            let ex = inv * x_axis;
+            let ey = inv * y_axis;
+            (
+                k,
+                Vec3::new(ex.dot(xk), ex.dot(yk), 0.0),
+                Vec3::new(ey.dot(xk), ey.dot(yk), 0.0),
+            )
+        })
+        .collect();
+    let pix = 2.0 * half / size as f32;
+    let mut texels = vec![Vec3::ZERO; (size * size) as usize];
+    for j in 0..size {
+        let y = -half + (j as f32 + 0.5) * pix;
+        for i in 0..size {
+            let x = -half + (i as f32 + 0.5) * pix;
+            let mut v = Vec3::ZERO;
+            for &(k, ex, ey) in &frames {
+                let (u, t) = (x * ex.x + y * ey.x, x * ex.y + y * ey.y);
+                if let Some(val) = c[k].intensity(u, t) {
+                    v += val * w[k];
+                }
+            }
+            texels[(j * size + i) as usize] = v;
+        }
+    }
+    let (scale, q) = super::image::quantise(&texels);
+    let flux = lit.iter().map(|&k| c[k].flux * w[k]).sum();
+    Some(Csl {
+        origin,
+        axis,
+        x_axis,
+        kappa,
+        gamma,
+        half_extent: half,
+        size,
+        scale,
+        flux,
+        texels: q,
+    })
+}
+
+/// Magic of a dynamic CSL bake artifact.
+pub const MAGIC: [u8; 8] = *b"CSLDYN\0\0";
+/// Format version of the dynamic artifact.
+pub const VERSION: u32 = 1;
+/// Largest body a dynamic artifact may declare (decompressed), 4 GiB.
+const MAX_BODY: u64 = 1 << 32;
+
+/// Texels as wrapping differences from the previous texel of the same channel (row-major): the
+/// smooth images then deflate to a fraction of their size.
+fn delta_code(texels: &mut [[u16; 3]], decode: bool) {
+    let mut prev = [0u16; 3];
+    for t in texels.iter_mut() {
+        for ch in 0..3 {
+            let v = t[ch];
+            if decode {
+                t[ch] = v.wrapping_add(prev[ch]);
+                prev[ch] = t[ch];
+            } else {
+                t[ch] = v.wrapping_sub(prev[ch]);
+                prev[ch] = v;
+            }
+        }
+    }
+}
+
+impl DynamicSet {
+    /// Serialise: a header, the deflated body (every direction's set with delta-coded images,
+    /// the blacks, the triples) and an FNV-1a checksum. Deterministic.
+    ///
+    /// ```text
+    /// header  magic "CSLDYN\0\0" · version u32 · subdivisions u32 · directions u32 · faces u32
+    ///         source, object, params hash (3×u64)
+    ///         stats: csls, blacks, matched, edges, triples, consistent triples (6×u32),
+    ///                tracking rays u64
+    ///         body length u64 · deflated length u64 · deflated body
+    /// body    per direction: length u32 · CSL set artifact (texels delta-coded)
+    ///         per direction: blacks u32 · per black: origin, axis, x axis, κ, γ, half extent
+    ///                        (12×f32) · image size u32
+    ///         per face: triples u32 · per triple 3 × (CSL u16 · adds its image u8)
+    /// trailer FNV-1a 64 of every byte before it
+    /// ```
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut body = Vec::new();
+        for set in &self.sets {
+            let mut s = set.clone();
+            for c in &mut s.csls {
+                delta_code(&mut c.texels, false);
+            }
+            let b = s.to_bytes();
+            body.extend_from_slice(&(b.len() as u32).to_le_bytes());
+            body.extend_from_slice(&b);
+        }
+        let f32s = |body: &mut Vec<u8>, v: &[f32]| {
+            for x in v {
+                body.extend_from_slice(&x.to_le_bytes());
+            }
+        };
+        for bl in &self.blacks {
+            body.extend_from_slice(&(bl.len() as u32).to_le_bytes());
+            for c in bl {
+                f32s(&mut body, &c.origin.to_array());
+                f32s(&mut body, &c.axis.to_array());
+                f32s(&mut body, &c.x_axis.to_array());
+                f32s(&mut body, &[c.kappa, c.gamma, c.half_extent]);
+                body.extend_from_slice(&c.size.to_le_bytes());
+            }
+        }
+        for ts in &self.triples {
+            body.extend_from_slice(&(ts.len() as u32).to_le_bytes());
+            for t in ts {
+                for m in t {
+                    body.extend_from_slice(&m.csl.to_le_bytes());
+                    body.push(m.image as u8);
+                }
+            }
+        }
+        let packed = miniz_oxide::deflate::compress_to_vec(&body, 6);
+        let mut out = Vec::with_capacity(packed.len() + 128);
+        out.extend_from_slice(&MAGIC);
+        let s = &self.stats;
+        for v in [
+            VERSION,
+            self.subdivisions,
+            self.sets.len() as u32,
+            self.triples.len() as u32,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in [self.source_hash, self.object_hash, self.params_hash] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in [
+            s.csls,
+            s.blacks,
+            s.matched,
+            s.edges,
+            s.triples,
+            s.consistent_triples,
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in [s.tracking_rays, body.len() as u64, packed.len() as u64] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out.extend_from_slice(&packed);
+        let sum = Fnv64::hash(&out);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Parse and validate: magic, version, lengths, checksum, the direction and face counts of
+    /// the icosahedron, every set (as [`CslSet::from_bytes`]) and every triple's indices.
+    pub fn from_bytes(bytes: &[u8]) -> Result<DynamicSet, ArtifactError> {
+        const HEAD: usize = 8 + 4 * 4 + 3 * 8 + 6 * 4 + 3 * 8;
+        if bytes.len() >= 8 && bytes[..8] != MAGIC {
+            return Err(ArtifactError::BadMagic);
+        }
+        if bytes.len() < HEAD + 8 {
+            return Err(ArtifactError::Truncated {
+                got: bytes.len(),
+                expected: HEAD + 8,
+            });
+        }
+        let mut r = Cursor { b: bytes, at: 8 };
+        let version = r.u32()?;
+        if version != VERSION {
+            return Err(ArtifactError::UnsupportedVersion(version));
+        }
+        let subdivisions = r.u32()?;
+        let (nv, nf) = (r.u32()? as usize, r.u32()? as usize);
+        if subdivisions > 3 {
+            return Err(ArtifactError::Invalid(format!(
+                "{subdivisions} subdivisions"
+            )));
+        }
+        let ico = Icosphere::new(subdivisions);
+        if nv != ico.vertices.len() || nf != ico.faces.len() {
+            return Err(ArtifactError::Invalid(format!(
+                "{nv} directions and {nf} faces for {subdivisions} subdivisions"
+            )));
+        }
+        let (source_hash, object_hash, params_hash) = (r.u64()?, r.u64()?, r.u64()?);
+        let mut st = [0u32; 6];
+        for v in &mut st {
+            *v = r.u32()?;
+        }
+        let tracking_rays = r.u64()?;
+        let (raw_len, packed_len) = (r.u64()?, r.u64()?);
+        let expected = HEAD as u64 + packed_len + 8;
+        if bytes.len() as u64 != expected {
+            return Err(ArtifactError::Truncated {
+                got: bytes.len(),
+                expected: expected.min(usize::MAX as u64) as usize,
+            });
+        }
+        let end = bytes.len() - 8;
+        let stored = u64::from_le_bytes(bytes[end..].try_into().expect("8 bytes"));
+        if Fnv64::hash(&bytes[..end]) != stored {
+            return Err(ArtifactError::Checksum);
+        }
+        if raw_len > MAX_BODY {
+            return Err(ArtifactError::Invalid(format!("body of {raw_len} bytes")));
+        }
+        let body =
+            miniz_oxide::inflate::decompress_to_vec_with_limit(&bytes[HEAD..end], raw_len as usize)
+                .map_err(|e| ArtifactError::Invalid(format!("body does not inflate: {e:?}")))?;
+        if body.len() as u64 != raw_len {
+            return Err(ArtifactError::Invalid("body length".into()));
+        }
+        let mut r = Cursor { b: &body, at: 0 };
+        let mut sets = Vec::with_capacity(nv);
+        for _ in 0..nv {
+            let n = r.u32()? as usize;
+            let mut set = CslSet::from_bytes(r.slice(n)?)?;
+            for c in &mut set.csls {
+                delta_code(&mut c.texels, true);
+            }
+            sets.push(set);
+        }
+        let mut blacks = Vec::with_capacity(nv);
+        for set in &sets {
+            let n = r.u32()? as usize;
+            let mut bl = Vec::with_capacity(n.min(4096));
+            for _ in 0..n {
+                let mut f = [0f32; 12];
+                for v in &mut f {
+                    *v = r.f32()?;
+                }
+                let size = r.u32()?;
+                let c = Csl {
+                    origin: Vec3::new(f[0], f[1], f[2]),
+                    axis: Vec3::new(f[3], f[4], f[5]),
+                    x_axis: Vec3::new(f[6], f[7], f[8]),
+                    kappa: f[9],
+                    gamma: f[10],
+                    half_extent: f[11],
+                    size,
+                    scale: 0.0,
+                    flux: 0.0,
+                    texels: Vec::new(),
+                };
+                if !f.iter().all(|v| v.is_finite()) || !c.axis.is_normalized() {
+                    return Err(ArtifactError::Invalid("black CSL not finite".into()));
+                }
+                bl.push(c);
+            }
+            if set.csls.len() + bl.len() >= u16::MAX as usize {
+                return Err(ArtifactError::Invalid(
+                    "too many CSLs at one direction".into(),
+                ));
+            }
+            blacks.push(bl);
+        }
+        let mut triples = Vec::with_capacity(nf);
+        for f in &ico.faces {
+            let n = r.u32()? as usize;
+            let len = f.map(|v| sets[v as usize].csls.len() + blacks[v as usize].len());
+            let mut ts = Vec::with_capacity(n.min(1 << 16));
+            for _ in 0..n {
+                let mut t = [Member {
+                    csl: 0,
+                    image: false,
+                }; 3];
+                for (k, m) in t.iter_mut().enumerate() {
+                    let csl = u16::from_le_bytes(r.slice(2)?.try_into().expect("2 bytes"));
+                    let image = r.slice(1)?[0] != 0;
+                    if csl as usize >= len[k] {
+                        return Err(ArtifactError::Invalid(format!(
+                            "triple member {csl} beyond the {} CSLs of its direction",
+                            len[k]
+                        )));
+                    }
+                    *m = Member { csl, image };
+                }
+                ts.push(t);
+            }
+            triples.push(ts);
+        }
+        if r.at != body.len() {
+            return Err(ArtifactError::Invalid("trailing bytes in the body".into()));
+        }
+        Ok(DynamicSet {
+            source_hash,
+            object_hash,
+            params_hash,
+            subdivisions,
+            sets,
+            blacks,
+            triples,
+            stats: DynamicStats {
+                directions: nv as u32,
+                csls: st[0],
+                blacks: st[1],
+                matched: st[2],
+                edges: st[3],
+                triples: st[4],
+                consistent_triples: st[5],
+                tracking_rays,
+                ..Default::default()
+            },
+        })
+    }
+}
+
+/// Bounds-checked little-endian reads.
+struct Cursor<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn slice(&mut self, n: usize) -> Result<&'a [u8], ArtifactError> {
+        if self.b.len() - self.at < n {
+            return Err(ArtifactError::Invalid("body truncated".into()));
+        }
+        let s = &self.b[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+    fn u32(&mut self) -> Result<u32, ArtifactError> {
+        Ok(u32::from_le_bytes(self.slice(4)?.try_into().expect("4")))
+    }
+    fn u64(&mut self) -> Result<u64, ArtifactError> {
+        Ok(u64::from_le_bytes(self.slice(8)?.try_into().expect("8")))
+    }
+    fn f32(&mut self) -> Result<f32, ArtifactError> {
+        Ok(f32::from_le_bytes(self.slice(4)?.try_into().expect("4")))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn icosphere_counts_orientation_and_edges() {
+        for (sub, v, f, e) in [(0, 12, 20, 30), (1, 42, 80, 120), (2, 162, 320, 480)] {
+            let ico = Icosphere::new(sub);
+            assert_eq!(
+                (ico.vertices.len(), ico.faces.len(), ico.edges().len()),
+                (v, f, e)
+            );
+            assert!(ico.vertices.iter().all(|v| (v.length() - 1.0).abs() < 1e-6));
+            let mut uses: HashMap<[u32; 2], u32> = HashMap::new();
+            for &[a, b, c] in &ico.faces {
+                let (a, b, c) = (
+                    ico.vertices[a as usize],
+                    ico.vertices[b as usize],
+                    ico.vertices[c as usize],
+                );
+                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0, "outward");
+            }
+            for &[a, b, c] in &ico.faces {
+                for [p, q] in [[a, b], [b, c], [c, a]] {
+                    *uses.entry([p.min(q), p.max(q)]).or_default() += 1;
+                }
+            }
+            assert!(
+                uses.values().all(|&n| n == 2),
+                "every edge between two faces"
+            );
+        }
+    }
+
+    #[test]
+    fn locate_gives_weights_that_rebuild_the_direction() {
+        let ico = Icosphere::new(2);
+        let mut seed = 7u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..500 {
+            let d = Vec3::new(rnd(), rnd(), rnd()).normalize();
+            let (fi, w) = ico.locate(d);
+            assert!(w.iter().all(|&x| x >= 0.0));
+            assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+            let f = ico.faces[fi];
+            let back = (0..3)
+                .map(|k| ico.vertices[f[k] as usize] * w[k])
+                .fold(Vec3::ZERO, |a, b| a + b)
+                .normalize();
+            assert!(back.dot(d) > 1.0 - 1e-6, "{d} {back}");
+        }
+        // A vertex is found with weight 1 on it.
+        let (fi, w) = ico.locate(ico.vertices[17]);
+        let k = ico.faces[fi].iter().position(|&v| v == 17).unwrap();
+        assert!((w[k] - 1.0).abs() < 1e-5, "{w:?}");
+    }
+
+    /// Every real CSL of a corner adds its image exactly once in a face (rule 3), whatever the
+    /// matching; a face whose matches close into cycles gets exactly those cycles (rule 1).
+    #[test]
+    #[allow(clippy::needless_range_loop)]
+    fn triples_count_every_csl_once_and_keep_cycles() {
+        // Cycles: corner k's CSL i matched with CSL i of the next corner.
+        let m: Vec<Match> = (0..4).map(|i| (i, i, i as f32)).collect();
+        let (t, consistent) = face_triples([&m, &m, &m], [4, 4, 4]);
+        assert_eq!((t.len(), consistent), (4, 4));
+        assert!(t.iter().all(|t| t.iter().all(|m| m.image)));
+        assert!(
+            t.iter()
+                .all(|t| t[0].csl == t[1].csl && t[1].csl == t[2].csl)
+        );
+
+        // Scrambled matches with blacks (indices ≥ the real counts).
+        let mut seed = 3u32;
+        for _ in 0..200 {
+            let mut rnd = |n: usize| {
+                seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+                (seed >> 8) as usize % n
+            };
+            let real = [1 + rnd(6), 1 + rnd(6), 1 + rnd(6)];
+            // Per edge a random bijection between its ends, padded with blacks.
+            let mut len = real;
+            let mut edges: Vec<Vec<Match>> = Vec::new();
+            let mut black_ends: Vec<[Vec<u16>; 2]> = Vec::new();
+            for e in 0..3 {
+                let (k0, k1) = (e, (e + 1) % 3);
+                let mut b: Vec<usize> = (0..real[k1]).collect();
+                for i in (1..b.len()).rev() {
+                    b.swap(i, rnd(i + 1));
+                }
+                let mut pairs = Vec::new();
+                let mut ends = [Vec::new(), Vec::new()];
+                for i in 0..real[k0].max(real[k1]) {
+                    let a = if i < real[k0] {
+                        i as u16
+                    } else {
+                        len[k0] += 1;
+                        ends[0].push(len[k0] as u16 - 1);
+                        len[k0] as u16 - 1
+                    };
+                    let c = if i < real[k1] {
+                        b[i] as u16
+                    } else {
+                        len[k1] += 1;
+                        ends[1].push(len[k1] as u16 - 1);
+                        len[k1] as u16 - 1
+                    };
+                    pairs.push((a, c, rnd(100) as f32));
+                }
+                edges.push(pairs);
+                black_ends.push(ends);
+            }
+            let (t, _) = face_triples([&edges[0], &edges[1], &edges[2]], len);
+            for k in 0..3 {
+                for i in 0..real[k] {
+                    let n = t
+                        .iter()
+                        .filter(|t| t[k].csl as usize == i && t[k].image)
+                        .count();
+                    assert_eq!(n, 1, "corner {k} CSL {i}: {t:?}");
+                }
+                assert!(t.iter().all(|t| (t[k].csl as usize) < len[k]));
+            }
+        }
+    }
+
+    /// Copies of one set turned with the light (what a sphere would give), matched one to one;
+    /// the CSL axes lie `tilt` off the light direction and the image blobs `tilt` off centre
+    /// (with 0, radially symmetric: no twist of the images' frames can change them).
+    fn rotated_copies(sub: u32, tilt: f32) -> DynamicSet {
+        let ico = Icosphere::new(sub);
+        let centre = Vec3::new(0.1, 0.5, -0.2);
+        let n = 64u32;
+        let image = |cx: f32, cy: f32| -> Vec<[u16; 3]> {
+            (0..n * n)
+                .map(|i| {
+                    let (x, y) = (
+                        (i % n) as f32 / n as f32 - cx,
+                        (i / n) as f32 / n as f32 - cy,
+                    );
+                    let v = (-(x * x + y * y) * 60.0).exp();
+                    [
+                        (v * 65535.0) as u16,
+                        (v * 30000.0) as u16,
+                        (v * 65535.0) as u16,
+                    ]
+                })
+                .collect()
+        };
+        let base_dir = ico.vertices[0];
+        let base = [(0.5 + tilt, 0.5, tilt), (0.5, 0.5 - tilt, -tilt)].map(|(cx, cy, off)| {
+            let x = base_dir.any_orthonormal_vector();
+            Csl {
+                origin: centre - base_dir * 0.3 + x * off,
+                axis: (base_dir + x * off).normalize(),
+                x_axis: {
+                    let a = (base_dir + x * off).normalize();
+                    (x - a * x.dot(a)).normalize()
+                },
+                kappa: 1.2,
+                gamma: 0.3,
+                half_extent: 0.4,
+                size: n,
+                scale: 2.0,
+                flux: 0.1,
+                texels: image(cx, cy),
+            }
+        });
+        let sets = ico
+            .vertices
+            .iter()
+            .map(|&v| {
+                let q = Quat::from_rotation_arc(base_dir, v);
+                CslSet {
+                    source_hash: 1,
+                    params_hash: 2,
+                    light_dir: v,
+                    centre,
+                    radius: 0.5,
+                    spacing: 0.01,
+                    csls: base
+                        .iter()
+                        .map(|c| Csl {
+                            origin: centre + q * (c.origin - centre),
+                            axis: (q * c.axis).normalize(),
+                            x_axis: (q * c.x_axis).normalize(),
+                            ..c.clone()
+                        })
+                        .collect(),
+                    stats: Default::default(),
+                }
+            })
+            .collect();
+        let triples = ico
+            .faces
+            .iter()
+            .map(|_| {
+                (0..2)
+                    .map(|i| {
+                        [Member {
+                            csl: i,
+                            image: true,
+                        }; 3]
+                    })
+                    .collect()
+            })
+            .collect();
+        DynamicSet {
+            source_hash: 3,
+            object_hash: 4,
+            params_hash: 2,
+            subdivisions: sub,
+            sets,
+            blacks: vec![Vec::new(); ico.vertices.len()],
+            triples,
+            stats: Default::default(),
+        }
+    }
+
+    fn same_csl(a: &Csl, b: &Csl, tol: f32) {
+        assert!((a.origin - b.origin).length() < tol, "{a:?} {b:?}");
+        assert!(a.axis.dot(b.axis) > 1.0 - tol);
+        assert!((a.kappa - b.kappa).abs() < tol && (a.gamma - b.gamma).abs() < tol);
+        assert_eq!(a.size, b.size);
+        let v = |c: &Csl, i: usize| {
+            Vec3::new(
+                c.texels[i][0] as f32,
+                c.texels[i][1] as f32,
+                c.texels[i][2] as f32,
+            ) * (c.scale / 65535.0)
+        };
+        let peak = a.scale.max(b.scale);
+        for i in 0..a.texels.len() {
+            assert!(
+                (v(a, i) - v(b, i)).abs().max_element() <= 2e-3 * peak,
+                "texel {i}"
+            );
+        }
+    }
+
+    #[test]
+    fn interpolation_is_exact_at_the_corners_and_agrees_across_an_edge() {
+        let d = rotated_copies(1, 0.25);
+        let ico = d.icosphere();
+        for (fi, f) in ico.faces.iter().enumerate().take(12) {
+            for k in 0..3 {
+                let mut w = [0.0; 3];
+                w[k] = 1.0;
+                let got = d.interpolate_face(fi, w);
+                let want = &d.sets[f[k] as usize].csls;
+                assert_eq!(got.len(), want.len());
+                for (g, c) in got.iter().zip(want) {
+                    same_csl(g, c, 1e-5);
+                }
+            }
+        }
+        // A point on the edge between two faces, from both sides.
+        let edge = |f: [u32; 3]| [[f[0], f[1]], [f[1], f[2]], [f[2], f[0]]];
+        let (fa, fb) = (0..ico.faces.len())
+            .flat_map(|a| (0..ico.faces.len()).map(move |b| (a, b)))
+            .find(|&(a, b)| {
+                a != b
+                    && edge(ico.faces[a])
+                        .iter()
+                        .any(|e| edge(ico.faces[b]).contains(&[e[1], e[0]]))
+            })
+            .unwrap();
+        let [p, q] = *edge(ico.faces[fa])
+            .iter()
+            .find(|e| edge(ico.faces[fb]).contains(&[e[1], e[0]]))
+            .unwrap();
+        let weights = |f: [u32; 3]| {
+            f.map(|v| {
+                if v == p {
+                    0.3
+                } else if v == q {
+                    0.7
+                } else {
+                    0.0
+                }
+            })
+        };
+        let a = d.interpolate_face(fa, weights(ico.faces[fa]));
+        let b = d.interpolate_face(fb, weights(ico.faces[fb]));
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            same_csl(x, y, 1e-5);
+        }
+    }
+
+    /// For copies turned with the light (axes along it, as a sphere's), the interpolated set
+    /// anywhere is the copy turned to that direction, light plane and flux, even at the 63°
+    /// spacing of the bare icosahedron.
+    #[test]
+    fn interpolating_turned_copies_turns_the_set() {
+        let d = rotated_copies(0, 0.0);
+        let base_dir = d.sets[0].light_dir;
+        for dir in [Vec3::new(0.3, -0.9, 0.2), Vec3::new(-0.5, 0.1, 0.8)] {
+            let dir = dir.normalize();
+            let got = d.interpolate(dir).csls;
+            for (g, c) in got.iter().zip(&d.sets[0].csls) {
+                let q = Quat::from_rotation_arc(base_dir, dir);
+                let want_axis = q * c.axis;
+                assert!(
+                    g.axis.dot(want_axis) > 1.0 - 1e-6,
+                    "{} {}",
+                    g.axis,
+                    want_axis
+                );
+                let centre = d.sets[0].centre;
+                let want_origin = centre + q * (c.origin - centre);
+                assert!((g.origin - want_origin).length() < 1e-4, "{}", g.origin);
+                // Flux is carried through: the image peak is the members' peak.
+                let peak = |c: &Csl| {
+                    c.texels.iter().map(|t| t[0]).max().unwrap() as f32 * c.scale / 65535.0
+                };
+                assert!(
+                    (peak(g) - peak(c)).abs() < 0.05 * peak(c),
+                    "{} {}",
+                    peak(g),
+                    peak(c)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn artifact_round_trip_and_corruption() {
+        let d = rotated_copies(0, 0.25);
+        let bytes = d.to_bytes();
+        let back = DynamicSet::from_bytes(&bytes).unwrap();
+        assert!(back.sets.iter().zip(&d.sets).all(|(a, b)| a.csls == b.csls));
+        assert!(back.triples == d.triples);
+        assert!(back.to_bytes() == bytes);
+        // 12 directions × 2 images of 64² RGB u16 = 590 kB raw; deflated far smaller.
+        assert!(bytes.len() < 200_000, "{}", bytes.len());
+        let mut bad = bytes.clone();
+        let mid = bad.len() / 2;
+        bad[mid] ^= 1;
+        assert_eq!(DynamicSet::from_bytes(&bad), Err(ArtifactError::Checksum));
+        assert!(matches!(
+            DynamicSet::from_bytes(&bytes[..bytes.len() - 9]),
+            Err(ArtifactError::Truncated { .. })
+        ));
+        assert_eq!(
+            DynamicSet::from_bytes(b"CSLSET\0\0rest"),
+            Err(ArtifactError::BadMagic)
+        );
+        let mut v2 = bytes.clone();
+        v2[8] = 2;
+        assert_eq!(
+            DynamicSet::from_bytes(&v2),
+            Err(ArtifactError::UnsupportedVersion(2))
+        );
+    }
+}
