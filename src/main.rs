@@ -3,6 +3,7 @@
 use anyhow::{Context, Result, bail};
 use caustica::bake::Progress;
 use caustica::bake::csl::cache as csl_cache;
+use caustica::bake::csl::dynamic::{self, DynamicParams, DynamicSet, Icosphere, bake_dynamic};
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
 use caustica::bake::transport::{TransportParams, TransportTable, bake_transport};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
@@ -35,9 +36,9 @@ enum Method {
     Direct,
     /// CPU ground truth: photon tracing + camera paths.
     Reference,
-    /// Caustic spot lights (seed 000, static lighting): direct lighting on the GPU, the
-    /// caustics component from baked CSL sets. The caustics layer is evaluated on the CPU for
-    /// now (the same Eqs. 2-4 the GPU pass will use).
+    /// Caustic spot lights (seed 000): direct lighting and the caustics component (Eqs. 2-4 per
+    /// pixel and CSL) on the GPU, from baked CSL sets: a static set for the scene's light, or
+    /// the set a dynamic bake interpolates for it (`--bake`).
     Csl,
     /// Light transport tables (seed 001): direct lighting on the GPU, the caustics component
     /// from illumination volumes of per-vertex tables, for directional, point, spot and line
@@ -102,7 +103,8 @@ enum Cmd {
         /// Reference: stop tracing photons after this many seconds.
         #[arg(long)]
         time_budget: Option<f64>,
-        /// CSL: a baked CSL set (`caustica bake csl`) for the scene's caustic object; without
+        /// CSL: a baked CSL set (`caustica bake csl`; a `--dynamic` one gives the set for the
+        /// scene's light direction by interpolation) for the scene's caustic object; without
         /// it every caustic object is baked (cached by content hash in CAUSTICA_CACHE or the
         /// temp directory). Transport: a table (`caustica bake transport`) for one glass
         /// object, found by its content hash; every other glass object is baked first.
@@ -159,6 +161,20 @@ enum BakeCmd {
         /// Rays per side of the ray grid (default 1280, the paper's).
         #[arg(long)]
         grid: Option<u32>,
+        /// Dynamic lighting (seed 000 §4): a set for every direction of a subdivided
+        /// icosahedron, matched into triples, from which a render interpolates the set for any
+        /// directional light.
+        #[arg(long)]
+        dynamic: bool,
+        /// Dynamic: icosahedron subdivisions (default 2: 162 directions, the paper's).
+        #[arg(long, requires = "dynamic")]
+        subdivisions: Option<u32>,
+        /// Dynamic: rays per side of the grid traced at each tracking step (default 256).
+        #[arg(long, requires = "dynamic")]
+        track_grid: Option<u32>,
+        /// Dynamic: tracking steps along each icosahedron edge (default 20, the paper's).
+        #[arg(long, requires = "dynamic")]
+        steps: Option<u32>,
     },
     /// Light transport table (seed 001 §4) of one refractive object: per vertex and sampling
     /// direction, where the light finally leaves the object. No light needed: one table
@@ -341,6 +357,69 @@ fn main() -> Result<()> {
                     object,
                     out,
                     grid,
+                    dynamic: true,
+                    subdivisions,
+                    track_grid,
+                    steps,
+                },
+        } => {
+            let world = load(&scene)?;
+            let name = csl_object(&world, object.as_deref())?;
+            let mut params = DynamicParams::paper();
+            params.csl.grid = grid.unwrap_or(params.csl.grid);
+            params.subdivisions = subdivisions.unwrap_or(params.subdivisions);
+            params.track_grid = track_grid.unwrap_or(params.track_grid);
+            params.steps = steps.unwrap_or(params.steps);
+            let n = Icosphere::new(params.subdivisions.min(3)).vertices.len();
+            let edges = Icosphere::new(params.subdivisions.min(3)).edges().len();
+            let bar = progress_bar(&format!("bake csl --dynamic {name}"));
+            let set = bake_dynamic(&world, &name, &params, &|p: Progress| {
+                let what = match p.stage {
+                    "directions" => format!("directions {}/{n}", (p.fraction * n as f32).round()),
+                    "tracking" => format!(
+                        "edges tracked {}/{edges}",
+                        (p.fraction * edges as f32).round()
+                    ),
+                    s => s.to_string(),
+                };
+                bar.set_message(format!("bake csl --dynamic {name}: {what}"));
+                bar.set_position((p.fraction * 1000.0) as u64);
+                true
+            })?;
+            bar.finish_and_clear();
+            let bytes = set.to_bytes();
+            std::fs::write(&out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+            let s = &set.stats;
+            eprintln!(
+                "{name}: {} directions, {} CSLs ({:.1} per direction), {} edges: {} pairs matched, \
+                 {} black partners; {} triples ({:.2} per face, {} matched on all three edges); \
+                 {} tracking rays; bakes {:.1} s, tracking {:.1} s, total {:.1} s; {:.1} MB",
+                s.directions,
+                s.csls,
+                s.csls as f64 / s.directions.max(1) as f64,
+                s.edges,
+                s.matched,
+                s.blacks,
+                s.triples,
+                s.triples as f64 / set.triples.len().max(1) as f64,
+                s.consistent_triples,
+                s.tracking_rays,
+                s.time_bakes.as_secs_f64(),
+                s.time_tracking.as_secs_f64(),
+                s.time_total.as_secs_f64(),
+                bytes.len() as f64 / 1e6,
+            );
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        Cmd::Bake {
+            what:
+                BakeCmd::Csl {
+                    scene,
+                    object,
+                    out,
+                    grid,
+                    ..
                 },
         } => {
             let world = load(&scene)?;
@@ -499,6 +578,11 @@ fn transport_tables(
 fn csl_target(world: &World, object: Option<&str>) -> Result<(String, (Vec3, Vec3))> {
     let light = caustica::bake::csl::scene_directional_light(world)
         .context("CSLs need a directional light; the scene has none")?;
+    Ok((csl_object(world, object)?, light))
+}
+
+/// The caustic object: named, or the first glass/mirror object.
+fn csl_object(world: &World, object: Option<&str>) -> Result<String> {
     let name = match object {
         Some(n) => n.to_string(),
         None => world
@@ -512,7 +596,7 @@ fn csl_target(world: &World, object: Option<&str>) -> Result<(String, (Vec3, Vec
             .map(|o| o.name.clone())
             .context("the scene has no glass or mirror object to bake")?,
     };
-    Ok((name, light))
+    Ok(name)
 }
 
 fn bake_with_bar(
@@ -567,12 +651,30 @@ fn csl_sets(
     let sets = if let Some(path) = bake {
         let (first, light) = csl_target(world, None)?;
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-        let set = CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?;
         let object = world
             .objects
             .iter()
             .position(|o| o.name == first)
             .context("caustic object")?;
+        let set = if bytes.starts_with(&dynamic::MAGIC) {
+            // A dynamic bake: the set for this light direction, interpolated (§4.1).
+            let dynset =
+                DynamicSet::from_bytes(&bytes).with_context(|| path.display().to_string())?;
+            let o = &world.objects[object];
+            if !dynset.is_for(world, o) {
+                bail!(
+                    "{} is a dynamic bake of another object than {first:?} (meshes, materials \
+                     or scale differ)",
+                    path.display()
+                );
+            }
+            let t = Instant::now();
+            let set = dynset.interpolate(CslSet::light_in_object_frame(o, light.0));
+            timings.push(("csl interpolate".into(), t.elapsed()));
+            set
+        } else {
+            CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?
+        };
         csl_cache::RenderSets {
             sets: vec![csl_cache::ObjectSet {
                 object,
