@@ -169,7 +169,7 @@ enum BakeCmd {
         /// Dynamic: icosahedron subdivisions (default 2: 162 directions, the paper's).
         #[arg(long, requires = "dynamic")]
         subdivisions: Option<u32>,
-        /// Dynamic: rays per side of the grid traced at each tracking step (default 256).
+        /// Dynamic: rays per side of the grid traced at each tracking step (default 128).
         #[arg(long, requires = "dynamic")]
         track_grid: Option<u32>,
         /// Dynamic: tracking steps along each icosahedron edge (default 20, the paper's).

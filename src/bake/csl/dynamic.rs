@@ -1,14 +1,30 @@
 //! Caustic spot lights under dynamic lighting (seed 000 §4): static CSL sets baked for the light
 //! directions at the vertices of a subdivided icosahedron, CSLs of neighbouring directions
 //! matched by tracking their axes while the light moves along each icosahedron edge (§4.2),
-//! matches propagated into CSL triples on every face (§4.3), and per frame a set for any light
-//! direction interpolated from the triples of the face it passes through (§4.1,
+//! matches turned into CSL triples on every face (§4.3, [`Triple`]), and per frame a set for any
+//! light direction interpolated from the triples of the face it passes through (§4.1,
 //! [`DynamicSet::interpolate`]).
 //!
 //! All directions are light *travel* directions in the object's rigid frame, as for a static
 //! set. A CSL of one direction that finds no partner at a neighbouring direction is matched to a
 //! *black* CSL there: the axis it was tracked to, its own focus law, no image. Blacks live in
 //! [`DynamicSet::blacks`] and are addressed after the real CSLs of their direction.
+//!
+//! Where this departs from the paper, and why (each measured on the glass sphere):
+//! - Tracking assigns a CSL the rays its own model describes (its image's band of radii and
+//!   its focus law within the fit threshold), predicts each step by turning the axis with the
+//!   light, and keeps the prediction when the assigned rays carry far more or less than the
+//!   CSL's flux: with §3.1.1's thresholds alone every CSL of the sphere slid onto its brightest
+//!   one's axis.
+//! - The match distance adds the difference of the CSLs' mean image radii to the paper's axis
+//!   distance (B taken as R², so that both terms are squared lengths): a sphere's CSLs are
+//!   concentric rings on one axis, which the axis distance cannot tell apart.
+//! - Matches that close no cycle on a face become pair triples ([`Triple`]) instead of the
+//!   paper's arbitrary picks, so that the interpolation is continuous across every edge.
+//! - Axes blend as the normalised weighted sum (consistent with the gnomonic barycentric
+//!   coordinates of [`Icosphere::locate`]), light-plane origins turn with their axes before the
+//!   linear blend, and the focus law blends as κ = 1/α, γ = β/α (linear in α passes through
+//!   infinity where a bundle turns from converging to diverging).
 
 use super::bundle::{self, Thresholds};
 use super::trace::{self, CausticRay, RayGrid};
@@ -131,7 +147,10 @@ impl Icosphere {
                 break;
             }
         }
-        let w = Vec3::from_array(best.1).max(Vec3::ZERO);
+        // Rounding leaves weights of a few 1e-8 at a corner or on an edge: snapped to zero, so
+        // that a corner's direction gives exactly its own set.
+        let w = Vec3::from_array(best.1);
+        let w = Vec3::select(w.cmplt(Vec3::splat(1e-6)), Vec3::ZERO, w);
         (best.0, (w / w.element_sum()).to_array())
     }
 }
@@ -153,12 +172,13 @@ pub struct DynamicParams {
 
 impl DynamicParams {
     /// The paper's settings: 162 directions, 20 tracking steps, 1280² rays per direction;
-    /// tracking steps trace 256² rays (the paper does not give its count).
+    /// tracking steps trace 128² rays (the paper does not give its count; on the sphere 48² to
+    /// 128² gave the same matches' quality).
     pub const fn paper() -> Self {
         DynamicParams {
             subdivisions: 2,
             steps: 20,
-            track_grid: 256,
+            track_grid: 128,
             match_threshold: 0.5,
             csl: CslParams::paper(),
         }
@@ -198,17 +218,54 @@ impl Default for DynamicParams {
     }
 }
 
+/// How much of a triple member's intensity image the interpolation adds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Share {
+    /// None: the member lends its axis, origin and focus law only.
+    None,
+    /// Half: the member is in two pair triples of the face, one per edge of its corner.
+    Half,
+    /// All of it: the member is in one matched triple of the face.
+    Full,
+}
+
+impl Share {
+    pub fn fraction(self) -> f32 {
+        match self {
+            Share::None => 0.0,
+            Share::Half => 0.5,
+            Share::Full => 1.0,
+        }
+    }
+}
+
 /// One member of a triple: a CSL of the face's corner (index into the corner's real CSLs, then
-/// its blacks) and whether its intensity image is added (§4.3: a CSL reused in a second triple
-/// of a face lends its axis, not its light).
+/// its blacks) and the share of its image the interpolation adds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Member {
     pub csl: u16,
-    pub image: bool,
+    pub image: Share,
 }
 
-/// CSLs of a face's three corners interpolated together.
-pub type Triple = [Member; 3];
+/// CSLs of a face's three corners interpolated together (§4.3), in the face's corner order.
+///
+/// A *matched* triple (three CSLs matched with each other on the face's three edges, rule 1)
+/// adds all of each member's image, with the geometry blended by the barycentric weights. Where
+/// a face's matches do not close into such cycles, every match (x at corner i, y at corner j)
+/// of the face becomes a *pair* triple adding half of x's and half of y's image; its member at
+/// the third corner k is x's partner there, and `split` y's partner there, which share k's
+/// weight in proportion wᵢ : wⱼ. Both are matches of the edges (i, k) and (j, k) themselves, so
+/// on every edge the interpolated set depends on that edge's matches alone and the faces on
+/// either side give the same CSLs (rule 2), and a corner's CSLs add exactly their images there
+/// (rule 3). On a matched cycle the three pair triples it would give coincide with its matched
+/// triple, which is why the matched triple is stored instead.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Triple {
+    pub members: [Member; 3],
+    /// For a pair triple, the second CSL at its third corner (the corner whose member adds no
+    /// image).
+    pub split: Option<u16>,
+}
 
 /// Figures of a dynamic bake. Times are zero after loading.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -359,7 +416,7 @@ impl Tracked {
     /// predicted axis is kept.
     fn step(&mut self, rays: &[CausticRay], cos_angle: f32, fit_cos: f32, area: f32) {
         let mut members: Vec<u32> = Vec::new();
-        for _ in 0..8 {
+        for _ in 0..3 {
             let next = self.members(rays, cos_angle, fit_cos);
             if next.is_empty() || next == members {
                 return;
@@ -423,9 +480,6 @@ fn image_band(c: &Csl) -> (f32, f32, f32) {
 /// A matched pair on an edge: the CSL at the edge's first end, the CSL at its second end (real
 /// ones first, then blacks) and their axis distance (infinite for a black partner).
 type Match = (u16, u16, f32);
-
-/// A CSL's partner at a neighbouring corner of a face, with the match distance.
-type Partner = Option<(u16, f32)>;
 
 /// Result of tracking one edge.
 struct EdgeMatch {
@@ -571,97 +625,98 @@ fn match_edge(
     })
 }
 
-/// §4.3: the triples of one face from the matches of its three edges. `matches[e]` are the
-/// pairs of the face's edge e = (corner e, corner e+1 mod 3), oriented that way; `len[k]` is the
-/// number of CSLs (real and black) at corner k; `lit[k][i]` whether CSL i at corner k has light.
-///
-/// Every CSL of every corner is matched on both of its edges of the face. First each cycle of
-/// matches through the three corners becomes a triple whose members all add their image
-/// (rule 1). The remaining matches are taken by increasing distance: a match whose ends both
-/// already add their image in a triple is covered; otherwise it makes a triple with, at the
-/// third corner, a partner of one of its ends there (preferring one not yet used, then the
-/// closer match), and each member adds its image only if it does not already. So at a corner's
-/// own direction every CSL there adds its image exactly once (rule 3); where a face's matches
-/// form cycles, the triples along an edge are exactly the edge's matches, the same for the
-/// faces on either side (rule 2).
-fn face_triples(matches: [&[Match]; 3], len: [usize; 3]) -> (Vec<Triple>, u32) {
+/// §4.3: the triples of one face from the matches of its three edges (see [`Triple`]).
+/// `matches[e]` are the pairs of the face's edge e = (corner e, corner e+1 mod 3), oriented
+/// that way; `len[k]` is the number of CSLs (real and black) at corner k; `lit(k, i)` whether
+/// CSL i of corner k has an image. Every CSL of every corner has one match on each of its two
+/// edges of the face (a black partner where no CSL matched). Returns the triples and how many
+/// are matched triples.
+fn face_triples(
+    matches: [&[Match]; 3],
+    len: [usize; 3],
+    lit: &dyn Fn(usize, u16) -> bool,
+) -> (Vec<Triple>, u32) {
     // partner[k][i][0]: the partner of CSL i of corner k at the next corner (k+1), [1] at the
-    // previous one (k+2), with the match distance.
-    let mut partner: [Vec<[Partner; 2]>; 3] = [
+    // previous one (k+2).
+    let mut partner: [Vec<[Option<u16>; 2]>; 3] = [
         vec![[None; 2]; len[0]],
         vec![[None; 2]; len[1]],
         vec![[None; 2]; len[2]],
     ];
     for (e, m) in matches.iter().enumerate() {
         let (k0, k1) = (e, (e + 1) % 3);
-        for &(a, b, d) in m.iter() {
-            partner[k0][a as usize][0] = Some((b, d));
-            partner[k1][b as usize][1] = Some((a, d));
+        for &(a, b, _) in m.iter() {
+            partner[k0][a as usize][0] = Some(b);
+            partner[k1][b as usize][1] = Some(a);
         }
     }
-    let mut used: [Vec<bool>; 3] = [
+    let mut in_cycle: [Vec<bool>; 3] = [
         vec![false; len[0]],
         vec![false; len[1]],
         vec![false; len[2]],
     ];
     let mut triples = Vec::new();
-    let mut consistent = 0u32;
+    let mut cycles = 0u32;
     for a in 0..len[0] {
-        let Some((b, _)) = partner[0][a][0] else {
+        let Some(b) = partner[0][a][0] else { continue };
+        let Some(c) = partner[1][b as usize][0] else {
             continue;
         };
-        let Some((c, _)) = partner[1][b as usize][0] else {
+        if partner[2][c as usize][0] != Some(a as u16) {
             continue;
-        };
-        if partner[2][c as usize][0].map(|p| p.0) == Some(a as u16) {
-            used[0][a] = true;
-            used[1][b as usize] = true;
-            used[2][c as usize] = true;
-            let m = |csl| Member { csl, image: true };
-            triples.push([m(a as u16), m(b), m(c)]);
-            consistent += 1;
         }
+        in_cycle[0][a] = true;
+        in_cycle[1][b as usize] = true;
+        in_cycle[2][c as usize] = true;
+        let ids = [a as u16, b, c];
+        if (0..3).any(|k| lit(k, ids[k])) {
+            triples.push(Triple {
+                members: [0, 1, 2].map(|k| Member {
+                    csl: ids[k],
+                    image: Share::Full,
+                }),
+                split: None,
+            });
+        }
+        cycles += 1;
     }
-    let mut rest: Vec<(f32, usize, u16, u16)> = Vec::new();
     for (e, m) in matches.iter().enumerate() {
-        for &(a, b, d) in m.iter() {
-            rest.push((d, e, a, b));
-        }
-    }
-    rest.sort_by(|x, y| {
-        x.0.total_cmp(&y.0)
-            .then(x.1.cmp(&y.1))
-            .then(x.2.cmp(&y.2))
-            .then(x.3.cmp(&y.3))
-    });
-    for (_, e, a, b) in rest {
-        let (k0, k1, k2) = (e, (e + 1) % 3, (e + 2) % 3);
-        if used[k0][a as usize] && used[k1][b as usize] {
-            continue;
-        }
-        // Partners at k2: a's at its previous corner, b's at its next corner.
-        let cands = [partner[k0][a as usize][1], partner[k1][b as usize][0]];
-        let pick = cands
-            .iter()
-            .flatten()
-            .filter(|(c, _)| !used[k2][*c as usize])
-            .min_by(|x, y| x.1.total_cmp(&y.1))
-            .or_else(|| cands.iter().flatten().min_by(|x, y| x.1.total_cmp(&y.1)));
-        let Some(&(c, _)) = pick else { continue };
-        let mut t = [Member {
-            csl: 0,
-            image: false,
-        }; 3];
-        for (k, i) in [(k0, a), (k1, b), (k2, c)] {
-            t[k] = Member {
-                csl: i,
-                image: !used[k][i as usize],
+        let (i, j, k) = (e, (e + 1) % 3, (e + 2) % 3);
+        for &(x, y, _) in m.iter() {
+            if in_cycle[i][x as usize] || !(lit(i, x) || lit(j, y)) {
+                continue;
+            }
+            // x's partner at k is on edge (k, i): x's previous-corner partner; y's on (j, k):
+            // y's next-corner partner. A black partner made on one edge has none on the
+            // others: the other's partner stands in (its weight only matters where the black's
+            // corner has weight, and a black adds no light there).
+            let (zx, zy) = (partner[i][x as usize][1], partner[j][y as usize][0]);
+            let (Some(zx), Some(zy)) = (zx.or(zy), zy.or(zx)) else {
+                continue;
             };
-            used[k][i as usize] = true;
+            let mut members = [Member {
+                csl: 0,
+                image: Share::None,
+            }; 3];
+            members[i] = Member {
+                csl: x,
+                image: Share::Half,
+            };
+            members[j] = Member {
+                csl: y,
+                image: Share::Half,
+            };
+            members[k] = Member {
+                csl: zx,
+                image: Share::None,
+            };
+            triples.push(Triple {
+                members,
+                split: Some(zy),
+            });
         }
-        triples.push(t);
     }
-    (triples, consistent)
+    (triples, cycles)
 }
 
 /// Bake the dynamic CSL set of object `object_name`: a static set per icosahedron direction
@@ -797,7 +852,11 @@ pub fn bake_dynamic(
             let v = f[k] as usize;
             sets[v].csls.len() + blacks[v].len()
         });
-        let (t, consistent) = face_triples([&oriented[0], &oriented[1], &oriented[2]], len);
+        let lit = |k: usize, i: u16| {
+            let v = f[k] as usize;
+            (i as usize) < sets[v].csls.len()
+        };
+        let (t, consistent) = face_triples([&oriented[0], &oriented[1], &oriented[2]], len, &lit);
         stats.triples += t.len() as u32;
         stats.consistent_triples += consistent;
         triples.push(t);
@@ -847,8 +906,22 @@ impl DynamicSet {
         self.triples[fi]
             .par_iter()
             .filter_map(|t| {
-                let c = [0, 1, 2].map(|k| self.csl(f[k] as usize, t[k].csl));
-                interpolate_triple(c, [t[0].image, t[1].image, t[2].image], w, centre)
+                let c = [0, 1, 2].map(|k| self.csl(f[k] as usize, t.members[k].csl));
+                let mut geometry: Vec<(&Csl, f32)> = (0..3).map(|k| (c[k], w[k])).collect();
+                if let Some(z) = t.split {
+                    // A pair triple: its third corner's weight shared by the partners of its
+                    // two image members there, in proportion to those members' weights.
+                    let k = (0..3).find(|&k| t.members[k].image == Share::None)?;
+                    let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+                    let sum = w[i] + w[j];
+                    let share = if sum > 0.0 { w[i] / sum } else { 0.5 };
+                    geometry[k].1 = w[k] * share;
+                    geometry.push((self.csl(f[k] as usize, z), w[k] * (1.0 - share)));
+                }
+                let image: Vec<(&Csl, f32)> = (0..3)
+                    .map(|k| (c[k], w[k] * t.members[k].image.fraction()))
+                    .collect();
+                interpolate_csl(&geometry, &image, centre)
             })
             .collect()
     }
@@ -884,34 +957,43 @@ impl DynamicSet {
 /// normalised weighted sum, which carries the three icosahedron directions exactly onto the
 /// light direction; on an edge it runs along the great arc, and at a corner it is that corner's
 /// vector. (Nested slerps of the same weights missed a face centre by 1.5° at 63° spacing.)
-fn blend_axes(a: [Vec3; 3], w: [f32; 3]) -> Vec3 {
-    (a[0] * w[0] + a[1] * w[1] + a[2] * w[2]).normalize_or(a[0])
+fn blend_axes(members: &[(&Csl, f32)]) -> Vec3 {
+    members
+        .iter()
+        .map(|(c, w)| c.axis * *w)
+        .fold(Vec3::ZERO, |a, b| a + b)
+        .normalize_or(members[0].0.axis)
 }
 
-/// One interpolated CSL, or None when no member with weight lends it light.
-fn interpolate_triple(c: [&Csl; 3], image: [bool; 3], w: [f32; 3], centre: Vec3) -> Option<Csl> {
-    let lit: Vec<usize> = (0..3)
-        .filter(|&k| image[k] && w[k] > 1e-6 && !c[k].texels.is_empty() && c[k].scale > 0.0)
+/// One interpolated CSL from `geometry` (CSLs and their weights for the axis, origin and focus
+/// law) and `image` (CSLs and the weights of their intensity images), or None when no image
+/// member lends it light.
+fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3) -> Option<Csl> {
+    let lit: Vec<(&Csl, f32)> = image
+        .iter()
+        .copied()
+        .filter(|(c, w)| *w > 1e-6 && !c.texels.is_empty() && c.scale > 0.0)
         .collect();
     if lit.is_empty() {
         return None;
     }
-    let axis = blend_axes([c[0].axis, c[1].axis, c[2].axis], w);
-    let kappa = c[0].kappa * w[0] + c[1].kappa * w[1] + c[2].kappa * w[2];
-    let gamma = c[0].gamma * w[0] + c[1].gamma * w[1] + c[2].gamma * w[2];
-    let rot: [Quat; 3] = [0, 1, 2].map(|k| Quat::from_rotation_arc(c[k].axis, axis));
+    let axis = blend_axes(geometry);
+    let turn = |c: &Csl| Quat::from_rotation_arc(c.axis, axis);
+    let sum = |f: &dyn Fn(&Csl) -> Vec3| {
+        geometry
+            .iter()
+            .map(|(c, w)| f(c) * *w)
+            .fold(Vec3::ZERO, |a, b| a + b)
+    };
+    let kappa = geometry.iter().map(|(c, w)| c.kappa * w).sum();
+    let gamma = geometry.iter().map(|(c, w)| c.gamma * w).sum();
     // Light-plane origins relative to the bounding centre, each turned with its axis: the
     // paper's linear blend of the origins, but one that does not pull the plane towards the
     // centre when the axes differ (by 1 - cos(θ/2) of its distance between axes θ apart).
-    let origin = centre
-        + (0..3)
-            .map(|k| rot[k] * (c[k].origin - centre) * w[k])
-            .fold(Vec3::ZERO, |a, b| a + b);
+    let origin = centre + sum(&|c| turn(c) * (c.origin - centre));
     // The new image frame: the members' x axes turned onto the new axis, blended with the
     // weights (symmetric in the members, so the two faces of an edge agree on it).
-    let xs = (0..3)
-        .map(|k| rot[k] * c[k].x_axis * w[k])
-        .fold(Vec3::ZERO, |a, b| a + b);
+    let xs = sum(&|c| turn(c) * c.x_axis);
     let xs = xs - axis * xs.dot(axis);
     let x_axis = if xs.length() > 1e-3 {
         xs.normalize()
@@ -919,19 +1001,23 @@ fn interpolate_triple(c: [&Csl; 3], image: [bool; 3], w: [f32; 3], centre: Vec3)
         axis.any_orthonormal_vector()
     };
     let y_axis = axis.cross(x_axis);
-    let size = lit.iter().map(|&k| c[k].size).max().unwrap_or(128);
-    let half = lit.iter().map(|&k| c[k].half_extent).fold(0.0f32, f32::max);
-    // Member k's image coordinates of the new plane's in-plane vector p: rot[k]⁻¹ p in k's frame.
-    let frames: Vec<(usize, Vec3, Vec3)> = lit
+    let size = lit.iter().map(|(c, _)| c.size).max().unwrap_or(128);
+    let half = lit
         .iter()
-        .map(|&k| {
-            let inv = rot[k].inverse();
-            let (xk, yk) = (c[k].x_axis, c[k].y_axis());
+        .map(|(c, _)| c.half_extent)
+        .fold(0.0f32, f32::max);
+    // Member k's image coordinates of the new plane's in-plane vector p: rot[k]⁻¹ p in k's frame.
+    let frames: Vec<(&Csl, f32, Vec3, Vec3)> = lit
+        .iter()
+        .map(|&(c, w)| {
+            let inv = turn(c).inverse();
+            let (xk, yk) = (c.x_axis, c.y_axis());
             // (x̄ · …, ȳ · …) → k's (x, y): columns of the 2×2 map.
             let ex = inv * x_axis;
             let ey = inv * y_axis;
             (
-                k,
+                c,
+                w,
                 Vec3::new(ex.dot(xk), ex.dot(yk), 0.0),
                 Vec3::new(ey.dot(xk), ey.dot(yk), 0.0),
             )
@@ -944,17 +1030,17 @@ fn interpolate_triple(c: [&Csl; 3], image: [bool; 3], w: [f32; 3], centre: Vec3)
         for i in 0..size {
             let x = -half + (i as f32 + 0.5) * pix;
             let mut v = Vec3::ZERO;
-            for &(k, ex, ey) in &frames {
+            for &(c, w, ex, ey) in &frames {
                 let (u, t) = (x * ex.x + y * ey.x, x * ex.y + y * ey.y);
-                if let Some(val) = c[k].intensity(u, t) {
-                    v += val * w[k];
+                if let Some(val) = c.intensity(u, t) {
+                    v += val * w;
                 }
             }
             texels[(j * size + i) as usize] = v;
         }
     }
     let (scale, q) = super::image::quantise(&texels);
-    let flux = lit.iter().map(|&k| c[k].flux * w[k]).sum();
+    let flux = lit.iter().map(|(c, w)| c.flux * w).sum();
     Some(Csl {
         origin,
         axis,
@@ -1007,7 +1093,9 @@ impl DynamicSet {
     /// body    per direction: length u32 · CSL set artifact (texels delta-coded)
     ///         per direction: blacks u32 · per black: origin, axis, x axis, κ, γ, half extent
     ///                        (12×f32) · image size u32
-    ///         per face: triples u32 · per triple 3 × (CSL u16 · adds its image u8)
+    ///         per face: triples u32 · per triple 3 × (CSL u16 · image share u8: 0 none,
+    ///                   1 half, 2 all) · second CSL of a pair triple's third corner u16
+    ///                   (0xFFFF: none)
     /// trailer FNV-1a 64 of every byte before it
     /// ```
     pub fn to_bytes(&self) -> Vec<u8> {
@@ -1039,10 +1127,15 @@ impl DynamicSet {
         for ts in &self.triples {
             body.extend_from_slice(&(ts.len() as u32).to_le_bytes());
             for t in ts {
-                for m in t {
+                for m in &t.members {
                     body.extend_from_slice(&m.csl.to_le_bytes());
-                    body.push(m.image as u8);
+                    body.push(match m.image {
+                        Share::None => 0,
+                        Share::Half => 1,
+                        Share::Full => 2,
+                    });
                 }
+                body.extend_from_slice(&t.split.unwrap_or(u16::MAX).to_le_bytes());
             }
         }
         let packed = miniz_oxide::deflate::compress_to_vec(&body, 6);
@@ -1187,23 +1280,49 @@ impl DynamicSet {
             let n = r.u32()? as usize;
             let len = f.map(|v| sets[v as usize].csls.len() + blacks[v as usize].len());
             let mut ts = Vec::with_capacity(n.min(1 << 16));
+            let beyond = |csl: u16, k: usize| {
+                ArtifactError::Invalid(format!(
+                    "triple member {csl} beyond the {} CSLs of its direction",
+                    len[k]
+                ))
+            };
             for _ in 0..n {
-                let mut t = [Member {
+                let mut members = [Member {
                     csl: 0,
-                    image: false,
+                    image: Share::None,
                 }; 3];
-                for (k, m) in t.iter_mut().enumerate() {
+                for (k, m) in members.iter_mut().enumerate() {
                     let csl = u16::from_le_bytes(r.slice(2)?.try_into().expect("2 bytes"));
-                    let image = r.slice(1)?[0] != 0;
+                    let image = match r.slice(1)?[0] {
+                        0 => Share::None,
+                        1 => Share::Half,
+                        2 => Share::Full,
+                        x => return Err(ArtifactError::Invalid(format!("image share {x}"))),
+                    };
                     if csl as usize >= len[k] {
-                        return Err(ArtifactError::Invalid(format!(
-                            "triple member {csl} beyond the {} CSLs of its direction",
-                            len[k]
-                        )));
+                        return Err(beyond(csl, k));
                     }
                     *m = Member { csl, image };
                 }
-                ts.push(t);
+                let split = u16::from_le_bytes(r.slice(2)?.try_into().expect("2 bytes"));
+                let split = if split == u16::MAX {
+                    None
+                } else {
+                    // A pair triple: one corner adds no image, and that corner has the CSL.
+                    let none: Vec<usize> = (0..3)
+                        .filter(|&k| members[k].image == Share::None)
+                        .collect();
+                    let [k] = none[..] else {
+                        return Err(ArtifactError::Invalid(
+                            "pair triple without exactly one geometry-only member".into(),
+                        ));
+                    };
+                    if split as usize >= len[k] {
+                        return Err(beyond(split, k));
+                    }
+                    Some(split)
+                };
+                ts.push(Triple { members, split });
             }
             triples.push(ts);
         }
@@ -1319,20 +1438,24 @@ mod tests {
         assert!((w[k] - 1.0).abs() < 1e-5, "{w:?}");
     }
 
-    /// Every real CSL of a corner adds its image exactly once in a face (rule 3), whatever the
-    /// matching; a face whose matches close into cycles gets exactly those cycles (rule 1).
+    /// Every real CSL of a corner adds exactly all its image in a face (rule 3), whatever the
+    /// matching; a face whose matches close into cycles gets exactly those cycles as matched
+    /// triples (rule 1); a pair triple's geometry-only members are the partners of its image
+    /// members on the face's other edges (what makes rule 2 hold).
     #[test]
     #[allow(clippy::needless_range_loop)]
     fn triples_count_every_csl_once_and_keep_cycles() {
+        let all = |_: usize, _: u16| true;
         // Cycles: corner k's CSL i matched with CSL i of the next corner.
         let m: Vec<Match> = (0..4).map(|i| (i, i, i as f32)).collect();
-        let (t, consistent) = face_triples([&m, &m, &m], [4, 4, 4]);
-        assert_eq!((t.len(), consistent), (4, 4));
-        assert!(t.iter().all(|t| t.iter().all(|m| m.image)));
-        assert!(
-            t.iter()
-                .all(|t| t[0].csl == t[1].csl && t[1].csl == t[2].csl)
-        );
+        let (t, cycles) = face_triples([&m, &m, &m], [4, 4, 4], &all);
+        assert_eq!((t.len(), cycles), (4, 4));
+        assert!(t.iter().all(|t| {
+            t.split.is_none()
+                && t.members
+                    .iter()
+                    .all(|m| m.image == Share::Full && m.csl == t.members[0].csl)
+        }));
 
         // Scrambled matches with blacks (indices ≥ the real counts).
         let mut seed = 3u32;
@@ -1345,7 +1468,6 @@ mod tests {
             // Per edge a random bijection between its ends, padded with blacks.
             let mut len = real;
             let mut edges: Vec<Vec<Match>> = Vec::new();
-            let mut black_ends: Vec<[Vec<u16>; 2]> = Vec::new();
             for e in 0..3 {
                 let (k0, k1) = (e, (e + 1) % 3);
                 let mut b: Vec<usize> = (0..real[k1]).collect();
@@ -1353,37 +1475,53 @@ mod tests {
                     b.swap(i, rnd(i + 1));
                 }
                 let mut pairs = Vec::new();
-                let mut ends = [Vec::new(), Vec::new()];
                 for i in 0..real[k0].max(real[k1]) {
                     let a = if i < real[k0] {
                         i as u16
                     } else {
                         len[k0] += 1;
-                        ends[0].push(len[k0] as u16 - 1);
                         len[k0] as u16 - 1
                     };
                     let c = if i < real[k1] {
                         b[i] as u16
                     } else {
                         len[k1] += 1;
-                        ends[1].push(len[k1] as u16 - 1);
                         len[k1] as u16 - 1
                     };
                     pairs.push((a, c, rnd(100) as f32));
                 }
                 edges.push(pairs);
-                black_ends.push(ends);
             }
-            let (t, _) = face_triples([&edges[0], &edges[1], &edges[2]], len);
+            let lit = |k: usize, i: u16| (i as usize) < real[k];
+            let (t, _) = face_triples([&edges[0], &edges[1], &edges[2]], len, &lit);
             for k in 0..3 {
                 for i in 0..real[k] {
-                    let n = t
+                    let share: f32 = t
                         .iter()
-                        .filter(|t| t[k].csl as usize == i && t[k].image)
-                        .count();
-                    assert_eq!(n, 1, "corner {k} CSL {i}: {t:?}");
+                        .filter(|t| t.members[k].csl as usize == i)
+                        .map(|t| t.members[k].image.fraction())
+                        .sum();
+                    assert_eq!(share, 1.0, "corner {k} CSL {i}: {t:?}");
                 }
-                assert!(t.iter().all(|t| (t[k].csl as usize) < len[k]));
+                assert!(t.iter().all(|t| (t.members[k].csl as usize) < len[k]));
+            }
+            let partner = |e: usize, a: u16| edges[e].iter().find(|m| m.0 == a).map(|m| m.1);
+            let partner_back = |e: usize, b: u16| edges[e].iter().find(|m| m.1 == b).map(|m| m.0);
+            for tr in t.iter().filter(|t| t.split.is_some()) {
+                let k = (0..3)
+                    .find(|&k| tr.members[k].image == Share::None)
+                    .unwrap();
+                let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+                // x at i: its partner at k is on edge (k, i) = edge k, x at its second end; y at
+                // j: on edge (j, k) = edge j, y at its first end. A black has only one of them.
+                let (px, py) = (
+                    partner_back(k, tr.members[i].csl),
+                    partner(j, tr.members[j].csl),
+                );
+                assert_eq!(px.or(py), Some(tr.members[k].csl));
+                assert_eq!(py.or(px), tr.split);
+                // x and y are matched on edge (i, j) = edge i.
+                assert_eq!(partner(i, tr.members[i].csl), Some(tr.members[j].csl));
             }
         }
     }
@@ -1460,11 +1598,12 @@ mod tests {
             .iter()
             .map(|_| {
                 (0..2)
-                    .map(|i| {
-                        [Member {
+                    .map(|i| Triple {
+                        members: [Member {
                             csl: i,
-                            image: true,
-                        }; 3]
+                            image: Share::Full,
+                        }; 3],
+                        split: None,
                     })
                     .collect()
             })

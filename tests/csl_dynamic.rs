@@ -1,0 +1,321 @@
+//! Dynamic CSL lighting (seed 000 §4) on the canonical glass sphere: one dynamic bake (the
+//! icosahedron subdivided once, 42 directions about 32° apart, with small ray grids to keep CI
+//! short), then the caustics at light directions that are no bake direction against the stored
+//! reference, exactness at a bake direction, continuity across a face boundary, determinism and
+//! the artifact.
+//!
+//! The light in the world stays the scene's; the *sphere* is turned so that the light in its
+//! rigid frame is the direction under test. A sphere's caustic does not change when it turns
+//! about its centre, so the stored reference of the scene holds for every direction, and any
+//! change between frames is the interpolation's.
+
+use caustica::bake::csl::dynamic::{DynamicParams, DynamicSet, Icosphere, bake_dynamic};
+use caustica::bake::csl::{CslParams, CslSet, cache, eval};
+use caustica::encode::{Frame, decode_frame};
+use caustica::reference::compare;
+use caustica::render::{CslLayer, RenderOptions, Renderer};
+use caustica::scene::{self, Light, World};
+use caustica::trace::Accel;
+use glam::{Mat4, Quat, Vec3};
+use std::path::Path;
+use std::sync::OnceLock;
+
+fn params() -> DynamicParams {
+    DynamicParams {
+        subdivisions: 1,
+        steps: 6,
+        track_grid: 48,
+        csl: CslParams {
+            grid: 128,
+            ..CslParams::fast()
+        },
+        ..DynamicParams::paper()
+    }
+}
+
+fn world() -> World {
+    scene::load_scene_file(
+        Path::new("scenes/glass-sphere-directional.json"),
+        &Default::default(),
+    )
+    .expect("scene loads")
+}
+
+/// The bake every test shares (made once).
+fn baked() -> &'static (World, DynamicSet) {
+    static BAKE: OnceLock<(World, DynamicSet)> = OnceLock::new();
+    BAKE.get_or_init(|| {
+        let w = world();
+        let d = bake_dynamic(&w, "glass", &params(), &|_| true).expect("dynamic bake");
+        eprintln!("{:#?}", d.stats);
+        (w, d)
+    })
+}
+
+fn light(world: &World) -> (Vec3, Vec3) {
+    let Light::Directional {
+        direction,
+        irradiance,
+    } = world.lights[0].clone()
+    else {
+        panic!("directional light expected")
+    };
+    (direction.normalize(), irradiance)
+}
+
+/// `world` with the sphere turned so that the light travels along `dir` in its rigid frame.
+fn turned(world: &World, dir: Vec3) -> World {
+    let mut w = world.clone();
+    let (l, _) = light(world);
+    let oi = w.objects.iter().position(|o| o.name == "glass").unwrap();
+    let (s, _, t) = w.objects[oi].transform.to_scale_rotation_translation();
+    let rot = Quat::from_rotation_arc(dir.normalize(), l);
+    w.objects[oi].transform = Mat4::from_scale_rotation_translation(s, rot, t);
+    w
+}
+
+/// The caustics component of `set` (rigid frame of the sphere) in `world`, on the CPU.
+fn caustics(world: &World, set: &CslSet, spp: u32) -> Frame {
+    let oi = world
+        .objects
+        .iter()
+        .position(|o| o.name == "glass")
+        .unwrap();
+    let obj = &world.objects[oi];
+    let accel = Accel::build(world);
+    let blockers = Accel::build_with(world, |i| i != oi, obvhs::BvhBuildParams::fast_build());
+    let csls = set.to_world(CslSet::rigid_transform(obj));
+    eval::render_caustics(world, &accel, &blockers, &csls, light(world).1, spp)
+}
+
+fn reference() -> Frame {
+    decode_frame(
+        &std::fs::read("tests/data/reference/glass-sphere-directional.caustics.64M.exr").unwrap(),
+    )
+    .unwrap()
+}
+
+/// Issue 6's targets at directions that are no bake direction: relative L1 ≤ 0.20 and flux
+/// within 8 % (caustics component, floor pixels, 3×3 blur), on the CPU and through the GPU pass.
+#[test]
+fn off_the_bake_directions_the_caustics_match_the_reference() {
+    let (w0, d) = baked();
+    let ico = Icosphere::new(1);
+    let f = ico.faces[29];
+    let v = |k: usize| ico.vertices[f[k] as usize];
+    let reference = reference();
+    let cases = [
+        ("face centre", (v(0) + v(1) + v(2)).normalize()),
+        (
+            "near an edge",
+            (v(0) * 0.49 + v(1) * 0.49 + v(2) * 0.02).normalize(),
+        ),
+        (
+            "off centre",
+            (v(0) * 0.6 + v(1) * 0.3 + v(2) * 0.1).normalize(),
+        ),
+    ];
+    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
+    let mut renderer = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    for (name, dir) in cases {
+        let world = turned(w0, dir);
+        let oi = world
+            .objects
+            .iter()
+            .position(|o| o.name == "glass")
+            .unwrap();
+        let local = CslSet::light_in_object_frame(&world.objects[oi], light(&world).0);
+        assert!(local.dot(dir) > 1.0 - 1e-5);
+        let set = d.interpolate(local);
+        let accel = Accel::build(&world);
+        let mask = compare::object_mask(&world, &accel, "floor");
+        let cpu = compare::compare(&caustics(&world, &set, 3), &reference, &mask);
+        let sets = cache::RenderSets {
+            sets: vec![cache::ObjectSet {
+                object: oi,
+                set,
+                cached: true,
+            }],
+            light: light(&world),
+        };
+        let layer = CslLayer::from_sets(&world, &sets);
+        let gpu = renderer
+            .render_csl(&world, &RenderOptions::default(), Some(&layer))
+            .unwrap()
+            .caustics
+            .unwrap();
+        let gpu = compare::compare(&gpu, &reference, &mask);
+        eprintln!("{name}: CPU {cpu:?}\n{name}: GPU {gpu:?}");
+        for c in [cpu, gpu] {
+            assert!(c.rel_l1 <= 0.20, "{name}: {c:?}");
+            assert!((0.92..=1.08).contains(&c.flux_ratio), "{name}: {c:?}");
+        }
+    }
+}
+
+/// At a bake direction the interpolated set renders as the baked one (rule 3 of §4.3; a CSL
+/// whose matches close no cycle comes back as two halves with its own axis and image).
+#[test]
+fn at_a_bake_direction_the_interpolation_is_the_baked_set() {
+    let (w0, d) = baked();
+    let ico = Icosphere::new(1);
+    for v in [0usize, 17, 40] {
+        let mut world = turned(w0, ico.vertices[v]);
+        world.camera.width = 96;
+        world.camera.height = 96;
+        let got = d.interpolate(ico.vertices[v]);
+        for c in &got.csls {
+            assert!(
+                d.sets[v]
+                    .csls
+                    .iter()
+                    .any(|s| (s.origin - c.origin).length() < 1e-5
+                        && s.axis.dot(c.axis) > 1.0 - 1e-6
+                        && s.kappa == c.kappa
+                        && s.gamma == c.gamma),
+                "direction {v}: an interpolated CSL that is none of the baked ones"
+            );
+        }
+        let (a, b) = (caustics(&world, &got, 1), caustics(&world, &d.sets[v], 1));
+        let diff: f32 = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(x, y)| (*x - *y).abs().element_sum())
+            .sum();
+        let total: f32 = b.pixels.iter().map(|p| p.element_sum()).sum();
+        assert!(total > 0.0);
+        assert!(diff <= 2e-3 * total, "direction {v}: {}", diff / total);
+    }
+}
+
+/// The light crosses from one face into its neighbour in small steps: the caustic on the floor
+/// changes smoothly, and no more at the boundary than elsewhere. Measured (this bake, frames
+/// 0.50° apart): relative L1 change 1.0–1.4 % per step, 1.35 % across the boundary. (A first
+/// version that built triples greedily, as the paper's propagation does, and left the unmatched
+/// rest arbitrary jumped by 68 % across an edge of the bare icosahedron; the pair triples of
+/// [`caustica::bake::csl::dynamic::Triple`] make the two faces of an edge agree exactly.)
+#[test]
+fn the_caustic_changes_smoothly_across_a_face_boundary() {
+    let (w0, d) = baked();
+    let ico = Icosphere::new(1);
+    // Faces 7 and one of its neighbours across the edge (f[0], f[1]).
+    let f = ico.faces[7];
+    let (p, q) = (f[0], f[1]);
+    let g = ico
+        .faces
+        .iter()
+        .copied()
+        .find(|g| g.contains(&p) && g.contains(&q) && *g != f)
+        .unwrap();
+    let centroid = |f: [u32; 3]| {
+        f.iter()
+            .map(|&v| ico.vertices[v as usize])
+            .fold(Vec3::ZERO, |a, b| a + b)
+            .normalize()
+    };
+    let mid = (ico.vertices[p as usize] + ico.vertices[q as usize]).normalize();
+    // From a third of the way between face 7's centre and the edge, to as far on the other side.
+    let (a, b) = (centroid(f).lerp(mid, 0.6), centroid(g).lerp(mid, 0.6));
+    let steps = 16;
+    let mut world = w0.clone();
+    world.camera.width = 96;
+    world.camera.height = 96;
+    let frames: Vec<(f32, Frame)> = (0..=steps)
+        .map(|i| {
+            let t = i as f32 / steps as f32;
+            let dir = a.lerp(b, t).normalize();
+            let w = turned(&world, dir);
+            let oi = w.objects.iter().position(|o| o.name == "glass").unwrap();
+            let local = CslSet::light_in_object_frame(&w.objects[oi], light(&w).0);
+            // Which side of the edge: the sign along the great circle's normal.
+            let side = local.dot(centroid(g) - centroid(f));
+            (side, caustics(&w, &d.interpolate(local), 1))
+        })
+        .collect();
+    let flux = |f: &Frame| f.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>();
+    let change = |x: &Frame, y: &Frame| {
+        let diff: f64 = x
+            .pixels
+            .iter()
+            .zip(&y.pixels)
+            .map(|(a, b)| (*a - *b).abs().element_sum() as f64)
+            .sum();
+        diff / flux(x).max(1e-12)
+    };
+    let changes: Vec<f64> = frames
+        .windows(2)
+        .map(|w| change(&w[0].1, &w[1].1))
+        .collect();
+    let cross = frames
+        .windows(2)
+        .position(|w| w[0].0 < 0.0 && w[1].0 >= 0.0)
+        .expect("the sweep crosses the edge");
+    eprintln!(
+        "frame-to-frame relative change: {changes:.4?}, boundary between {cross} and {}",
+        cross + 1
+    );
+    let others = changes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != cross)
+        .map(|(_, c)| *c)
+        .fold(0.0f64, f64::max);
+    eprintln!(
+        "step {:.2}°",
+        a.angle_between(b).to_degrees() / steps as f32
+    );
+    assert!(changes.iter().all(|&c| c <= 0.05), "{changes:?}");
+    assert!(
+        changes[cross] <= 1.5 * others + 0.005,
+        "jump at the boundary: {changes:?}"
+    );
+    // The total flux does not jump either.
+    let fluxes: Vec<f64> = frames.iter().map(|(_, f)| flux(f)).collect();
+    for w in fluxes.windows(2) {
+        assert!((w[1] / w[0] - 1.0).abs() <= 0.01, "{fluxes:?}");
+    }
+}
+
+/// Same inputs, same bytes, whatever the thread count; the artifact reads back to the same set.
+#[test]
+fn dynamic_bake_is_deterministic_and_round_trips() {
+    let w = world();
+    let small = DynamicParams {
+        subdivisions: 0,
+        steps: 4,
+        track_grid: 32,
+        csl: CslParams {
+            grid: 64,
+            ..CslParams::fast()
+        },
+        ..DynamicParams::paper()
+    };
+    let bake = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| bake_dynamic(&w, "glass", &small, &|_| true).unwrap())
+            .to_bytes()
+    };
+    let one = bake(1);
+    assert!(one == bake(3), "bytes differ between 1 and 3 threads");
+    let back = DynamicSet::from_bytes(&one).unwrap();
+    assert!(back.to_bytes() == one);
+    assert_eq!(back.sets.len(), 12);
+    assert_eq!(back.triples.len(), 20);
+    assert!(back.is_for(&w, w.object("glass").unwrap()));
+    // Another object (a different scale) is told apart.
+    let mut other = w.clone();
+    let oi = other
+        .objects
+        .iter()
+        .position(|o| o.name == "glass")
+        .unwrap();
+    other.objects[oi].transform = Mat4::from_scale(Vec3::splat(1.1)) * other.objects[oi].transform;
+    assert!(!back.is_for(&other, other.object("glass").unwrap()));
+    // A canceled bake stops with an error.
+    let r = bake_dynamic(&w, "glass", &small, &|p| p.stage != "tracking");
+    assert!(matches!(r, Err(caustica::bake::BakeError::Canceled)));
+}
