@@ -3,7 +3,9 @@
 use anyhow::{Context, Result, bail};
 use caustica::bake::Progress;
 use caustica::bake::csl::cache as csl_cache;
-use caustica::bake::csl::dynamic::{self, DynamicParams, DynamicSet, Icosphere, bake_dynamic};
+use caustica::bake::csl::dynamic::{
+    self, DynamicParams, DynamicProgress, DynamicSet, bake_dynamic,
+};
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
 use caustica::bake::transport::{TransportParams, TransportTable, bake_transport};
 use caustica::encode::{self, Frame, PngSettings, ToneMap};
@@ -370,16 +372,11 @@ fn main() -> Result<()> {
             params.subdivisions = subdivisions.unwrap_or(params.subdivisions);
             params.track_grid = track_grid.unwrap_or(params.track_grid);
             params.steps = steps.unwrap_or(params.steps);
-            let n = Icosphere::new(params.subdivisions.min(3)).vertices.len();
-            let edges = Icosphere::new(params.subdivisions.min(3)).edges().len();
             let bar = progress_bar(&format!("bake csl --dynamic {name}"));
-            let set = bake_dynamic(&world, &name, &params, &|p: Progress| {
+            let set = bake_dynamic(&world, &name, &params, &|p: DynamicProgress| {
                 let what = match p.stage {
-                    "directions" => format!("directions {}/{n}", (p.fraction * n as f32).round()),
-                    "tracking" => format!(
-                        "edges tracked {}/{edges}",
-                        (p.fraction * edges as f32).round()
-                    ),
+                    "directions" => format!("directions {}/{}", p.done, p.total),
+                    "tracking" => format!("edges tracked {}/{}", p.done, p.total),
                     s => s.to_string(),
                 };
                 bar.set_message(format!("bake csl --dynamic {name}: {what}"));

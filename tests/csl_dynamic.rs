@@ -316,6 +316,23 @@ fn dynamic_bake_is_deterministic_and_round_trips() {
     other.objects[oi].transform = Mat4::from_scale(Vec3::splat(1.1)) * other.objects[oi].transform;
     assert!(!back.is_for(&other, other.object("glass").unwrap()));
     // A canceled bake stops with an error.
-    let r = bake_dynamic(&w, "glass", &small, &|p| p.stage != "tracking");
+    let seen = std::sync::Mutex::new(Vec::new());
+    let r = bake_dynamic(&w, "glass", &small, &|p| {
+        seen.lock().unwrap().push(p);
+        p.stage != "tracking"
+    });
     assert!(matches!(r, Err(caustica::bake::BakeError::Canceled)));
+    // Progress counted every direction, then the tracking began (where it was canceled).
+    let seen = seen.into_inner().unwrap();
+    let dirs: Vec<u32> = seen
+        .iter()
+        .filter(|p| p.stage == "directions")
+        .map(|p| p.done)
+        .collect();
+    assert_eq!(dirs.iter().max(), Some(&12));
+    assert_eq!(seen.last().map(|p| p.stage), Some("tracking"));
+    assert!(
+        seen.iter()
+            .all(|p| p.stage != "directions" || p.total == 12)
+    );
 }

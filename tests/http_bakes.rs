@@ -412,6 +412,117 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
     );
 }
 
+/// A dynamic csl bake (`"dynamic": true`) is a job with progress per direction; its artifact
+/// is the library's dynamic bake, and a `csl` render with the same parameters finds it (any
+/// directional light: the set is interpolated). Dynamic-only fields without it are refused.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn dynamic_csl_bake_job_serves_renders() {
+    use caustica::bake::csl::CslParams;
+    use caustica::bake::csl::dynamic::{DynamicParams, DynamicSet, bake_dynamic};
+    let srv = Server::start("bake-csl-dynamic", |_, _| {}).await;
+    let scene = scene_sized(16, 16);
+    let csl = serde_json::json!({
+        "preset": "fast", "grid": 48, "dynamic": true, "subdivisions": 0,
+        "track_grid": 16, "steps": 2,
+    });
+    let body = serde_json::json!({
+        "scene": scene, "object": "glass", "method": "csl", "params": csl,
+    });
+    let r = srv.post_json("/v1/bakes", &body).await;
+    assert_eq!(r.status(), 202);
+    let v: serde_json::Value = r.json().await.unwrap();
+    let id = v["id"].as_str().unwrap().to_string();
+    let done = poll(
+        "dynamic bake to succeed",
+        Duration::from_secs(300),
+        || async {
+            let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
+            assert_ne!(v["state"], "failed", "{v}");
+            (v["state"] == "succeeded").then_some(v)
+        },
+    )
+    .await;
+    let st = &done["info"]["statistics"];
+    assert_eq!(st["directions"], 12, "{done}");
+    assert_eq!(st["edges"], 30, "{done}");
+    let r = srv
+        .client
+        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let bytes = r.bytes().await.unwrap().to_vec();
+    let set = DynamicSet::from_bytes(&bytes).expect("a valid dynamic CSL set");
+    assert_eq!(set.sets.len(), 12);
+    let world = caustica::scene::resolve(
+        &caustica::scene::parse_scene(scene.to_string().as_bytes()).unwrap(),
+        &caustica::scene::MapSource::default(),
+        &Default::default(),
+    )
+    .unwrap();
+    let params = DynamicParams {
+        subdivisions: 0,
+        track_grid: 16,
+        steps: 2,
+        csl: CslParams {
+            grid: 48,
+            ..CslParams::fast()
+        },
+        ..DynamicParams::paper()
+    };
+    let lib = tokio::task::spawn_blocking(move || {
+        bake_dynamic(&world, "glass", &params, &|_| true)
+            .unwrap()
+            .to_bytes()
+    })
+    .await
+    .unwrap();
+    assert!(
+        lib == bytes,
+        "the service's artifact differs from the library bake"
+    );
+
+    // A render with the same csl parameters finds the bake, whatever the light's direction.
+    let mut turned = scene.clone();
+    turned["lights"][0]["direction"] = serde_json::json!([0.3, -1.0, 0.4]);
+    let req = serde_json::json!({
+        "scene": turned, "method": "csl", "width": 16, "height": 16, "format": "exr",
+        "component": "caustics", "csl": csl,
+    });
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(
+        rec["info"]["statistics"]["bakes"][0]["cached"], true,
+        "{rec}"
+    );
+
+    // Dynamic-only fields without "dynamic" are refused, naming the field.
+    let mut bad = body.clone();
+    bad["params"] = serde_json::json!({"preset": "fast", "subdivisions": 1});
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert!(
+        p["detail"]
+            .as_str()
+            .unwrap()
+            .contains("params.subdivisions"),
+        "{p}"
+    );
+    let mut bad = body.clone();
+    bad["params"]["subdivisions"] = serde_json::json!(7);
+    let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+    assert!(
+        p["detail"]
+            .as_str()
+            .unwrap()
+            .contains("params.subdivisions"),
+        "{p}"
+    );
+    srv.stop().await;
+}
+
 /// `method: transport` bakes the light transport table of a glass object: the artifact is the
 /// library's bytes for the same parameters; an object without glass is refused naming it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -3,6 +3,8 @@
 //! `caustica bake csl`). Deterministic, so re-running it after a restart is safe.
 
 use super::{Artifact, Job, JobCtx, JobError, Lane};
+use crate::bake::csl::cache::DirStore;
+use crate::bake::csl::dynamic::{DynamicParams, DynamicProgress, bake_dynamic};
 use crate::bake::csl::{CslParams, CslSet, bake_csl, scene_directional_light};
 use crate::bake::{BakeError, Progress};
 use crate::scene::World;
@@ -20,6 +22,19 @@ pub struct CslBakeParams {
     /// Rays per side of the ray grid over the silhouette, 16..=4096 (the paper: 1280).
     #[serde(default)]
     pub grid: Option<u32>,
+    /// Dynamic lighting (seed 000 §4): a set per direction of a subdivided icosahedron,
+    /// matched into triples; serves every directional light. Omitted when false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub dynamic: bool,
+    /// Dynamic: icosahedron subdivisions, 0..=3 (default 2: 162 directions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub subdivisions: Option<u32>,
+    /// Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 128).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub track_grid: Option<u32>,
+    /// Dynamic: tracking steps along an icosahedron edge, 1..=100 (default 20).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<u32>,
 }
 
 fn default_preset() -> String {
@@ -57,7 +72,50 @@ impl CslBakeParams {
             )));
         }
         p.grid = Some(grid);
+        if p.dynamic {
+            let d = DynamicParams::paper();
+            let fields = [
+                ("subdivisions", &mut p.subdivisions, d.subdivisions, 0..=3),
+                ("track_grid", &mut p.track_grid, d.track_grid, 16..=1024),
+                ("steps", &mut p.steps, d.steps, 1..=100),
+            ];
+            for (name, v, default, range) in fields {
+                let x = v.unwrap_or(default);
+                if !range.contains(&x) {
+                    return Err(JobError::Params(format!(
+                        "{at}.{name}: must lie in {}..={}",
+                        range.start(),
+                        range.end()
+                    )));
+                }
+                *v = Some(x);
+            }
+        } else {
+            for (name, set) in [
+                ("subdivisions", p.subdivisions.is_some()),
+                ("track_grid", p.track_grid.is_some()),
+                ("steps", p.steps.is_some()),
+            ] {
+                if set {
+                    return Err(JobError::Params(format!(
+                        "{at}.{name}: only for a dynamic bake (\"dynamic\": true)"
+                    )));
+                }
+            }
+        }
         Ok(p)
+    }
+
+    /// The parameters of a dynamic bake (meaningful when `dynamic`).
+    pub fn dynamic_params(&self) -> DynamicParams {
+        let d = DynamicParams::paper();
+        DynamicParams {
+            subdivisions: self.subdivisions.unwrap_or(d.subdivisions),
+            track_grid: self.track_grid.unwrap_or(d.track_grid),
+            steps: self.steps.unwrap_or(d.steps),
+            csl: self.csl_params(),
+            ..d
+        }
     }
 
     pub fn csl_params(&self) -> CslParams {
@@ -92,17 +150,74 @@ impl CslBake {
         let obj = world
             .object(object)
             .ok_or_else(|| JobError::UnknownObject(object.into()))?;
-        let (dir, _) = scene_directional_light(&world).ok_or_else(|| {
-            JobError::Params(
-                "scene.lights: a csl bake needs a directional light; the scene has none".into(),
-            )
-        })?;
-        let light = CslSet::light_in_object_frame(obj, dir);
+        // A dynamic bake serves every light direction; a static one is for the scene's light.
+        let light = match scene_directional_light(&world) {
+            Some((dir, _)) => CslSet::light_in_object_frame(obj, dir),
+            None if params.dynamic => glam::Vec3::NEG_Y,
+            None => {
+                return Err(JobError::Params(
+                    "scene.lights: a csl bake needs a directional light; the scene has none \
+                     (a dynamic bake does not)"
+                        .into(),
+                ));
+            }
+        };
         Ok(CslBake {
             object: object.into(),
             world,
             light,
             params,
+        })
+    }
+}
+
+impl CslBake {
+    /// A dynamic bake: progress per direction, then per edge; the artifact is also kept in the
+    /// data directory's bake cache, where `csl` renders with the same parameters find it.
+    fn run_dynamic(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
+        let params = self.params.dynamic_params();
+        let set = bake_dynamic(&self.world, &self.object, &params, &|p: DynamicProgress| {
+            let stage = match p.stage {
+                "directions" => format!("directions {}/{}", p.done, p.total),
+                "tracking" => format!("tracking edges {}/{}", p.done, p.total),
+                s => s.to_string(),
+            };
+            ctx.progress(p.fraction, &stage);
+            ctx.keep_going()
+        })
+        .map_err(|e| match e {
+            BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
+            BakeError::UnknownObject(o) => JobError::UnknownObject(o),
+            other => JobError::Params(other.to_string()),
+        })?;
+        DirStore(ctx.data_dir().join("csl-cache")).save_dynamic(&set);
+        let s = &set.stats;
+        let bytes = set.to_bytes();
+        let info = serde_json::json!({
+            "object": self.object,
+            "statistics": {
+                "directions": s.directions,
+                "csls": s.csls,
+                "black_partners": s.blacks,
+                "matched_pairs": s.matched,
+                "edges": s.edges,
+                "triples": s.triples,
+                "matched_triples": s.consistent_triples,
+                "tracking_rays": s.tracking_rays,
+                "bytes": bytes.len(),
+                "source_hash": format!("{:016x}", set.source_hash),
+            },
+        });
+        Ok(Artifact {
+            content_type: "application/octet-stream",
+            ext: "csld",
+            bytes,
+            timings: vec![
+                ("bakes".into(), s.time_bakes),
+                ("tracking".into(), s.time_tracking),
+                ("triples".into(), s.time_triples),
+            ],
+            info,
         })
     }
 }
@@ -119,6 +234,9 @@ impl Job for CslBake {
     }
 
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
+        if self.params.dynamic {
+            return self.run_dynamic(ctx);
+        }
         let set = bake_csl(
             &self.world,
             &self.object,

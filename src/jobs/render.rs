@@ -297,13 +297,28 @@ impl RenderJob {
         ctx: &JobCtx<'_>,
         timings: &mut Vec<(String, Duration)>,
     ) -> Result<Frames, JobError> {
-        let params = self.csl.as_ref().expect("set for csl").csl_params();
+        let csl = self.csl.as_ref().expect("set for csl");
+        let params = csl.csl_params();
         let store = csl_cache::DirStore(ctx.data_dir().join("csl-cache"));
         let t = Instant::now();
-        let sets = csl_cache::sets_for_render(&self.world, &params, &store, &|_, p| {
-            ctx.progress(0.9 * p.fraction, "bake");
-            ctx.keep_going()
-        })
+        let sets = if csl.dynamic {
+            // The dynamic bake (a bake job with the same parameters keeps it), interpolated for
+            // the scene's light.
+            csl_cache::dynamic_sets_for_render(
+                &self.world,
+                &csl.dynamic_params(),
+                &store,
+                &|_, p| {
+                    ctx.progress(0.9 * p.fraction, "bake");
+                    ctx.keep_going()
+                },
+            )
+        } else {
+            csl_cache::sets_for_render(&self.world, &params, &store, &|_, p| {
+                ctx.progress(0.9 * p.fraction, "bake");
+                ctx.keep_going()
+            })
+        }
         .map_err(|e| match e {
             csl_cache::PrepareError::Bake(BakeError::Canceled) => {
                 ctx.check().err().unwrap_or(JobError::Canceled)
@@ -326,7 +341,9 @@ impl RenderJob {
                     "cached": s.cached,
                     "source_hash": format!("{:016x}", s.set.source_hash),
                     "csls": s.set.csls.len(),
-                    "energy_covered": s.set.stats.coverage(),
+                    // An interpolated (dynamic) set has no coverage of its own.
+                    "energy_covered": (s.set.stats.energy_traced > 0.0)
+                        .then(|| s.set.stats.coverage()),
                 })).collect::<Vec<_>>(),
             },
         });

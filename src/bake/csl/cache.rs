@@ -4,7 +4,12 @@
 //! each up in a [`CslStore`] by [`super::csl_source_hash`] and bakes only what is missing, so a
 //! moving receiver, a moving camera or the object moving rigidly with the light reuse the bake.
 //! The CLI keeps its store in a folder ([`DirStore`]); the service in its data directory.
+//! [`dynamic_sets_for_render`] does the same with dynamic bakes, which serve every light
+//! direction: the set of the scene's light is interpolated from the kept bake.
 
+use super::dynamic::{
+    DynamicParams, DynamicProgress, DynamicSet, bake_dynamic, dynamic_source_hash,
+};
 use super::{CslParams, CslSet, bake_csl, csl_source_hash, scene_directional_light};
 use crate::bake::{BakeError, Progress};
 use crate::scene::World;
@@ -47,14 +52,37 @@ impl CslStore for DirStore {
     }
 
     fn save(&self, set: &CslSet) {
-        let path = self.path(set.source_hash);
+        self.write(&self.path(set.source_hash), &set.to_bytes());
+    }
+}
+
+impl DirStore {
+    /// Where a dynamic bake (seed 000 §4) of source hash `key` is kept.
+    pub fn dynamic_path(&self, key: u64) -> PathBuf {
+        self.0.join(format!("csl-dynamic-{key:016x}.bin"))
+    }
+
+    pub fn load_dynamic(&self, key: u64) -> Option<DynamicSet> {
+        let bytes = std::fs::read(self.dynamic_path(key)).ok()?;
+        DynamicSet::from_bytes(&bytes)
+            .ok()
+            .filter(|s| s.source_hash == key)
+    }
+
+    pub fn save_dynamic(&self, set: &DynamicSet) {
+        self.write(&self.dynamic_path(set.source_hash), &set.to_bytes());
+    }
+
+    /// Atomic write: a temporary file, then a rename; failures are logged, not fatal (the
+    /// caller has the bake in hand).
+    fn write(&self, path: &std::path::Path, bytes: &[u8]) {
         // Unique per process and call: two renders saving the same set never share a file.
         static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let tmp = path.with_extension(format!("tmp{}-{n}", std::process::id()));
         let r = std::fs::create_dir_all(&self.0)
-            .and_then(|_| std::fs::write(&tmp, set.to_bytes()))
-            .and_then(|_| std::fs::rename(&tmp, &path));
+            .and_then(|_| std::fs::write(&tmp, bytes))
+            .and_then(|_| std::fs::rename(&tmp, path));
         if let Err(e) = r {
             let _ = std::fs::remove_file(&tmp);
             tracing::warn!("could not keep the CSL bake in {}: {e}", path.display());
@@ -133,6 +161,39 @@ pub fn sets_for_render(
             object: oi,
             set,
             cached: false,
+        });
+    }
+    Ok(RenderSets { sets, light })
+}
+
+/// As [`sets_for_render`] from dynamic bakes (seed 000 §4): for every caustic object its dynamic
+/// set from `store` when kept, else baked (with `params`) and saved, then the set for the
+/// scene's directional light interpolated from it. `progress(object name, p)` sees each bake's
+/// progress; returning false cancels.
+pub fn dynamic_sets_for_render(
+    world: &World,
+    params: &DynamicParams,
+    store: &DirStore,
+    progress: &(dyn Fn(&str, DynamicProgress) -> bool + Sync),
+) -> Result<RenderSets, PrepareError> {
+    let light = scene_directional_light(world).ok_or(PrepareError::NoDirectionalLight)?;
+    let mut sets = Vec::new();
+    for oi in caustic_objects(world) {
+        let o = &world.objects[oi];
+        let key = dynamic_source_hash(world, &o.name, params)
+            .ok_or_else(|| BakeError::UnknownObject(o.name.clone()))?;
+        let (dynset, cached) = match store.load_dynamic(key) {
+            Some(d) => (d, true),
+            None => {
+                let d = bake_dynamic(world, &o.name, params, &|p| progress(&o.name, p))?;
+                store.save_dynamic(&d);
+                (d, false)
+            }
+        };
+        sets.push(ObjectSet {
+            object: oi,
+            set: dynset.interpolate(CslSet::light_in_object_frame(o, light.0)),
+            cached,
         });
     }
     Ok(RenderSets { sets, light })

@@ -31,7 +31,7 @@ use super::trace::{self, CausticRay, RayGrid};
 use super::{
     ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl, object_hash, rigid_frame_world,
 };
-use crate::bake::{Fnv64, Progress};
+use crate::bake::Fnv64;
 use crate::scene::World;
 use crate::trace::Accel;
 use glam::{Mat3, Quat, Vec3};
@@ -306,10 +306,37 @@ pub struct DynamicSet {
     pub stats: DynamicStats,
 }
 
-/// Progress stages of a dynamic bake: "directions" (static sets done / total), "tracking"
-/// (edges done / total), "triples".
-fn report(progress: &(dyn Fn(Progress) -> bool + Sync), stage: &'static str, f: f32) -> bool {
-    progress(Progress { stage, fraction: f })
+/// Progress of a dynamic bake.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DynamicProgress {
+    /// "directions" (static sets baked), "tracking" (edges tracked and matched), "triples",
+    /// "done".
+    pub stage: &'static str,
+    /// Items of the stage done, of `total`.
+    pub done: u32,
+    pub total: u32,
+    /// Overall completion in [0, 1] (directions count for 0.6 of it, edges for 0.4).
+    pub fraction: f32,
+}
+
+fn report(
+    progress: &(dyn Fn(DynamicProgress) -> bool + Sync),
+    stage: &'static str,
+    done: u32,
+    total: u32,
+) -> bool {
+    let f = done as f32 / total.max(1) as f32;
+    let fraction = match stage {
+        "directions" => 0.6 * f,
+        "tracking" => 0.6 + 0.4 * f,
+        _ => 1.0,
+    };
+    progress(DynamicProgress {
+        stage,
+        done,
+        total,
+        fraction: fraction.min(1.0),
+    })
 }
 
 /// Hash of a dynamic bake's inputs.
@@ -726,7 +753,7 @@ pub fn bake_dynamic(
     world: &World,
     object_name: &str,
     params: &DynamicParams,
-    progress: &(dyn Fn(Progress) -> bool + Sync),
+    progress: &(dyn Fn(DynamicProgress) -> bool + Sync),
 ) -> Result<DynamicSet, BakeError> {
     let t_start = Instant::now();
     params.validate()?;
@@ -735,8 +762,8 @@ pub fn bake_dynamic(
         .ok_or_else(|| BakeError::UnknownObject(object_name.to_string()))?;
     let ico = Icosphere::new(params.subdivisions);
     let cancel = AtomicBool::new(false);
-    let check = |stage, f| {
-        if !cancel.load(Ordering::Relaxed) && !report(progress, stage, f) {
+    let check = |stage, done, total| {
+        if !cancel.load(Ordering::Relaxed) && !report(progress, stage, done, total) {
             cancel.store(true, Ordering::Relaxed);
         }
         !cancel.load(Ordering::Relaxed)
@@ -745,7 +772,7 @@ pub fn bake_dynamic(
     let t0 = Instant::now();
     let nv = ico.vertices.len();
     let done = AtomicU32::new(0);
-    check("directions", 0.0);
+    check("directions", 0, nv as u32);
     let sets: Vec<Result<CslSet, BakeError>> = ico
         .vertices
         .par_iter()
@@ -754,7 +781,7 @@ pub fn bake_dynamic(
                 !cancel.load(Ordering::Relaxed)
             })?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if !check("directions", d as f32 / nv as f32) {
+            if !check("directions", d, nv as u32) {
                 return Err(BakeError::Canceled);
             }
             Ok(set)
@@ -769,7 +796,7 @@ pub fn bake_dynamic(
     let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
     let edges = ico.edges();
     let done = AtomicU32::new(0);
-    check("tracking", 0.0);
+    check("tracking", 0, edges.len() as u32);
     let matches: Vec<Option<EdgeMatch>> = edges
         .par_iter()
         .map(|&[i, j]| {
@@ -780,7 +807,7 @@ pub fn bake_dynamic(
                 &cancel,
             )?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            check("tracking", d as f32 / edges.len() as f32).then_some(m)
+            check("tracking", d, edges.len() as u32).then_some(m)
         })
         .collect();
     if cancel.load(Ordering::Relaxed) || matches.iter().any(Option::is_none) {
@@ -834,7 +861,7 @@ pub fn bake_dynamic(
     }
 
     // 3. Triples per face.
-    check("triples", 0.0);
+    check("triples", 0, ico.faces.len() as u32);
     let mut triples = Vec::with_capacity(ico.faces.len());
     for f in &ico.faces {
         let oriented: Vec<Vec<Match>> = (0..3)
@@ -865,7 +892,7 @@ pub fn bake_dynamic(
     stats.time_tracking = time_tracking;
     stats.time_triples = t0.elapsed();
     stats.time_total = t_start.elapsed();
-    report(progress, "done", 1.0);
+    report(progress, "done", 1, 1);
     Ok(DynamicSet {
         source_hash: dynamic_source_hash(world, object_name, params).unwrap_or_default(),
         object_hash: object_hash(world, object),
