@@ -2,6 +2,7 @@
 //! (1280² rays) on the canonical glass sphere (a 256-segment UV sphere, 65k triangles), all
 //! cores. The stage times of one bake are printed before timing.
 
+use caustica::bake::csl::dynamic::{DynamicParams, Icosphere, bake_dynamic};
 use caustica::bake::csl::{CslParams, CslSet, bake_csl};
 use caustica::bake::transport::{TransportParams, bake_transport};
 use caustica::scene;
@@ -57,5 +58,41 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// Dynamic lighting (seed 000 §4): the per-frame interpolation of a set for a light direction
+/// inside an icosahedron face, from a dynamic bake of the glass sphere (once subdivided: 42
+/// directions, 256² rays a direction, 64² a tracking step, 10 steps; its time is printed, not
+/// sampled: it is minutes).
+fn bench_dynamic(c: &mut Criterion) {
+    let w = scene::load_scene_file(
+        Path::new("scenes/glass-sphere-directional.json"),
+        &Default::default(),
+    )
+    .expect("scene");
+    let params = DynamicParams {
+        subdivisions: 1,
+        steps: 10,
+        track_grid: 64,
+        csl: CslParams {
+            grid: 256,
+            ..CslParams::fast()
+        },
+        ..DynamicParams::paper()
+    };
+    let d = bake_dynamic(&w, "glass", &params, &|_| true).expect("bake");
+    println!("dynamic bake (42 directions): {:?}", d.stats);
+    let ico = Icosphere::new(1);
+    let f = ico.faces[29];
+    let dir = (0..3)
+        .map(|k| ico.vertices[f[k] as usize] * [0.5, 0.3, 0.2][k])
+        .fold(glam::Vec3::ZERO, |a, b| a + b)
+        .normalize();
+    println!("interpolated: {} CSLs", d.interpolate(dir).csls.len());
+    let mut g = c.benchmark_group("bake");
+    g.bench_function("csl_dynamic_interpolate_glass_sphere", |b| {
+        b.iter(|| black_box(d.interpolate(black_box(dir))))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_dynamic);
 criterion_main!(benches);

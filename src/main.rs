@@ -177,6 +177,9 @@ enum BakeCmd {
         /// Dynamic: tracking steps along each icosahedron edge (default 20, the paper's).
         #[arg(long, requires = "dynamic")]
         steps: Option<u32>,
+        /// Dynamic: largest axis distance of a match, in bounding-sphere radii (default 0.5).
+        #[arg(long, requires = "dynamic")]
+        match_threshold: Option<f32>,
     },
     /// Light transport table (seed 001 §4) of one refractive object: per vertex and sampling
     /// direction, where the light finally leaves the object. No light needed: one table
@@ -363,6 +366,7 @@ fn main() -> Result<()> {
                     subdivisions,
                     track_grid,
                     steps,
+                    match_threshold,
                 },
         } => {
             let world = load(&scene)?;
@@ -372,6 +376,7 @@ fn main() -> Result<()> {
             params.subdivisions = subdivisions.unwrap_or(params.subdivisions);
             params.track_grid = track_grid.unwrap_or(params.track_grid);
             params.steps = steps.unwrap_or(params.steps);
+            params.match_threshold = match_threshold.unwrap_or(params.match_threshold);
             let bar = progress_bar(&format!("bake csl --dynamic {name}"));
             let set = bake_dynamic(&world, &name, &params, &|p: DynamicProgress| {
                 let what = match p.stage {

@@ -75,3 +75,67 @@ fn bake_then_render_with_the_artifact() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `caustica bake csl --dynamic` writes a dynamic bake that `render --method csl --bake` turns
+/// into the set of the scene's light; a dynamic bake of another object is refused by name.
+#[test]
+fn dynamic_bake_then_render_with_the_artifact() {
+    let dir = std::env::temp_dir().join(format!("caustica-csl-dyn-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let set = dir.join("sphere.csld");
+    let scene = "scenes/glass-sphere-directional.json";
+    let out = caustica(&[
+        "bake",
+        "csl",
+        scene,
+        "--dynamic",
+        "--subdivisions",
+        "0",
+        "--grid",
+        "64",
+        "--track-grid",
+        "16",
+        "--steps",
+        "2",
+        "--out",
+        set.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("12 directions") && err.contains("30 edges"),
+        "{err}"
+    );
+    let exr = dir.join("caustics.exr");
+    let render = |s: &str| {
+        caustica(&[
+            "render",
+            s,
+            "--method",
+            "csl",
+            "--bake",
+            set.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--component",
+            "caustics",
+            "--out",
+            exr.to_str().unwrap(),
+        ])
+    };
+    let out = render(scene);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("csl interpolate"), "{err}");
+    let f = decode_frame(&std::fs::read(&exr).unwrap()).unwrap();
+    let peak = f.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    assert!(peak > 1.0, "a bright caustic: {peak}");
+    // The teapot scene's caustic object is another object.
+    let out = render("scenes/glass-teapot.json");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("dynamic bake of another object"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

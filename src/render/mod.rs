@@ -369,7 +369,20 @@ impl Renderer {
         let csl_bufs = match csl {
             Some(l) => {
                 let max_storage = limits.max_storage_buffer_binding_size;
-                let texel_bytes: u64 = l.csls.iter().map(|c| c.texels.len() as u64 * 8).sum();
+                // Images over the binding limit (many CSLs, e.g. a set interpolated from a
+                // dynamic bake of a complex object) are made coarser, least flux first, rather
+                // than refusing the frame.
+                let fitted = crate::bake::csl::image::fit_images(&l.csls, max_storage / 8);
+                if let Some(f) = &fitted {
+                    tracing::warn!(
+                        csls = l.csls.len(),
+                        halved = f.1,
+                        "CSL intensity images over the storage binding limit: some made coarser"
+                    );
+                }
+                let csls: &[crate::bake::csl::Csl] =
+                    fitted.as_ref().map_or(&l.csls, |f| f.0.as_slice());
+                let texel_bytes: u64 = csls.iter().map(|c| c.texels.len() as u64 * 8).sum();
                 if texel_bytes > max_storage {
                     return Err(RenderError::Limit(format!(
                         "{} bytes of CSL intensity images over the adapter's storage binding \
@@ -377,11 +390,11 @@ impl Renderer {
                         texel_bytes
                     )));
                 }
-                globals.counts[3] = l.csls.len() as u32;
+                globals.counts[3] = csls.len() as u32;
                 globals.csl_irradiance = l.irradiance.extend(0.0).to_array();
                 let blockers =
                     blockers::Blockers::build(world, |i| !l.caustic_objects.contains(&i));
-                direct::CslBuffers::new(&l.csls, blockers)
+                direct::CslBuffers::new(csls, blockers)
             }
             None => match tl {
                 Some(l) => {

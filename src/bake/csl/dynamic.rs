@@ -26,7 +26,7 @@
 //!   linear blend, and the focus law blends as κ = 1/α, γ = β/α (linear in α passes through
 //!   infinity where a bundle turns from converging to diverging).
 
-use super::bundle::{self, Thresholds};
+use super::bundle;
 use super::trace::{self, CausticRay, RayGrid};
 use super::{
     ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl, object_hash, rigid_frame_world,
@@ -281,7 +281,7 @@ pub struct DynamicStats {
     pub triples: u32,
     /// Triples whose three members are matched with each other on all three edges (rule 1).
     pub consistent_triples: u32,
-    /// Grid rays traced over all tracking steps.
+    /// Grid rays that hit the object, over all tracking steps of all edges.
     pub tracking_rays: u64,
     pub time_bakes: Duration,
     pub time_tracking: Duration,
@@ -528,11 +528,7 @@ fn match_edge(
 ) -> Option<EdgeMatch> {
     let (s0, s1) = (sets[0].light_dir, sets[1].light_dir);
     let (centre, radius) = (sets[0].centre, sets[0].radius);
-    let th = Thresholds {
-        distance: params.csl.distance_threshold * radius,
-        cos_angle: params.csl.angle_threshold_deg.to_radians().cos(),
-        max_iterations: params.csl.max_iterations,
-    };
+    let cos_angle = params.csl.angle_threshold_deg.to_radians().cos();
     let trace_params = CslParams {
         grid: params.track_grid,
         ..params.csl
@@ -581,7 +577,7 @@ fn match_edge(
             axes.par_iter_mut().for_each(|t| {
                 t.origin = centre + q * (t.origin - centre);
                 t.axis = (q * t.axis).normalize();
-                t.step(&rays[w[1]], th.cos_angle, fit_cos, area)
+                t.step(&rays[w[1]], cos_angle, fit_cos, area)
             });
         }
         axes.iter().map(|t| (t.origin, t.axis)).collect()
@@ -707,10 +703,52 @@ fn face_triples(
         }
         cycles += 1;
     }
+    // A CSL whose partners on both of its edges are blacks (made for it, so with no partner
+    // on the face's third edge): its two pair triples would have the same members and weights,
+    // so they are one triple adding all of its image.
+    for i in 0..3 {
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        for x in 0..len[i] {
+            if in_cycle[i][x] {
+                continue;
+            }
+            let (Some(y), Some(z)) = (partner[i][x][0], partner[i][x][1]) else {
+                continue;
+            };
+            if partner[j][y as usize][0].is_some() || partner[k][z as usize][1].is_some() {
+                continue;
+            }
+            in_cycle[i][x] = true;
+            in_cycle[j][y as usize] = true;
+            in_cycle[k][z as usize] = true;
+            if lit(i, x as u16) {
+                let mut members = [Member {
+                    csl: 0,
+                    image: Share::None,
+                }; 3];
+                members[i] = Member {
+                    csl: x as u16,
+                    image: Share::Full,
+                };
+                members[j] = Member {
+                    csl: y,
+                    image: Share::None,
+                };
+                members[k] = Member {
+                    csl: z,
+                    image: Share::None,
+                };
+                triples.push(Triple {
+                    members,
+                    split: None,
+                });
+            }
+        }
+    }
     for (e, m) in matches.iter().enumerate() {
         let (i, j, k) = (e, (e + 1) % 3, (e + 2) % 3);
         for &(x, y, _) in m.iter() {
-            if in_cycle[i][x as usize] || !(lit(i, x) || lit(j, y)) {
+            if in_cycle[i][x as usize] || in_cycle[j][y as usize] || !(lit(i, x) || lit(j, y)) {
                 continue;
             }
             // x's partner at k is on edge (k, i): x's previous-corner partner; y's on (j, k):

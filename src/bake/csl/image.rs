@@ -123,3 +123,122 @@ pub fn quantise(texels: &[Vec3]) -> (f32, Vec<[u16; 3]>) {
         .collect();
     (max, q)
 }
+
+/// The image of `c` at half its resolution (2×2 box: the same flux over the same extent),
+/// re-quantised. An odd size drops its last row and column into the one before.
+pub fn halve(c: &super::Csl) -> super::Csl {
+    let n = c.size as usize;
+    let m = (n / 2).max(1);
+    let mut f = vec![Vec3::ZERO; m * m];
+    let k = c.scale / 65535.0;
+    for j in 0..n {
+        for i in 0..n {
+            let t = c.texels[j * n + i];
+            let (a, b) = ((i / 2).min(m - 1), (j / 2).min(m - 1));
+            f[b * m + a] += Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) * k;
+        }
+    }
+    // Each coarse texel covers (n/m)² fine ones: the mean keeps the flux per m².
+    let area = (n * n) as f32 / (m * m) as f32;
+    for v in &mut f {
+        *v /= area;
+    }
+    let (scale, texels) = quantise(&f);
+    super::Csl {
+        size: m as u32,
+        scale,
+        texels,
+        ..c.clone()
+    }
+}
+
+/// When the images of `csls` hold more than `max_texels` texels, copies with the images of
+/// the CSLs of least flux halved in resolution (repeatedly, down to 16²) until they fit, and
+/// how many halvings that took; None when they fit already (or cannot be made to).
+pub fn fit_images(csls: &[super::Csl], max_texels: u64) -> Option<(Vec<super::Csl>, u32)> {
+    let total = |c: &[super::Csl]| c.iter().map(|c| c.texels.len() as u64).sum::<u64>();
+    if total(csls) <= max_texels {
+        return None;
+    }
+    let mut out = csls.to_vec();
+    let mut order: Vec<usize> = (0..out.len()).collect();
+    order.sort_by(|&a, &b| out[a].flux.total_cmp(&out[b].flux).then(a.cmp(&b)));
+    let mut halved = 0;
+    let mut sum = total(&out);
+    while sum > max_texels {
+        let mut changed = false;
+        for &i in &order {
+            if out[i].size <= 16 || out[i].texels.is_empty() {
+                continue;
+            }
+            let before = out[i].texels.len() as u64;
+            out[i] = halve(&out[i]);
+            sum = sum - before + out[i].texels.len() as u64;
+            halved += 1;
+            changed = true;
+            if sum <= max_texels {
+                break;
+            }
+        }
+        if !changed {
+            return None;
+        }
+    }
+    Some((out, halved))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::csl::Csl;
+
+    fn csl(size: u32, flux: f32) -> Csl {
+        let texels: Vec<Vec3> = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f32, (i / size) as f32);
+                Vec3::new(1.0 + x, 2.0 + y, (x * y).sqrt())
+            })
+            .collect();
+        let (scale, texels) = quantise(&texels);
+        Csl {
+            origin: Vec3::ZERO,
+            axis: Vec3::Z,
+            x_axis: Vec3::X,
+            kappa: 1.0,
+            gamma: 0.0,
+            half_extent: 0.5,
+            size,
+            scale,
+            flux,
+            texels,
+        }
+    }
+
+    fn image_flux(c: &Csl) -> Vec3 {
+        let pix = 2.0 * c.half_extent / c.size as f32;
+        c.texels
+            .iter()
+            .map(|t| Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32))
+            .fold(Vec3::ZERO, |a, b| a + b)
+            * (c.scale / 65535.0 * pix * pix)
+    }
+
+    #[test]
+    fn halving_keeps_the_flux_and_fitting_halves_the_faintest_first() {
+        let c = csl(64, 1.0);
+        let h = halve(&c);
+        assert_eq!(h.size, 32);
+        let (a, b) = (image_flux(&c), image_flux(&h));
+        assert!(((a - b).abs() / a).max_element() < 1e-3, "{a} {b}");
+        let set = vec![csl(64, 0.5), csl(64, 0.01), csl(64, 0.2)];
+        assert!(fit_images(&set, 3 * 64 * 64).is_none());
+        let (fitted, halved) = fit_images(&set, 3 * 64 * 64 - 1).unwrap();
+        assert_eq!(halved, 1);
+        assert_eq!(
+            fitted.iter().map(|c| c.size).collect::<Vec<_>>(),
+            [64, 32, 64]
+        );
+        // Cannot fit below 16² each: refused.
+        assert!(fit_images(&set, 100).is_none());
+    }
+}
