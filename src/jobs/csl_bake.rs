@@ -190,9 +190,9 @@ impl CslBake {
             BakeError::UnknownObject(o) => JobError::UnknownObject(o),
             other => JobError::Params(other.to_string()),
         })?;
-        DirStore(ctx.data_dir().join("csl-cache")).save_dynamic(&set);
         let s = &set.stats;
         let bytes = set.to_bytes();
+        DirStore(ctx.data_dir().join("csl-cache")).save_dynamic(set.source_hash, &bytes);
         let info = serde_json::json!({
             "object": self.object,
             "statistics": {

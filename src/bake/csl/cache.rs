@@ -69,8 +69,9 @@ impl DirStore {
             .filter(|s| s.source_hash == key)
     }
 
-    pub fn save_dynamic(&self, set: &DynamicSet) {
-        self.write(&self.dynamic_path(set.source_hash), &set.to_bytes());
+    /// Keep `bytes`, the artifact of a dynamic bake whose source hash is `key`.
+    pub fn save_dynamic(&self, key: u64, bytes: &[u8]) {
+        self.write(&self.dynamic_path(key), bytes);
     }
 
     /// Atomic write: a temporary file, then a rename; failures are logged, not fatal (the
@@ -186,7 +187,7 @@ pub fn dynamic_sets_for_render(
             Some(d) => (d, true),
             None => {
                 let d = bake_dynamic(world, &o.name, params, &|p| progress(&o.name, p))?;
-                store.save_dynamic(&d);
+                store.save_dynamic(d.source_hash, &d.to_bytes());
                 (d, false)
             }
         };
