@@ -133,12 +133,7 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
     );
 
     let id = v1["id"].as_str().unwrap();
-    let done = poll("bake to succeed", Duration::from_secs(120), || async {
-        let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
-        assert_ne!(v["state"], "failed", "{v}");
-        (v["state"] == "succeeded").then_some(v)
-    })
-    .await;
+    let done = srv.bake_succeeded(id, Duration::from_secs(120)).await;
     assert_eq!(done["progress"], 1.0);
     let stages: Vec<&str> = done["timings"]
         .as_array()
@@ -151,13 +146,7 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
         stages.contains(&"photons") && stages.contains(&"encode"),
         "{stages:?}"
     );
-    let r = srv
-        .client
-        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
+    let r = srv.bake_artifact(id).await;
     assert_eq!(r.headers()["content-type"], "image/x-exr");
     let bytes = r.bytes().await.unwrap();
     use exr::prelude::{ReadChannels, ReadLayers};
@@ -332,10 +321,7 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
         "scene": scene, "object": "glass", "method": "csl",
         "params": {"preset": "fast", "grid": 96},
     });
-    let r = srv.post_json("/v1/bakes", &body).await;
-    assert_eq!(r.status(), 202);
-    let v: serde_json::Value = r.json().await.unwrap();
-    let id = v["id"].as_str().unwrap().to_string();
+    let id = srv.submit_bake(&body).await;
     // Spelling out the default-filled parameters names the same job.
     let mut body2 = body.clone();
     body2["params"] = serde_json::json!({"grid": 96, "preset": "fast"});
@@ -346,12 +332,7 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
         .await
         .unwrap();
     assert_eq!(v2["id"], id.as_str());
-    let done = poll("csl bake to succeed", Duration::from_secs(120), || async {
-        let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
-        assert_ne!(v["state"], "failed", "{v}");
-        (v["state"] == "succeeded").then_some(v)
-    })
-    .await;
+    let done = srv.bake_succeeded(&id, Duration::from_secs(120)).await;
     let stages: Vec<&str> = done["timings"]
         .as_array()
         .unwrap()
@@ -362,13 +343,7 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
         stages.contains(&"bundles") && stages.contains(&"fit"),
         "{stages:?}"
     );
-    let r = srv
-        .client
-        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
+    let r = srv.bake_artifact(&id).await;
     let bytes = r.bytes().await.unwrap().to_vec();
     let set = CslSet::from_bytes(&bytes).expect("a valid CSL set");
     assert!(!set.csls.is_empty());
@@ -428,30 +403,12 @@ async fn dynamic_csl_bake_job_serves_renders() {
     let body = serde_json::json!({
         "scene": scene, "object": "glass", "method": "csl", "params": csl,
     });
-    let r = srv.post_json("/v1/bakes", &body).await;
-    assert_eq!(r.status(), 202);
-    let v: serde_json::Value = r.json().await.unwrap();
-    let id = v["id"].as_str().unwrap().to_string();
-    let done = poll(
-        "dynamic bake to succeed",
-        Duration::from_secs(300),
-        || async {
-            let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
-            assert_ne!(v["state"], "failed", "{v}");
-            (v["state"] == "succeeded").then_some(v)
-        },
-    )
-    .await;
+    let id = srv.submit_bake(&body).await;
+    let done = srv.bake_succeeded(&id, Duration::from_secs(300)).await;
     let st = &done["info"]["statistics"];
     assert_eq!(st["directions"], 12, "{done}");
     assert_eq!(st["edges"], 30, "{done}");
-    let r = srv
-        .client
-        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
+    let r = srv.bake_artifact(&id).await;
     let bytes = r.bytes().await.unwrap().to_vec();
     let set = DynamicSet::from_bytes(&bytes).expect("a valid dynamic CSL set");
     assert_eq!(set.sets.len(), 12);
@@ -535,28 +492,10 @@ async fn transport_bake_job_gives_the_library_bake_bytes() {
         "scene": scene, "object": "glass", "method": "transport",
         "params": {"rings": 4, "azimuths": 8},
     });
-    let r = srv.post_json("/v1/bakes", &body).await;
-    assert_eq!(r.status(), 202);
-    let v: serde_json::Value = r.json().await.unwrap();
-    let id = v["id"].as_str().unwrap().to_string();
-    let done = poll(
-        "transport bake to succeed",
-        Duration::from_secs(120),
-        || async {
-            let (_, v) = srv.get_json(&format!("/v1/bakes/{id}")).await;
-            assert_ne!(v["state"], "failed", "{v}");
-            (v["state"] == "succeeded").then_some(v)
-        },
-    )
-    .await;
+    let id = srv.submit_bake(&body).await;
+    let done = srv.bake_succeeded(&id, Duration::from_secs(120)).await;
     assert_eq!(done["info"]["statistics"]["directions"], 33, "{done}");
-    let r = srv
-        .client
-        .get(srv.url(&format!("/v1/bakes/{id}/artifact")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), 200);
+    let r = srv.bake_artifact(&id).await;
     let bytes = r.bytes().await.unwrap().to_vec();
     TransportTable::from_bytes(&bytes).expect("a valid table");
     let world = caustica::scene::resolve(

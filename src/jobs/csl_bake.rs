@@ -134,8 +134,9 @@ impl CslBakeParams {
 pub struct CslBake {
     world: Arc<World>,
     object: String,
-    /// Light travel direction in the object's rigid frame.
-    light: glam::Vec3,
+    /// Light travel direction in the object's rigid frame; None for a dynamic bake (it serves
+    /// every direction).
+    light: Option<glam::Vec3>,
     params: CslBakeParams,
 }
 
@@ -150,18 +151,16 @@ impl CslBake {
         let obj = world
             .object(object)
             .ok_or_else(|| JobError::UnknownObject(object.into()))?;
-        // A dynamic bake serves every light direction; a static one is for the scene's light.
-        let light = match scene_directional_light(&world) {
-            Some((dir, _)) => CslSet::light_in_object_frame(obj, dir),
-            None if params.dynamic => glam::Vec3::NEG_Y,
-            None => {
-                return Err(JobError::Params(
-                    "scene.lights: a csl bake needs a directional light; the scene has none \
-                     (a dynamic bake does not)"
-                        .into(),
-                ));
-            }
-        };
+        let light = scene_directional_light(&world)
+            .map(|(dir, _)| CslSet::light_in_object_frame(obj, dir))
+            .filter(|_| !params.dynamic);
+        if light.is_none() && !params.dynamic {
+            return Err(JobError::Params(
+                "scene.lights: a csl bake needs a directional light; the scene has none \
+                 (a dynamic bake does not)"
+                    .into(),
+            ));
+        }
         Ok(CslBake {
             object: object.into(),
             world,
@@ -234,13 +233,13 @@ impl Job for CslBake {
     }
 
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
-        if self.params.dynamic {
+        let Some(light) = self.light else {
             return self.run_dynamic(ctx);
-        }
+        };
         let set = bake_csl(
             &self.world,
             &self.object,
-            self.light,
+            light,
             &self.params.csl_params(),
             &|p: Progress| {
                 ctx.progress(p.fraction, p.stage);
@@ -262,7 +261,7 @@ impl Job for CslBake {
         ];
         let info = serde_json::json!({
             "object": self.object,
-            "light_dir_object_frame": self.light.to_array(),
+            "light_dir_object_frame": light.to_array(),
             "statistics": {
                 "rays_traced": s.rays_traced,
                 "rays_hit": s.rays_hit,

@@ -702,17 +702,7 @@ pub fn encode(
     let sv = targets.specular.create_view(&Default::default());
     let cv = targets.caustics.create_view(&Default::default());
     let depth = targets.depth.create_view(&Default::default());
-    let clear = |view| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                store: wgpu::StoreOp::Store,
-            },
-        })
-    };
+    let clear = super::cleared_attachment;
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("direct"),
         color_attachments: &[clear(&dv), clear(&sv), clear(&cv)],

@@ -390,17 +390,7 @@ pub fn encode(
     let pos_view = gbuf.position.create_view(&Default::default());
     let nrm_view = gbuf.normal.create_view(&Default::default());
     let depth_view = gbuf.depth.create_view(&Default::default());
-    let clear = |view| {
-        Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                store: wgpu::StoreOp::Store,
-            },
-        })
-    };
+    let clear = super::cleared_attachment;
     {
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("gbuffer"),

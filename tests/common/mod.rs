@@ -89,6 +89,36 @@ impl Server {
             .await
             .unwrap()
     }
+
+    /// Submits a bake (asserting 202) and returns its id.
+    pub async fn submit_bake(&self, body: &serde_json::Value) -> String {
+        let r = self.post_json("/v1/bakes", body).await;
+        assert_eq!(r.status(), 202);
+        let v: serde_json::Value = r.json().await.unwrap();
+        v["id"].as_str().unwrap().to_string()
+    }
+
+    /// The record of bake `id` once it has succeeded (panics if it fails or takes past `limit`).
+    pub async fn bake_succeeded(&self, id: &str, limit: Duration) -> serde_json::Value {
+        poll(&format!("bake {id} to succeed"), limit, || async {
+            let (_, v) = self.get_json(&format!("/v1/bakes/{id}")).await;
+            assert_ne!(v["state"], "failed", "{v}");
+            (v["state"] == "succeeded").then_some(v)
+        })
+        .await
+    }
+
+    /// The artifact of a succeeded bake (asserting 200).
+    pub async fn bake_artifact(&self, id: &str) -> reqwest::Response {
+        let r = self
+            .client
+            .get(self.url(&format!("/v1/bakes/{id}/artifact")))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+        r
+    }
 }
 
 pub fn client() -> reqwest::Client {

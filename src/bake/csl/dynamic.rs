@@ -659,6 +659,18 @@ fn match_edge(
     })
 }
 
+/// Members by corner: `m[0]` at corner `i`, `m[1]` at the next corner, `m[2]` at the one after.
+fn placed(i: usize, m: [(u16, Share); 3]) -> [Member; 3] {
+    let mut out = [Member {
+        csl: 0,
+        image: Share::None,
+    }; 3];
+    for (n, (csl, image)) in m.into_iter().enumerate() {
+        out[(i + n) % 3] = Member { csl, image };
+    }
+    out
+}
+
 /// §4.3: the triples of one face from the matches of its three edges (see [`Triple`]).
 /// `matches[e]` are the pairs of the face's edge e = (corner e, corner e+1 mod 3), oriented
 /// that way; `len[k]` is the number of CSLs (real and black) at corner k; `lit(k, i)` whether
@@ -705,8 +717,8 @@ fn face_triples(
         let ids = [a as u16, b, c];
         if (0..3).any(|k| lit(k, ids[k])) {
             triples.push(Triple {
-                members: [0, 1, 2].map(|k| Member {
-                    csl: ids[k],
+                members: ids.map(|csl| Member {
+                    csl,
                     image: Share::Full,
                 }),
                 split: None,
@@ -733,31 +745,18 @@ fn face_triples(
             in_cycle[j][y as usize] = true;
             in_cycle[k][z as usize] = true;
             if lit(i, x as u16) {
-                let mut members = [Member {
-                    csl: 0,
-                    image: Share::None,
-                }; 3];
-                members[i] = Member {
-                    csl: x as u16,
-                    image: Share::Full,
-                };
-                members[j] = Member {
-                    csl: y,
-                    image: Share::None,
-                };
-                members[k] = Member {
-                    csl: z,
-                    image: Share::None,
-                };
                 triples.push(Triple {
-                    members,
+                    members: placed(
+                        i,
+                        [(x as u16, Share::Full), (y, Share::None), (z, Share::None)],
+                    ),
                     split: None,
                 });
             }
         }
     }
     for (e, m) in matches.iter().enumerate() {
-        let (i, j, k) = (e, (e + 1) % 3, (e + 2) % 3);
+        let (i, j) = (e, (e + 1) % 3);
         for &(x, y, _) in m.iter() {
             if in_cycle[i][x as usize] || in_cycle[j][y as usize] || !(lit(i, x) || lit(j, y)) {
                 continue;
@@ -770,24 +769,8 @@ fn face_triples(
             let (Some(zx), Some(zy)) = (zx.or(zy), zy.or(zx)) else {
                 continue;
             };
-            let mut members = [Member {
-                csl: 0,
-                image: Share::None,
-            }; 3];
-            members[i] = Member {
-                csl: x,
-                image: Share::Half,
-            };
-            members[j] = Member {
-                csl: y,
-                image: Share::Half,
-            };
-            members[k] = Member {
-                csl: zx,
-                image: Share::None,
-            };
             triples.push(Triple {
-                members,
+                members: placed(i, [(x, Share::Half), (y, Share::Half), (zx, Share::None)]),
                 split: Some(zy),
             });
         }
@@ -977,7 +960,11 @@ impl DynamicSet {
     /// The CSLs of face `fi` at barycentric weights `w` (corner order): one per triple that has
     /// light there.
     pub fn interpolate_face(&self, fi: usize, w: [f32; 3]) -> Vec<Csl> {
-        let f = self.icosphere().faces[fi];
+        self.interpolate_in(self.icosphere().faces[fi], fi, w)
+    }
+
+    /// [`Self::interpolate_face`] for face `fi` whose corners `f` the caller has.
+    fn interpolate_in(&self, f: [u32; 3], fi: usize, w: [f32; 3]) -> Vec<Csl> {
         let centre = self.sets[0].centre;
         self.triples[fi]
             .par_iter()
@@ -1007,8 +994,9 @@ impl DynamicSet {
     /// light-plane origins and the focus law (κ = 1/α, γ = β/α) linearly, and the intensity
     /// images, each turned onto the new axis by the rotation about â × âᵢ, blended linearly.
     pub fn interpolate(&self, light_dir: Vec3) -> CslSet {
-        let (fi, w) = self.icosphere().locate(light_dir);
-        let csls = self.interpolate_face(fi, w);
+        let ico = self.icosphere();
+        let (fi, w) = ico.locate(light_dir);
+        let csls = self.interpolate_in(ico.faces[fi], fi, w);
         let s0 = &self.sets[0];
         let mut h = Fnv64::new();
         h.write(&self.source_hash.to_le_bytes());
