@@ -30,11 +30,21 @@ pub fn det_sum<T: Sync, R: Send + Sync + Copy + std::ops::Add<Output = R>>(
     zero: R,
     f: impl Fn(&T) -> R + Sync,
 ) -> R {
+    det_fold(items, zero, f, |a, b| a + b)
+}
+
+/// [`det_sum`] with the addition `add`.
+pub fn det_fold<T: Sync, R: Send + Sync + Copy>(
+    items: &[T],
+    zero: R,
+    f: impl Fn(&T) -> R + Sync,
+    add: impl Fn(R, R) -> R + Sync,
+) -> R {
     let parts: Vec<R> = items
         .par_chunks(4096)
-        .map(|c| c.iter().fold(zero, |acc, x| acc + f(x)))
+        .map(|c| c.iter().fold(zero, |acc, x| add(acc, f(x))))
         .collect();
-    parts.into_iter().fold(zero, |a, b| a + b)
+    parts.into_iter().fold(zero, &add)
 }
 
 /// Axis-aligned cube cut into n³ cells.
@@ -225,11 +235,7 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
     idx.par_chunks(chunk)
         .map(|part| {
             let mut g = vec![0u64; cells];
-            for &i in part {
-                let r = &rays[i as usize];
-                let e = fixed[i as usize];
-                volume.dda(r.origin, r.dir, |c| g[c] = g[c].wrapping_add(e));
-            }
+            rasterise_part(rays, fixed, part, volume, &mut g);
             g
         })
         .reduce_with(|mut a, b| {
@@ -239,6 +245,14 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
             a
         })
         .unwrap_or_else(|| vec![0; cells])
+}
+
+fn rasterise_part(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volume, g: &mut [u64]) {
+    for &i in part {
+        let r = &rays[i as usize];
+        let e = fixed[i as usize];
+        volume.dda(r.origin, r.dir, |c| g[c] = g[c].wrapping_add(e));
+    }
 }
 
 /// Number of elements in exactly one of two ascending lists.
@@ -265,13 +279,28 @@ fn symmetric_difference(a: &[u32], b: &[u32]) -> usize {
 
 /// The rays of `idx` within thresholds `distance`, `cos_angle` of the axis line (b, a), in order.
 fn assign(rays: &[CausticRay], idx: &[u32], b: Vec3, a: Vec3, distance: f32, cos: f32) -> Vec<u32> {
+    let d2 = distance * distance;
     idx.par_iter()
         .copied()
         .filter(|&i| {
             let r = &rays[i as usize];
-            r.dir.dot(a) >= cos && line_distance(r.origin, r.dir, b, a) <= distance
+            r.dir.dot(a) >= cos && line_distance_within(r.origin, r.dir, b, a, d2)
         })
         .collect()
+}
+
+/// [`line_distance`] ≤ √`d2`, without a square root or a division.
+#[inline]
+fn line_distance_within(q: Vec3, d: Vec3, b: Vec3, a: Vec3, d2: f32) -> bool {
+    let n = d.cross(a);
+    let l2 = n.length_squared();
+    let qb = q - b;
+    if l2 > 1e-12 {
+        let x = qb.dot(n);
+        x * x <= d2 * l2
+    } else {
+        qb.cross(a).length_squared() <= d2
+    }
 }
 
 impl<'a> Extractor<'a> {
@@ -582,6 +611,31 @@ mod tests {
             }
         }
         assert!(lines > 500, "{lines}");
+    }
+
+    #[test]
+    fn line_distance_test_agrees_with_the_distance() {
+        let mut rng = crate::reference::sampling::Pcg::new(5, 3);
+        let unit = |rng: &mut crate::reference::sampling::Pcg| {
+            (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0).normalize()
+        };
+        for k in 0..5000 {
+            let q = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+            let b = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+            let a = unit(&mut rng);
+            // Every tenth line is parallel to the axis.
+            let d = if k % 10 == 0 { a } else { unit(&mut rng) };
+            let dist = line_distance(q, d, b, a);
+            for t in [0.2f32, 0.5, 1.0] {
+                if (dist - t).abs() > 1e-4 {
+                    assert_eq!(
+                        line_distance_within(q, d, b, a, t * t),
+                        dist <= t,
+                        "{dist} {t}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

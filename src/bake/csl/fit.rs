@@ -9,14 +9,11 @@
 //! α → ∞) and also represents diverging bundles (κ < 0: a virtual focus behind the light plane,
 //! e.g. light reflected by a convex mirror), which the paper's α > 0 excludes.
 
-use super::bundle::Bundle;
+use super::bundle::{Bundle, det_fold, det_sum};
 use super::optimize::powell;
 use super::trace::CausticRay;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-
-/// Rays per parallel chunk of the objective.
-const CHUNK: usize = 2048;
 
 /// A fitted CSL before its intensity image: light plane origin and axis, focus function, and
 /// the rays it represents.
@@ -58,22 +55,37 @@ fn ray_terms(r: &CausticRay, b: DVec3, a: DVec3, ell: f64, kappa: f64, gamma: f6
 /// (q the ray origin relative to the bundle origin), where the CSL ray is
 /// ê = (−g·u, 1)/√(1 + g²|u|²) with g = κ + γ|u|. The same terms as [`ray_terms`], a few times
 /// cheaper per evaluation (Powell needs hundreds).
+///
+/// The terms are stored as columns and summed in [`LANES`] interleaved partial sums, so that
+/// the compiler evaluates several rays at once in vector registers; the order of every addition
+/// is fixed by the ray's index, so the sum is the same on every machine and thread count.
 struct Terms {
     /// Per ray: qₓ, q_y, dₓ, d_y, d·â, ‖d‖², s₀, 1/(d·â), weight.
-    rows: Vec<[f64; 9]>,
+    cols: [Vec<f64>; 9],
 }
+
+/// Partial sums of the objective (rays i ≡ k mod LANES go to lane k).
+const LANES: usize = 8;
 
 impl Terms {
     /// At most `most` of `members` (evenly strided), for the axis (b, a).
     fn new(rays: &[CausticRay], members: &[u32], most: usize, b: DVec3, a: DVec3) -> Terms {
         let x = a.any_orthonormal_vector();
         let y = a.cross(x);
-        let row = |i: u32| {
+        let take: Vec<u32> = if members.len() > most {
+            (0..most)
+                .map(|k| members[k * members.len() / most])
+                .collect()
+        } else {
+            members.to_vec()
+        };
+        let mut cols: [Vec<f64>; 9] = std::array::from_fn(|_| Vec::with_capacity(take.len()));
+        for i in take {
             let r = &rays[i as usize];
             let q = r.origin.as_dvec3() - b;
             let d = r.dir.as_dvec3();
             let da = d.dot(a);
-            [
+            let row = [
                 q.dot(x),
                 q.dot(y),
                 d.dot(x),
@@ -83,43 +95,75 @@ impl Terms {
                 -q.dot(a) / da,
                 1.0 / da,
                 r.weight() as f64,
-            ]
-        };
-        let rows = if members.len() > most {
-            (0..most)
-                .map(|k| row(members[k * members.len() / most]))
-                .collect()
-        } else {
-            members.iter().map(|&i| row(i)).collect()
-        };
-        Terms { rows }
+            ];
+            for (c, v) in cols.iter_mut().zip(row) {
+                c.push(v);
+            }
+        }
+        Terms { cols }
     }
 
-    /// Eq. 5 with each ray's squared direction error capped at `cap`. Summed in fixed chunks
-    /// (in parallel) and the partial sums in order: deterministic.
-    fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
-        let term = |t: &[f64; 9]| {
-            let [qx, qy, dx, dy, da, dd, s0, inv, wt] = *t;
-            let s = s0 + ell * inv;
-            let (ux, uy) = (qx + dx * s, qy + dy * s);
-            let r2 = ux * ux + uy * uy;
-            let g = kappa + gamma * r2.sqrt();
-            let de = (da - g * (dx * ux + dy * uy)) / (1.0 + g * g * r2).sqrt();
-            let e2 = dd + 1.0 - 2.0 * de;
-            let t1 = s.abs();
-            let t2 = t1 + w;
-            wt * (t1 * t1 + t2 * t2) * e2.min(cap)
-        };
-        if self.rows.len() < 2 * CHUNK {
-            return self.rows.iter().map(term).sum::<f64>();
-        }
-        let parts: Vec<f64> = self
-            .rows
-            .par_chunks(CHUNK)
-            .map(|c| c.iter().map(term).sum::<f64>())
-            .collect();
-        parts.iter().sum::<f64>()
+    fn len(&self) -> usize {
+        self.cols[0].len()
     }
+
+    /// Eq. 5 with each ray's squared direction error capped at `cap`, on one thread (an
+    /// evaluation takes microseconds, less than handing work to another thread and waking it),
+    /// with the widest vector instructions the processor has: the same operations either way
+    /// (no fused multiply-adds), so the same result on every machine.
+    fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
+        let p = [ell, kappa, gamma, w, cap];
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked above).
+            return unsafe { self.sum_avx2(p) };
+        }
+        self.sum(p)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn sum_avx2(&self, p: [f64; 5]) -> f64 {
+        self.sum(p)
+    }
+
+    #[inline(always)]
+    fn sum(&self, p: [f64; 5]) -> f64 {
+        let n = self.len();
+        let cols = self.cols.each_ref().map(|c| &c[..n]);
+        let mut acc = [0.0f64; LANES];
+        let mut i = 0;
+        while i + LANES <= n {
+            let block = cols.map(|c| -> &[f64; LANES] { c[i..i + LANES].try_into().unwrap() });
+            for (k, a) in acc.iter_mut().enumerate() {
+                *a += term(block.map(|c| c[k]), p);
+            }
+            i += LANES;
+        }
+        for (k, a) in acc.iter_mut().enumerate().take(n - i) {
+            *a += term(cols.map(|c| c[i + k]), p);
+        }
+        acc.iter().sum::<f64>()
+    }
+}
+
+/// One ray's term of [`Terms::objective`]: row (qₓ, q_y, dₓ, d_y, d·â, ‖d‖², s₀, 1/(d·â), weight),
+/// parameters (ℓ, κ, γ, w, cap).
+#[inline(always)]
+fn term(
+    [qx, qy, dx, dy, da, dd, s0, inv, wt]: [f64; 9],
+    [ell, kappa, gamma, w, cap]: [f64; 5],
+) -> f64 {
+    let s = s0 + ell * inv;
+    let (ux, uy) = (qx + dx * s, qy + dy * s);
+    let r2 = ux * ux + uy * uy;
+    let g = kappa + gamma * r2.sqrt();
+    let de = (da - g * (dx * ux + dy * uy)) / (1.0 + g * g * r2).sqrt();
+    let e2 = dd + 1.0 - 2.0 * de;
+    let t1 = s.abs();
+    let t2 = t1 + w;
+    let e2 = if e2 < cap { e2 } else { cap };
+    wt * (t1 * t1 + t2 * t2) * e2
 }
 
 /// Fit a CSL to `bundle`. `length` is the object's bounding radius (variable scaling), `w` the
@@ -145,27 +189,30 @@ pub fn fit_bundle(
 ) -> Fit {
     let b = bundle.origin.as_dvec3();
     let a = bundle.axis.as_dvec3();
-    let (lmin, lmax) =
-        bundle
-            .members
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
-                let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
-                (lo.min(t), hi.max(t))
-            });
+    let (lmin, lmax) = bundle
+        .members
+        .par_iter()
+        .map(|&i| {
+            let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
+            (t, t)
+        })
+        .reduce(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |x, y| (x.0.min(y.0), x.1.max(y.1)),
+        );
     let args = (length, w, max_angle, samples);
-    let free = fit_in_range(rays, bundle, args, (lmin.min(0.0), lmax.max(0.0)));
+    // Powell's method is sequential, so the fit before the exits is made beside the free one
+    // (on another core) rather than after it; it is thrown away when the free plane is not
+    // beyond the first exit.
+    let (free, before) = rayon::join(
+        || fit_in_range(rays, bundle, args, (lmin.min(0.0), lmax.max(0.0))),
+        || fit_in_range(rays, bundle, args, (lmin - length, lmin)),
+    );
     let ell = (free.origin.as_dvec3() - b).dot(a);
     if ell <= lmin + 1e-6 * length {
         return free;
     }
-    let before = fit_in_range(rays, bundle, args, (lmin - length, lmin));
-    let energy = |f: &Fit| -> f64 {
-        f.kept
-            .iter()
-            .map(|&i| rays[i as usize].weight() as f64)
-            .sum()
-    };
+    let energy = |f: &Fit| det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
     if energy(&before) >= 0.5 * energy(&free) {
         Fit {
             evaluations: before.evaluations + free.evaluations,
@@ -266,26 +313,29 @@ fn unscale(v: &[f64], l: f64) -> (f64, f64, f64) {
 /// Start with the light plane through `b` and κ, γ from a weighted linear fit of
 /// each ray's own ideal 1/f at its radius.
 fn initial_guess(rays: &[CausticRay], members: &[u32], b: DVec3, a: DVec3, l: f64) -> Vec<f64> {
-    let (mut sw, mut sr, mut srr, mut sg, mut srg) = (0.0f64, 0.0, 0.0, 0.0, 0.0);
-    for &i in members {
-        let r = &rays[i as usize];
-        let q = r.origin.as_dvec3();
-        let d = r.dir.as_dvec3();
-        let s = (b - q).dot(a) / d.dot(a);
-        let u = q + d * s - b;
-        let rad = u.length();
-        if rad < 1e-3 * l {
-            continue;
-        }
-        // a − g·u ∥ d  ⇒  g = −(d·u) / ((d·a) r²)
-        let g = -d.dot(u) / (d.dot(a) * rad * rad);
-        let wt = r.weight() as f64;
-        sw += wt;
-        sr += wt * rad;
-        srr += wt * rad * rad;
-        sg += wt * g;
-        srg += wt * rad * g;
-    }
+    // Weighted sums (w, wr, wr², wg, wrg) over the rays off the axis.
+    let add = |x: [f64; 5], y: [f64; 5]| std::array::from_fn(|k| x[k] + y[k]);
+    let sums = det_fold(
+        members,
+        [0.0f64; 5],
+        |&i| {
+            let r = &rays[i as usize];
+            let q = r.origin.as_dvec3();
+            let d = r.dir.as_dvec3();
+            let s = (b - q).dot(a) / d.dot(a);
+            let u = q + d * s - b;
+            let rad = u.length();
+            if rad < 1e-3 * l {
+                return [0.0; 5];
+            }
+            // a − g·u ∥ d  ⇒  g = −(d·u) / ((d·a) r²)
+            let g = -d.dot(u) / (d.dot(a) * rad * rad);
+            let wt = r.weight() as f64;
+            [wt, wt * rad, wt * rad * rad, wt * g, wt * rad * g]
+        },
+        add,
+    );
+    let [sw, sr, srr, sg, srg] = sums;
     let det = sw * srr - sr * sr;
     let (kappa, gamma) = if sw > 0.0 && det.abs() > 1e-12 * sw * srr.max(1e-30) {
         ((sg * srr - sr * srg) / det, (sw * srg - sr * sg) / det)
@@ -338,6 +388,11 @@ mod tests {
                 })
                 .sum();
             let got = terms.objective(ell, kappa, gamma, w, cap);
+            // The vector path gives the very same number as the plain one.
+            assert_eq!(
+                got.to_bits(),
+                terms.sum([ell, kappa, gamma, w, cap]).to_bits()
+            );
             assert!(
                 (got - want).abs() <= 1e-9 * want.abs().max(1e-12),
                 "{got} vs {want}"

@@ -78,13 +78,14 @@ pub fn trace_grid(
         .into_par_iter()
         .map(|j| {
             let mut out = Vec::new();
+            let mut stack = Vec::new();
             let mut tot = TraceTotals::default();
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return (out, tot);
             }
             for i in 0..grid.n {
                 if let Some(o) = grid.origin(i, j) {
-                    trace_one(accel, o, grid.light, params, &mut out, &mut tot);
+                    trace_one(accel, o, grid.light, params, &mut stack, &mut out, &mut tot);
                 }
             }
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
@@ -108,17 +109,21 @@ pub fn trace_grid(
     Some((rays, tot))
 }
 
-/// One grid ray: depth-first over both branches at every hit.
+/// Paths waiting to be traced: (origin, direction, energy, interactions so far).
+type PathStack = Vec<(Vec3, Vec3, Vec3, u32)>;
+
+/// One grid ray: depth-first over both branches at every hit. `stack` is scratch space (empty
+/// on entry and on return), kept by the caller so that a row allocates it once.
 fn trace_one(
     accel: &Accel,
     origin: Vec3,
     dir: Vec3,
     params: &CslParams,
+    stack: &mut PathStack,
     out: &mut Vec<CausticRay>,
     tot: &mut TraceTotals,
 ) {
-    // (origin, direction, energy, interactions so far)
-    let mut stack: Vec<(Vec3, Vec3, Vec3, u32)> = vec![(origin, dir, Vec3::ONE, 0)];
+    stack.push((origin, dir, Vec3::ONE, 0));
     while let Some((o, d, e, depth)) = stack.pop() {
         let Some(hit) = accel.intersect(o, d, f32::INFINITY) else {
             if depth > 0 {
