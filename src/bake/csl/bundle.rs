@@ -235,7 +235,11 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
     idx.par_chunks(chunk)
         .map(|part| {
             let mut g = vec![0u64; cells];
-            rasterise_part(rays, fixed, part, volume, &mut g);
+            for &i in part {
+                let r = &rays[i as usize];
+                let e = fixed[i as usize];
+                volume.dda(r.origin, r.dir, |c| g[c] = g[c].wrapping_add(e));
+            }
             g
         })
         .reduce_with(|mut a, b| {
@@ -245,14 +249,6 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
             a
         })
         .unwrap_or_else(|| vec![0; cells])
-}
-
-fn rasterise_part(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volume, g: &mut [u64]) {
-    for &i in part {
-        let r = &rays[i as usize];
-        let e = fixed[i as usize];
-        volume.dda(r.origin, r.dir, |c| g[c] = g[c].wrapping_add(e));
-    }
 }
 
 /// Number of elements in exactly one of two ascending lists.
