@@ -74,6 +74,7 @@ fn render_writes_exr_and_png_of_the_asked_size() {
     // sRGB of 0.44 (clamp tone map) is 176.
     let p = img.get_pixel(1, 15).0[0];
     assert!((174..=178).contains(&p), "{p}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -105,4 +106,5 @@ fn bad_inputs_fail_with_a_message_naming_the_problem() {
         dir.join("x.tiff").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains(".png or .exr"));
+    let _ = std::fs::remove_dir_all(&dir);
 }

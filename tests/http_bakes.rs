@@ -262,7 +262,8 @@ async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_
         (v["state"] == "running").then_some(())
     })
     .await;
-    srv.stop().await;
+    // The data directory stays until the second server is done with it.
+    let _cleanup = srv.stop().await;
     let srv = Server::start_in(dir, |_, _| {}).await;
     let (s, v) = srv.get_json(&loc).await;
     assert_eq!(s, 200);

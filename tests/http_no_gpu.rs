@@ -10,6 +10,7 @@ use std::time::Duration;
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn no_adapter_means_not_ready_and_503_for_gpu_renders() {
     let dir = temp_dir("no-gpu");
+    let _cleanup = Cleanup(dir.clone());
     let mut child = Command::new(env!("CARGO_BIN_EXE_caustica"))
         .args(["serve", "--addr", "127.0.0.1:0", "--log-json", "--data-dir"])
         .arg(&dir)

@@ -34,6 +34,7 @@ fn spawn(dir: &std::path::Path) -> (Child, String) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_bake_interrupted_by_kill_9_completes_after_restart() {
     let dir = temp_dir("restart");
+    let _cleanup = Cleanup(dir.clone());
     let c = client();
     let (mut child, base) = spawn(&dir);
     // A render that finishes before the kill.

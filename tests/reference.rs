@@ -284,4 +284,5 @@ fn environment_map_file_is_loaded_scaled_and_oriented() {
         "{}",
         c.direct.at(2, 2)
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -23,18 +23,32 @@ pub fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
+/// Removes its directory when dropped (also when the test fails).
+pub struct Cleanup(pub PathBuf);
+
+impl Drop for Cleanup {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 pub struct Server {
     pub base: String,
     pub client: reqwest::Client,
     pub dir: PathBuf,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
+    /// The data directory the server made for itself ([`Server::start`]), removed with it.
+    cleanup: Option<Cleanup>,
 }
 
 impl Server {
     /// Starts a server in this process on 127.0.0.1:0 with its own data directory.
     pub async fn start(name: &str, tune: impl FnOnce(&mut JobConfig, &mut HttpConfig)) -> Server {
-        Server::start_in(temp_dir(name), tune).await
+        let dir = temp_dir(name);
+        let mut server = Server::start_in(dir.clone(), tune).await;
+        server.cleanup = Some(Cleanup(dir));
+        server
     }
 
     /// Starts a server on an existing data directory (a restart).
@@ -60,6 +74,7 @@ impl Server {
             dir,
             stop: Some(tx),
             task: Some(task),
+            cleanup: None,
         }
     }
 
@@ -67,14 +82,16 @@ impl Server {
         format!("{}{path}", self.base)
     }
 
-    /// Graceful shutdown; waits for it.
-    pub async fn stop(mut self) {
+    /// Graceful shutdown; waits for it. The data directory stays (a restart may reuse it)
+    /// until the returned guard is dropped.
+    pub async fn stop(mut self) -> Option<Cleanup> {
         if let Some(tx) = self.stop.take() {
             let _ = tx.send(());
         }
         if let Some(t) = self.task.take() {
             t.await.unwrap().unwrap();
         }
+        self.cleanup.take()
     }
 
     pub async fn get_json(&self, path: &str) -> (u16, serde_json::Value) {
