@@ -31,7 +31,7 @@
 use super::bundle;
 use super::trace::{self, CausticRay, RayGrid};
 use super::{
-    ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl, object_hash, rigid_frame_world,
+    ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl_with, object_hash, rigid_frame_world,
 };
 use crate::bake::Fnv64;
 use crate::scene::World;
@@ -809,9 +809,15 @@ pub fn bake_dynamic(
         .vertices
         .par_iter()
         .map(|&dir| {
-            let set = bake_csl(world, object_name, dir, &params.csl, &|_| {
-                !cancel.load(Ordering::Relaxed)
-            })?;
+            // Directions bake side by side, so no core is spare within one.
+            let set = bake_csl_with(
+                world,
+                object_name,
+                dir,
+                &params.csl,
+                &|_| !cancel.load(Ordering::Relaxed),
+                false,
+            )?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if !check("directions", d, nv as u32) {
                 return Err(BakeError::Canceled);

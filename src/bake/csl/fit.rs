@@ -179,6 +179,11 @@ fn term(
 /// gain a stretch inside or behind the object, which no receiver sees), and that fit is kept
 /// unless it represents under half the first one's energy (a convex mirror's bundles, whose
 /// lines cross behind the surface, fit only with the plane among the exits).
+///
+/// `beside`: make the second fit at the same time as the first, on another core, and throw it
+/// away when it is not needed (Powell's method is sequential, so with a core to spare this is
+/// faster); without, only when needed (less work in all, for callers that keep every core busy).
+/// The result is the same either way.
 pub fn fit_bundle(
     rays: &[CausticRay],
     bundle: &Bundle,
@@ -186,6 +191,7 @@ pub fn fit_bundle(
     w: f64,
     max_angle: f64,
     samples: usize,
+    beside: bool,
 ) -> Fit {
     let b = bundle.origin.as_dvec3();
     let a = bundle.axis.as_dvec3();
@@ -201,17 +207,26 @@ pub fn fit_bundle(
             |x, y| (x.0.min(y.0), x.1.max(y.1)),
         );
     let args = (length, w, max_angle, samples);
-    // Powell's method is sequential, so the fit before the exits is made beside the free one
-    // (on another core) rather than after it; it is thrown away when the free plane is not
-    // beyond the first exit.
-    let (free, before) = rayon::join(
-        || fit_in_range(rays, bundle, args, (lmin.min(0.0), lmax.max(0.0))),
-        || fit_in_range(rays, bundle, args, (lmin - length, lmin)),
-    );
-    let ell = (free.origin.as_dvec3() - b).dot(a);
-    if ell <= lmin + 1e-6 * length {
-        return free;
-    }
+    let free_range = (lmin.min(0.0), lmax.max(0.0));
+    let before_range = (lmin - length, lmin);
+    let needed = |free: &Fit| (free.origin.as_dvec3() - b).dot(a) > lmin + 1e-6 * length;
+    let (free, before) = if beside {
+        let (free, before) = rayon::join(
+            || fit_in_range(rays, bundle, args, free_range),
+            || fit_in_range(rays, bundle, args, before_range),
+        );
+        if !needed(&free) {
+            return free;
+        }
+        (free, before)
+    } else {
+        let free = fit_in_range(rays, bundle, args, free_range);
+        if !needed(&free) {
+            return free;
+        }
+        let before = fit_in_range(rays, bundle, args, before_range);
+        (free, before)
+    };
     let energy = |f: &Fit| det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
     if energy(&before) >= 0.5 * energy(&free) {
         Fit {
