@@ -209,7 +209,14 @@ pub fn fit_bundle(
     let args = (length, w, max_angle, samples);
     let free_range = (lmin.min(0.0), lmax.max(0.0));
     let before_range = (lmin - length, lmin);
-    let needed = |free: &Fit| (free.origin.as_dvec3() - b).dot(a) > lmin + 1e-6 * length;
+    // The free plane beyond the first exit (or not a number).
+    let needed = |free: &Fit| {
+        let ell = (free.origin.as_dvec3() - b).dot(a);
+        !matches!(
+            ell.partial_cmp(&(lmin + 1e-6 * length)),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        )
+    };
     let (free, before) = if beside {
         let (free, before) = rayon::join(
             || fit_in_range(rays, bundle, args, free_range),
