@@ -3,10 +3,10 @@
 //! `caustica bake csl`). Deterministic, so re-running it after a restart is safe.
 
 use super::{Artifact, Job, JobCtx, JobError, Lane};
+use crate::bake::Progress;
 use crate::bake::csl::cache::DirStore;
 use crate::bake::csl::dynamic::{DynamicParams, DynamicProgress, bake_dynamic};
 use crate::bake::csl::{CslParams, CslSet, bake_csl, scene_directional_light};
-use crate::bake::{BakeError, Progress};
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -184,11 +184,7 @@ impl CslBake {
             ctx.progress(p.fraction, &stage);
             ctx.keep_going()
         })
-        .map_err(|e| match e {
-            BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
-            BakeError::UnknownObject(o) => JobError::UnknownObject(o),
-            other => JobError::Params(other.to_string()),
-        })?;
+        .map_err(|e| ctx.bake_error(e))?;
         let s = &set.stats;
         let bytes = set.to_bytes();
         DirStore(ctx.data_dir().join("csl-cache")).save_dynamic(set.source_hash, &bytes);
@@ -246,11 +242,7 @@ impl Job for CslBake {
                 ctx.keep_going()
             },
         )
-        .map_err(|e| match e {
-            BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
-            BakeError::UnknownObject(o) => JobError::UnknownObject(o),
-            other => JobError::Params(other.to_string()),
-        })?;
+        .map_err(|e| ctx.bake_error(e))?;
         let s = &set.stats;
         let timings: Vec<(String, Duration)> = vec![
             ("trace".into(), s.time_trace),

@@ -320,6 +320,17 @@ impl JobCtx<'_> {
         }
     }
 
+    /// The job error for a bake's error: a cancelled bake stopped for the reason [`Self::check`]
+    /// gives, an unknown object is named, anything else is a parameter problem.
+    pub fn bake_error(&self, e: crate::bake::BakeError) -> JobError {
+        use crate::bake::BakeError;
+        match e {
+            BakeError::Canceled => self.check().err().unwrap_or(JobError::Canceled),
+            BakeError::UnknownObject(o) => JobError::UnknownObject(o),
+            other => JobError::Params(other.to_string()),
+        }
+    }
+
     /// Ok while the job should go on; the reason to stop otherwise.
     pub fn check(&self) -> Result<(), JobError> {
         if self.handle.is_cancel_requested() {

@@ -88,14 +88,6 @@ impl TransportBake {
     }
 }
 
-fn map_bake_error(e: BakeError, ctx: &JobCtx<'_>) -> JobError {
-    match e {
-        BakeError::Canceled => ctx.check().err().unwrap_or(JobError::Canceled),
-        BakeError::UnknownObject(o) => JobError::UnknownObject(o),
-        other => JobError::Params(other.to_string()),
-    }
-}
-
 impl Job for TransportBake {
     fn kind(&self) -> &'static str {
         "bake"
@@ -117,7 +109,7 @@ impl Job for TransportBake {
                 ctx.keep_going()
             },
         )
-        .map_err(|e| map_bake_error(e, ctx))?;
+        .map_err(|e| ctx.bake_error(e))?;
         let bytes = table.to_bytes();
         let (s, e) = (&table.stats, &table.errors);
         let info = serde_json::json!({
