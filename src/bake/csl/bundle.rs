@@ -8,8 +8,9 @@
 //! identical whatever the thread schedule, and removing a bundle's rays subtracts exactly what
 //! they added.
 //!
-//! The pool of rays not yet in a CSL is kept as a compact index list, so later bundles do not
-//! scan the rays earlier ones took. Within one extraction, assignment iterates over a candidate
+//! The pool of rays not yet in a CSL is kept compact, as columns of origins and directions, so
+//! later bundles do not scan the rays earlier ones took and a scan reads memory front to back,
+//! eight rays at a time. Within one extraction, assignment iterates over a candidate
 //! list (the pool's rays within relaxed thresholds of the axis, refreshed when the axis has moved
 //! far from where it was taken), and the final membership is taken by one pass over the whole
 //! pool with the final axis. Convergence: the membership changed by at most 0.1 % (or the axis
@@ -45,6 +46,67 @@ pub fn det_fold<T: Sync, R: Send + Sync + Copy>(
         .map(|c| c.iter().fold(zero, |acc, x| add(acc, f(x))))
         .collect();
     parts.into_iter().fold(zero, &add)
+}
+
+/// Fractional bits of the fixed-point minor coordinates of a [`Walk`] (2^-15 of a cell).
+const FRAC: u32 = 15;
+
+/// Most cells per axis of a [`Volume`] (and so most slices of a walk).
+pub const MAX_CELLS: usize = 256;
+
+/// The cells of one line, slice by slice across its major axis. Every slice holds one to three
+/// of them: where the line enters the slice, where it leaves, and between them the cell of
+/// whichever minor axis it crosses first (the two minor axes cannot step more than once a
+/// slice). The minor coordinates at slice `j`'s boundaries are `y[0] + j·y[1]` in fixed point,
+/// held to the line's entry and exit values `y[2]..=y[3]`, so every slice is computed on its
+/// own, without branches, eight at a time: a walk that picks the next axis from the last
+/// crossing times waits on every comparison. The result is that of a 3D DDA (Amanatides-Woo)
+/// up to the choice between two minor crossings less than 2^-15 of a cell apart.
+struct Walk {
+    slices: usize,
+    /// Minor axis 1: coordinate at the first slice's start, step per slice, entry and exit.
+    y: [i32; 4],
+    /// Minor axis 2, the same.
+    z: [i32; 4],
+    /// Cell index at the first slice, minor coordinates 0.
+    at: i32,
+    /// Index strides of the major and the two minor axes (negative for mirrored axes).
+    stride: [i32; 3],
+}
+
+impl Walk {
+    /// Per slice j: `cells[0][j]` the cell the line enters, `cells[1][j]` the cell between,
+    /// `cells[2][j]` the cell it leaves by; a slice without a cell between or with a single
+    /// cell gets `skip + (j mod 8)` instead (eight distinct dummies, so that adding to them
+    /// does not make one long chain of memory updates).
+    #[inline(always)]
+    fn cells(&self, skip: u32, cells: &mut [[u32; MAX_CELLS]; 3]) {
+        let [y, dy, y0, y1] = self.y;
+        let [z, dz, z0, z1] = self.z;
+        let [jm, jy, jz] = self.stride;
+        let [first, mid, last] = cells;
+        let n = self.slices.min(MAX_CELLS);
+        for j in 0..n {
+            let ji = j as i32;
+            let (ya, za) = (y + ji * dy, z + ji * dz);
+            let (yb, zb) = (ya + dy, za + dz);
+            let (yi, yo) = (ya.clamp(y0, y1), yb.clamp(y0, y1));
+            let (zi, zo) = (za.clamp(z0, z1), zb.clamp(z0, z1));
+            let (cyi, czi) = (yi >> FRAC, zi >> FRAC);
+            let cyo = (yo >> FRAC).min(cyi + 1);
+            let czo = (zo >> FRAC).min(czi + 1);
+            let (ny, nz) = (cyo - cyi, czo - czi);
+            // Minor axis 1 is crossed first when (its boundary − y)/dy ≤ (… z)/dz.
+            let y_first = ((cyo << FRAC) - yi) * dz <= ((czo << FRAC) - zi) * dy;
+            let f = self.at + ji * jm + cyi * jy + czi * jz;
+            let m = if y_first { f + ny * jy } else { f + nz * jz };
+            let l = f + ny * jy + nz * jz;
+            let dummy = skip + (j as u32 & 7);
+            first[j] = f as u32;
+            mid[j] = if ny & nz != 0 { m as u32 } else { dummy };
+            last[j] = if ny | nz != 0 { l as u32 } else { dummy };
+        }
+    }
 }
 
 /// Axis-aligned cube cut into n³ cells.
@@ -87,83 +149,77 @@ impl Volume {
         (t0 < t1).then_some((t0, t1))
     }
 
-    /// Visit every cell the infinite line o + t·d passes through (Amanatides-Woo 3D DDA).
-    ///
-    /// The number of cells is known from the entry and exit cells, so the walk needs no exit
-    /// test, and it steps a linear cell index by a precomputed stride: the axis to step is
-    /// chosen without branches (this loop runs a few hundred million times in a bake). An axis
-    /// that has made all its steps takes no more, so rounding can never lead outside the grid.
-    #[inline]
+    /// The walk of the infinite line o + t·d through the volume, slice by slice across its
+    /// major axis (see [`Walk`]); None when the line misses the volume.
+    fn walk(&self, o: Vec3, d: Vec3) -> Option<Walk> {
+        let (t0, t1) = Self::clip(o, d, self.lo, self.hi())?;
+        let n = self.n as i64;
+        let one = (1i64 << FRAC) as f64;
+        let inv = 1.0 / self.cell as f64;
+        let p0 = (o + d * t0 - self.lo).as_dvec3() * inv;
+        let p1 = (o + d * t1 - self.lo).as_dvec3() * inv;
+        let dd = d.as_dvec3();
+        let ad = dd.abs();
+        let m = if ad.x >= ad.y && ad.x >= ad.z {
+            0
+        } else if ad.y >= ad.z {
+            1
+        } else {
+            2
+        };
+        let (k1, k2) = ((m + 1) % 3, (m + 2) % 3);
+        let strides = [1i64, n, n * n];
+        // Mirror backward axes (coordinate c → n − c, cell i → n − 1 − i), so that the walk
+        // runs forwards along every axis.
+        let mut at = 0i64;
+        let mut stride = strides;
+        let (mut q0, mut q1) = (p0.to_array(), p1.to_array());
+        for k in 0..3 {
+            if dd[k] < 0.0 {
+                at += (n - 1) * strides[k];
+                stride[k] = -strides[k];
+                q0[k] = n as f64 - q0[k];
+                q1[k] = n as f64 - q1[k];
+            }
+        }
+        let cell_of = |x: f64| (x.max(0.0) as i64).min(n - 1);
+        let (s0, s1) = (cell_of(q0[m]), cell_of(q1[m]));
+        let top = (n << FRAC) - 1;
+        let fixed = |x: f64| ((x * one).round() as i64).clamp(0, top);
+        // A minor coordinate at x = s0 (fixed point), its step per slice (at most one cell: the
+        // minor axes are no steeper than the major one) and its values where the line enters
+        // and leaves the volume.
+        let minor = |k: usize| {
+            let slope = ad[k] / ad[m];
+            let step = ((slope * one).round() as i64).min(1 << FRAC);
+            let at_s0 = ((q0[k] + slope * (s0 as f64 - q0[m])) * one).round() as i64;
+            let (lo, hi) = (fixed(q0[k]), fixed(q1[k].max(q0[k])));
+            [at_s0, step, lo, hi].map(|v| v as i32)
+        };
+        Some(Walk {
+            slices: (s1 - s0 + 1) as usize,
+            y: minor(k1),
+            z: minor(k2),
+            at: (at + s0 * stride[m]) as i32,
+            stride: [stride[m], stride[k1], stride[k2]].map(|v| v as i32),
+        })
+    }
+
+    /// Visit every cell the infinite line o + t·d passes through, in order along the line
+    /// (the cells [`Walk::cells`] lists).
     pub fn dda(&self, o: Vec3, d: Vec3, mut visit: impl FnMut(usize)) {
-        let Some((t0, t1)) = Self::clip(o, d, self.lo, self.hi()) else {
+        let Some(w) = self.walk(o, d) else {
             return;
         };
-        let n = self.n as i64;
-        let cell_of = |p: f32| ((p / self.cell).floor() as i64).clamp(0, n - 1);
-        let start = o + d * t0 - self.lo;
-        let end = o + d * t1 - self.lo;
-        let stride = [1i64, n, n * n];
-        let mut idx = 0i64;
-        let mut count = 1i64;
-        let mut left = [0i64; 3];
-        let mut jump = [0i64; 3];
-        let mut tmax = [f32::INFINITY; 3];
-        let mut tdelta = [f32::INFINITY; 3];
-        for k in 0..3 {
-            let c = cell_of(start[k]);
-            let e = cell_of(end[k]);
-            idx += c * stride[k];
-            let rel = start[k] / self.cell;
-            if d[k] > 1e-12 && e > c {
-                left[k] = e - c;
-                jump[k] = stride[k];
-                tdelta[k] = self.cell / d[k];
-                tmax[k] = t0 + ((c + 1) as f32 - rel) * tdelta[k];
-            } else if d[k] < -1e-12 && e < c {
-                left[k] = c - e;
-                jump[k] = -stride[k];
-                tdelta[k] = -self.cell / d[k];
-                tmax[k] = t0 + (rel - c as f32) * tdelta[k];
+        let skip = u32::MAX - 7;
+        let mut cells = [[0u32; MAX_CELLS]; 3];
+        w.cells(skip, &mut cells);
+        for j in 0..w.slices {
+            for list in &cells {
+                if list[j] < skip {
+                    visit(list[j] as usize);
+                }
             }
-            count += left[k];
-        }
-        // Scalars rather than arrays indexed by the axis, so that the loop state stays in
-        // registers and every choice is a select, not a branch.
-        let [mut tx, mut ty, mut tz] = tmax;
-        let [dx, dy, dz] = tdelta;
-        let [mut lx, mut ly, mut lz] = left;
-        let [jx, jy, jz] = jump;
-        visit(idx as usize);
-        for _ in 1..count {
-            let sx = tx <= ty && tx <= tz;
-            let sy = !sx && ty <= tz;
-            let sz = !sx && !sy;
-            idx += if sx { jx } else { 0 } + if sy { jy } else { 0 } + if sz { jz } else { 0 };
-            lx -= sx as i64;
-            ly -= sy as i64;
-            lz -= sz as i64;
-            tx = if lx == 0 {
-                f32::INFINITY
-            } else if sx {
-                tx + dx
-            } else {
-                tx
-            };
-            ty = if ly == 0 {
-                f32::INFINITY
-            } else if sy {
-                ty + dy
-            } else {
-                ty
-            };
-            tz = if lz == 0 {
-                f32::INFINITY
-            } else if sz {
-                tz + dz
-            } else {
-                tz
-            };
-            visit(idx as usize);
         }
     }
 
@@ -215,8 +271,8 @@ pub fn line_distance(q: Vec3, d: Vec3, b: Vec3, a: Vec3) -> f32 {
 pub struct Extractor<'a> {
     pub rays: &'a [CausticRay],
     pub alive: Vec<bool>,
-    /// Indices of the alive rays, ascending.
-    pool: Vec<u32>,
+    /// The alive rays, ascending.
+    pool: Columns,
     pub volume: Volume,
     grid: Vec<u64>,
     blocked: Vec<bool>,
@@ -232,15 +288,15 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
     }
     let shares = rayon::current_num_threads().max(1);
     let chunk = idx.len().div_ceil(shares).max(1024);
-    idx.par_chunks(chunk)
+    let mut grid = idx
+        .par_chunks(chunk)
         .map(|part| {
-            let mut g = vec![0u64; cells];
-            for &i in part {
-                let r = &rays[i as usize];
-                let e = fixed[i as usize];
-                volume.dda(r.origin, r.dir, |c| g[c] = g[c].wrapping_add(e));
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the processor has AVX2 (checked above).
+                return unsafe { rasterise_part_avx2(rays, fixed, part, volume) };
             }
-            g
+            rasterise_part(rays, fixed, part, volume)
         })
         .reduce_with(|mut a, b| {
             for (x, y) in a.iter_mut().zip(&b) {
@@ -248,7 +304,38 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
             }
             a
         })
-        .unwrap_or_else(|| vec![0; cells])
+        .unwrap_or_else(|| vec![0; cells]);
+    grid.truncate(cells);
+    grid
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rasterise_part_avx2(rays: &[CausticRay], fixed: &[u64], part: &[u32], v: Volume) -> Vec<u64> {
+    rasterise_part(rays, fixed, part, v)
+}
+
+/// The grid of one share of the rays, with eight dummy cells after the last.
+#[inline(always)]
+fn rasterise_part(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volume) -> Vec<u64> {
+    let cells = (volume.n as usize).pow(3);
+    let mut g = vec![0u64; cells + 8];
+    let mut list = [[0u32; MAX_CELLS]; 3];
+    for &i in part {
+        let r = &rays[i as usize];
+        let Some(w) = volume.walk(r.origin, r.dir) else {
+            continue;
+        };
+        let e = fixed[i as usize];
+        w.cells(cells as u32, &mut list);
+        for j in 0..w.slices {
+            for l in &list {
+                let c = l[j] as usize;
+                g[c] = g[c].wrapping_add(e);
+            }
+        }
+    }
+    g
 }
 
 /// Number of elements in exactly one of two ascending lists.
@@ -273,30 +360,165 @@ fn symmetric_difference(a: &[u32], b: &[u32]) -> usize {
     n + (a.len() - i) + (b.len() - j)
 }
 
-/// The rays of `idx` within thresholds `distance`, `cos_angle` of the axis line (b, a), in order.
-fn assign(rays: &[CausticRay], idx: &[u32], b: Vec3, a: Vec3, distance: f32, cos: f32) -> Vec<u32> {
-    let d2 = distance * distance;
-    idx.par_iter()
-        .copied()
-        .filter(|&i| {
-            let r = &rays[i as usize];
-            r.dir.dot(a) >= cos && line_distance_within(r.origin, r.dir, b, a, d2)
-        })
-        .collect()
+/// Rays as columns (origin and direction components, with their indices into the caustic
+/// rays), in ascending index order: the pool and the candidate lists that assignment scans
+/// millions of times per bake, read front to back and tested eight at a time.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Columns {
+    idx: Vec<u32>,
+    o: [Vec<f32>; 3],
+    d: [Vec<f32>; 3],
 }
 
-/// [`line_distance`] ≤ √`d2`, without a square root or a division.
-#[inline]
-fn line_distance_within(q: Vec3, d: Vec3, b: Vec3, a: Vec3, d2: f32) -> bool {
+/// Positions of one scan block (a block's passes are written branch-free into it).
+const BLOCK: usize = 64;
+
+impl Columns {
+    fn of(rays: &[CausticRay], idx: &[u32]) -> Columns {
+        let col = |f: &(dyn Fn(&CausticRay) -> f32 + Sync)| -> Vec<f32> {
+            idx.par_iter().map(|&i| f(&rays[i as usize])).collect()
+        };
+        Columns {
+            idx: idx.to_vec(),
+            o: [
+                col(&|r| r.origin.x),
+                col(&|r| r.origin.y),
+                col(&|r| r.origin.z),
+            ],
+            d: [col(&|r| r.dir.x), col(&|r| r.dir.y), col(&|r| r.dir.z)],
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.idx.len()
+    }
+
+    /// The columns at `positions` (ascending).
+    fn select(&self, positions: &[u32]) -> Columns {
+        let pick = |c: &Vec<f32>| positions.par_iter().map(|&p| c[p as usize]).collect();
+        Columns {
+            idx: positions
+                .par_iter()
+                .map(|&p| self.idx[p as usize])
+                .collect(),
+            o: self.o.each_ref().map(pick),
+            d: self.d.each_ref().map(pick),
+        }
+    }
+
+    /// Keep the rays for which `keep(index)` holds.
+    fn retain(&mut self, keep: impl Fn(u32) -> bool) {
+        let positions: Vec<u32> = (0..self.len() as u32)
+            .filter(|&p| keep(self.idx[p as usize]))
+            .collect();
+        *self = self.select(&positions);
+    }
+
+    /// Positions (ascending) of the rays within thresholds `distance`, `cos` of the axis line
+    /// (b, a) ([`within`]).
+    fn scan(&self, b: Vec3, a: Vec3, distance: f32, cos: f32) -> Vec<u32> {
+        let d2 = distance * distance;
+        self.filter(move |q, d| within(q, d, b, a, d2, cos))
+    }
+
+    /// Positions (ascending) of the rays whose lines meet the box [lo, hi]
+    /// ([`Volume::line_hits_box`], in the same operations).
+    fn meeting_box(&self, lo: Vec3, hi: Vec3) -> Vec<u32> {
+        self.filter(move |q, d| meets_box(q, d, lo, hi))
+    }
+
+    /// Positions (ascending) of the rays (origin, direction) for which `test` holds; in
+    /// parallel, eight rays at a time where the processor has AVX2.
+    fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
+        let n = self.len();
+        let chunk = 16 * 1024;
+        let parts: Vec<Vec<u32>> = (0..n.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let range = c * chunk..((c + 1) * chunk).min(n);
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the processor has AVX2 (checked above).
+                    return unsafe { self.filter_range_avx2(range, test) };
+                }
+                self.filter_range(range, test)
+            })
+            .collect();
+        parts.concat()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn filter_range_avx2(
+        &self,
+        range: std::ops::Range<usize>,
+        test: impl Fn(Vec3, Vec3) -> bool,
+    ) -> Vec<u32> {
+        self.filter_range(range, test)
+    }
+
+    #[inline(always)]
+    fn filter_range(
+        &self,
+        range: std::ops::Range<usize>,
+        test: impl Fn(Vec3, Vec3) -> bool,
+    ) -> Vec<u32> {
+        let mut out = Vec::new();
+        let mut start = range.start;
+        while start < range.end {
+            let end = (start + BLOCK).min(range.end);
+            let m = end - start;
+            let [ox, oy, oz] = self.o.each_ref().map(|c| &c[start..end]);
+            let [dx, dy, dz] = self.d.each_ref().map(|c| &c[start..end]);
+            let mut pass = [false; BLOCK];
+            for k in 0..m {
+                pass[k] = test(
+                    Vec3::new(ox[k], oy[k], oz[k]),
+                    Vec3::new(dx[k], dy[k], dz[k]),
+                );
+            }
+            let mut found = [0u32; BLOCK];
+            let mut count = 0;
+            for (k, &p) in pass[..m].iter().enumerate() {
+                found[count] = (start + k) as u32;
+                count += p as usize;
+            }
+            out.extend_from_slice(&found[..count]);
+            start = end;
+        }
+        out
+    }
+}
+
+/// The assignment test of one ray (q, d) against the axis line (b, a), without branches: the
+/// angle between d and a at most acos(`cos`), and [`line_distance`] at most √`d2`, tested
+/// without a square root or a division.
+#[inline(always)]
+fn within(q: Vec3, d: Vec3, b: Vec3, a: Vec3, d2: f32, cos: f32) -> bool {
     let n = d.cross(a);
     let l2 = n.length_squared();
     let qb = q - b;
-    if l2 > 1e-12 {
-        let x = qb.dot(n);
-        x * x <= d2 * l2
-    } else {
-        qb.cross(a).length_squared() <= d2
+    let x = qb.dot(n);
+    let skew = x * x <= d2 * l2;
+    let parallel = qb.cross(a).length_squared() <= d2;
+    let near = if l2 > 1e-12 { skew } else { parallel };
+    (d.dot(a) >= cos) & near
+}
+
+/// [`Volume::line_hits_box`] without branches.
+#[inline(always)]
+fn meets_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
+    let (mut t0, mut t1) = (f32::NEG_INFINITY, f32::INFINITY);
+    let mut outside = false;
+    for k in 0..3 {
+        let parallel = d[k].abs() < 1e-12;
+        outside |= parallel & ((o[k] < lo[k]) | (o[k] > hi[k]));
+        let a = (lo[k] - o[k]) / d[k];
+        let b = (hi[k] - o[k]) / d[k];
+        t0 = if parallel { t0 } else { t0.max(a.min(b)) };
+        t1 = if parallel { t1 } else { t1.min(a.max(b)) };
     }
+    !outside & (t0 < t1)
 }
 
 impl<'a> Extractor<'a> {
@@ -307,8 +529,9 @@ impl<'a> Extractor<'a> {
             .par_iter()
             .map(|r| (r.weight() as f64 * FIXED).round() as u64)
             .collect();
-        let pool: Vec<u32> = (0..rays.len() as u32).collect();
-        let grid = rasterise(rays, &fixed, &pool, volume);
+        let all: Vec<u32> = (0..rays.len() as u32).collect();
+        let grid = rasterise(rays, &fixed, &all, volume);
+        let pool = Columns::of(rays, &all);
         Extractor {
             rays,
             alive: vec![true; rays.len()],
@@ -326,7 +549,7 @@ impl<'a> Extractor<'a> {
             self.alive[m as usize] = false;
         }
         let alive = &self.alive;
-        self.pool.retain(|&i| alive[i as usize]);
+        self.pool.retain(|i| alive[i as usize]);
         let delta = rasterise(self.rays, &self.fixed, members, self.volume);
         for (g, d) in self.grid.iter_mut().zip(&delta) {
             *g = g.wrapping_sub(*d);
@@ -352,6 +575,7 @@ impl<'a> Extractor<'a> {
     /// Energy (RGB mean) of the rays still in the pool.
     pub fn remaining_energy(&self) -> f64 {
         self.pool
+            .idx
             .iter()
             .map(|&i| self.rays[i as usize].weight() as f64)
             .sum()
@@ -361,14 +585,11 @@ impl<'a> Extractor<'a> {
     /// then assignment and least-squares optimisation until the axis converges.
     pub fn extract(&self, cell: usize, th: &Thresholds, scale: f32) -> Option<Bundle> {
         let (lo, hi) = self.volume.cell_bounds(cell);
-        let seed: Vec<u32> = self
-            .pool
-            .par_iter()
-            .copied()
-            .filter(|&i| {
-                let r = &self.rays[i as usize];
-                Volume::line_hits_box(r.origin, r.dir, lo, hi)
-            })
+        let pool = &self.pool;
+        let seed: Vec<u32> = pool
+            .meeting_box(lo, hi)
+            .iter()
+            .map(|&p| pool.idx[p as usize])
             .collect();
         if seed.is_empty() {
             return None;
@@ -390,8 +611,14 @@ impl<'a> Extractor<'a> {
         // taken at; refreshed when the axis has moved half a threshold or turned 5°.
         let angle = th.cos_angle.clamp(-1.0, 1.0).acos();
         let relaxed_cos = (angle + 10f32.to_radians()).min(std::f32::consts::PI).cos();
-        let take =
-            |o: Vec3, a: Vec3| assign(self.rays, &self.pool, o, a, 2.0 * th.distance, relaxed_cos);
+        let take = |o: Vec3, a: Vec3| {
+            let pool = &self.pool;
+            pool.select(&pool.scan(o, a, 2.0 * th.distance, relaxed_cos))
+        };
+        let members_of = |c: &Columns, o: Vec3, a: Vec3| -> Vec<u32> {
+            let found = c.scan(o, a, th.distance, th.cos_angle);
+            found.iter().map(|&p| c.idx[p as usize]).collect()
+        };
         let mut cand = take(origin, axis);
         let mut cand_at = (origin, axis);
         let mut members: Vec<u32> = Vec::new();
@@ -410,7 +637,7 @@ impl<'a> Extractor<'a> {
                 cand = take(origin, axis);
                 cand_at = (origin, axis);
             }
-            let next = assign(self.rays, &cand, origin, axis, th.distance, th.cos_angle);
+            let next = members_of(&cand, origin, axis);
             if next.is_empty() {
                 return None;
             }
@@ -420,7 +647,9 @@ impl<'a> Extractor<'a> {
             let changed = symmetric_difference(&next, &members);
             let same = changed * 1000 <= next.len();
             members = next;
-            let energy = det_sum(&members, 0.0, |&i| self.rays[i as usize].weight() as f64);
+            // One pass gives the membership's energy and the sums of its axis fit.
+            let sums = AxisSums::of(self.rays, &members);
+            let energy = sums.w;
             if energy > best_energy * 1.001 {
                 (best_energy, best_axis, stall) = (energy, (origin, axis), 0);
             } else {
@@ -432,7 +661,7 @@ impl<'a> Extractor<'a> {
             }
             let mut converged = same;
             if !same {
-                let (o, a) = optimise_axis(self.rays, &members, origin);
+                let (o, a) = sums.solve(origin);
                 let moved = (o - origin).length() / scale;
                 let turned = 1.0 - a.dot(axis);
                 origin = o;
@@ -444,14 +673,7 @@ impl<'a> Extractor<'a> {
             }
         }
         // The members are those of the whole pool for the final axis.
-        members = assign(
-            self.rays,
-            &self.pool,
-            origin,
-            axis,
-            th.distance,
-            th.cos_angle,
-        );
+        members = members_of(&self.pool, origin, axis);
         if members.is_empty() {
             return None;
         }
@@ -469,59 +691,73 @@ impl<'a> Extractor<'a> {
 /// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
 /// mean ray origin.
 pub fn optimise_axis(rays: &[CausticRay], members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
-    #[derive(Clone, Copy)]
-    struct Acc {
-        w: f64,
-        d: DVec3,
-        q: DVec3,
-        m: DMat3,
-        rhs: DVec3,
+    AxisSums::of(rays, members).solve(prev)
+}
+
+/// The energy-weighted sums of [`optimise_axis`] over a membership (deterministic parallel
+/// sums); `w` is the membership's energy.
+#[derive(Clone, Copy)]
+struct AxisSums {
+    w: f64,
+    d: DVec3,
+    q: DVec3,
+    m: DMat3,
+    rhs: DVec3,
+}
+
+impl std::ops::Add for AxisSums {
+    type Output = AxisSums;
+    fn add(self, o: AxisSums) -> AxisSums {
+        AxisSums {
+            w: self.w + o.w,
+            d: self.d + o.d,
+            q: self.q + o.q,
+            m: self.m + o.m,
+            rhs: self.rhs + o.rhs,
+        }
     }
-    impl std::ops::Add for Acc {
-        type Output = Acc;
-        fn add(self, o: Acc) -> Acc {
-            Acc {
-                w: self.w + o.w,
-                d: self.d + o.d,
-                q: self.q + o.q,
-                m: self.m + o.m,
-                rhs: self.rhs + o.rhs,
+}
+
+impl AxisSums {
+    fn of(rays: &[CausticRay], members: &[u32]) -> AxisSums {
+        let zero = AxisSums {
+            w: 0.0,
+            d: DVec3::ZERO,
+            q: DVec3::ZERO,
+            m: DMat3::ZERO,
+            rhs: DVec3::ZERO,
+        };
+        det_sum(members, zero, |&i| {
+            let r = &rays[i as usize];
+            let w = r.weight() as f64;
+            let d = r.dir.as_dvec3();
+            let q = r.origin.as_dvec3();
+            let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+            AxisSums {
+                w,
+                d: d * w,
+                q: q * w,
+                m: p * w,
+                rhs: (p * q) * w,
             }
-        }
+        })
     }
-    let zero = Acc {
-        w: 0.0,
-        d: DVec3::ZERO,
-        q: DVec3::ZERO,
-        m: DMat3::ZERO,
-        rhs: DVec3::ZERO,
-    };
-    let acc = det_sum(members, zero, |&i| {
-        let r = &rays[i as usize];
-        let w = r.weight() as f64;
-        let d = r.dir.as_dvec3();
-        let q = r.origin.as_dvec3();
-        let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-        Acc {
-            w,
-            d: d * w,
-            q: q * w,
-            m: p * w,
-            rhs: (p * q) * w,
-        }
-    });
-    let axis = acc.d.normalize();
-    let lambda = 1e-4 * acc.w;
-    let m = acc.m + DMat3::IDENTITY * lambda;
-    let rhs = acc.rhs + prev.as_dvec3() * lambda;
-    let mut o = if m.determinant().abs() > 1e-30 {
-        m.inverse() * rhs
-    } else {
-        prev.as_dvec3()
-    };
-    let qbar = acc.q / acc.w;
-    o += axis * (qbar - o).dot(axis);
-    (o.as_vec3(), axis.as_vec3())
+
+    /// The least-squares axis (origin, unit direction), regularised towards `prev`.
+    fn solve(&self, prev: Vec3) -> (Vec3, Vec3) {
+        let axis = self.d.normalize();
+        let lambda = 1e-4 * self.w;
+        let m = self.m + DMat3::IDENTITY * lambda;
+        let rhs = self.rhs + prev.as_dvec3() * lambda;
+        let mut o = if m.determinant().abs() > 1e-30 {
+            m.inverse() * rhs
+        } else {
+            prev.as_dvec3()
+        };
+        let qbar = self.q / self.w;
+        o += axis * (qbar - o).dot(axis);
+        (o.as_vec3(), axis.as_vec3())
+    }
 }
 
 #[cfg(test)]
@@ -624,13 +860,111 @@ mod tests {
             let dist = line_distance(q, d, b, a);
             for t in [0.2f32, 0.5, 1.0] {
                 if (dist - t).abs() > 1e-4 {
-                    assert_eq!(
-                        line_distance_within(q, d, b, a, t * t),
-                        dist <= t,
-                        "{dist} {t}"
-                    );
+                    assert_eq!(within(q, d, b, a, t * t, -2.0), dist <= t, "{dist} {t}");
                 }
             }
+        }
+    }
+
+    /// Random caustic rays around the origin, every tenth along a coordinate axis.
+    fn random_rays(count: usize, seed: u64) -> Vec<CausticRay> {
+        let mut rng = crate::reference::sampling::Pcg::new(seed, 11);
+        (0..count)
+            .map(|k| {
+                let mut v = || Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+                let origin = v() * 2.0;
+                let dir = if k % 10 == 0 {
+                    [Vec3::X, Vec3::NEG_Y, Vec3::Z][k / 10 % 3]
+                } else {
+                    v().normalize()
+                };
+                CausticRay {
+                    origin,
+                    dir,
+                    energy: v().abs(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn column_scans_pass_the_rays_the_single_ray_tests_pass() {
+        let rays = random_rays(20_000, 3);
+        let idx: Vec<u32> = (0..rays.len() as u32).step_by(3).collect();
+        let cols = Columns::of(&rays, &idx);
+        let (b, a) = (
+            Vec3::new(0.1, 0.2, -0.1),
+            Vec3::new(0.3, 0.9, -0.2).normalize(),
+        );
+        for (dist, cos) in [(0.3f32, 0.5f32), (1.0, -1.0), (0.05, 0.9)] {
+            let want: Vec<u32> = (0..idx.len() as u32)
+                .filter(|&p| {
+                    let r = &rays[idx[p as usize] as usize];
+                    within(r.origin, r.dir, b, a, dist * dist, cos)
+                })
+                .collect();
+            assert!(!want.is_empty());
+            assert_eq!(cols.scan(b, a, dist, cos), want);
+        }
+        let (lo, hi) = (Vec3::new(-0.2, -0.1, 0.0), Vec3::new(0.1, 0.3, 0.25));
+        let want: Vec<u32> = (0..idx.len() as u32)
+            .filter(|&p| {
+                let r = &rays[idx[p as usize] as usize];
+                Volume::line_hits_box(r.origin, r.dir, lo, hi)
+            })
+            .collect();
+        assert!(!want.is_empty());
+        assert_eq!(cols.meeting_box(lo, hi), want);
+        // Selecting and retaining keep indices and columns together.
+        let mut sub = cols.select(&want);
+        sub.retain(|i| i % 2 == 0);
+        for (p, &i) in sub.idx.iter().enumerate() {
+            assert_eq!(i % 2, 0);
+            assert_eq!(sub.o[1][p], rays[i as usize].origin.y);
+            assert_eq!(sub.d[2][p], rays[i as usize].dir.z);
+        }
+    }
+
+    #[test]
+    fn rasterised_grid_is_the_energy_of_the_cells_each_line_visits() {
+        // The grid (parallel shares, vector walk, dummy cells) against the cells the plain
+        // walk visits, added one line at a time; and removing rays subtracts them exactly.
+        let rays = random_rays(3000, 4);
+        let volume = Volume::new(Vec3::new(0.1, 0.0, -0.1), 1.5, 24);
+        let mut ex = Extractor::new(&rays, volume);
+        let mut want = vec![0u64; 24 * 24 * 24];
+        for (r, &e) in rays.iter().zip(&ex.fixed) {
+            volume.dda(r.origin, r.dir, |c| want[c] += e);
+        }
+        assert_eq!(ex.grid, want);
+        let gone: Vec<u32> = (0..rays.len() as u32).filter(|i| i % 3 == 1).collect();
+        ex.remove(&gone);
+        let mut want = vec![0u64; 24 * 24 * 24];
+        for (i, (r, &e)) in rays.iter().zip(&ex.fixed).enumerate() {
+            if i % 3 != 1 {
+                volume.dda(r.origin, r.dir, |c| want[c] += e);
+            }
+        }
+        assert_eq!(ex.grid, want);
+        assert_eq!(ex.pool.len(), rays.len() - gone.len());
+    }
+
+    #[test]
+    fn walks_stay_in_the_largest_volume() {
+        // 256 cells a side: fixed-point coordinates and indices stay in range (debug builds
+        // check the arithmetic for overflow), and every line's cells are face neighbours.
+        let v = Volume::new(Vec3::ZERO, 1.0, MAX_CELLS as u32);
+        let n = MAX_CELLS;
+        for r in random_rays(300, 5) {
+            let mut cells = Vec::new();
+            v.dda(r.origin, r.dir, |c| cells.push(c));
+            for w in cells.windows(2) {
+                let coords = |c: usize| [c % n, (c / n) % n, c / (n * n)].map(|x| x as i64);
+                let (a, b) = (coords(w[0]), coords(w[1]));
+                let steps: i64 = (0..3).map(|k| (a[k] - b[k]).abs()).sum();
+                assert_eq!(steps, 1);
+            }
+            assert!(cells.iter().all(|&c| c < n * n * n));
         }
     }
 
