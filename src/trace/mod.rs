@@ -147,6 +147,7 @@ impl Accel {
     }
 
     /// Closest hit along `origin + t·dir`, t in (0, tmax). `dir` must be unit length.
+    #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         if self.tris.is_empty() {
             return None;
@@ -159,10 +160,33 @@ impl Accel {
         {
             return None;
         }
-        let id = hit.primitive_id as usize;
+        Some(self.hit_on(hit.primitive_id as usize, hit.t, &ray, origin, dir))
+    }
+
+    /// The hit of `origin + t·dir`, t in (0, tmax), on triangle `prim` alone (an index of
+    /// [`Self::triangle_vertices`]), the same as [`Self::intersect`] gives when that triangle is
+    /// the closest; None when the ray misses it.
+    #[inline]
+    pub fn triangle_hit(&self, prim: usize, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        let ray = make_ray(origin, dir, tmax);
+        let t = tri_t(&self.tris[prim], &ray);
+        t.is_finite()
+            .then(|| self.hit_on(prim, t, &ray, origin, dir))
+    }
+
+    /// The vertices of triangle `prim`, in the order the BVH keeps the triangles (0 up to
+    /// [`Self::triangle_count`]).
+    pub fn triangle_vertices(&self, prim: usize) -> [Vec3; 3] {
+        let t = &self.tris[prim];
+        [t.v0, t.v0 - t.e1, t.v0 + t.e2].map(Vec3::from)
+    }
+
+    /// The hit at distance `t` on triangle `id`.
+    #[inline(always)]
+    fn hit_on(&self, id: usize, t: f32, ray: &Ray, origin: Vec3, dir: Vec3) -> Hit {
         let tri = &self.tris[id];
         let d = &self.data[id];
-        let uv = tri.compute_barycentric(&ray);
+        let uv = tri.compute_barycentric(ray);
         let w = 1.0 - uv.x - uv.y;
         let ng: Vec3 = tri.compute_normal().into();
         let front_face = ng.dot(dir) < 0.0;
@@ -176,16 +200,16 @@ impl Accel {
         if normal.dot(geo_normal) <= 0.0 {
             normal = geo_normal;
         }
-        Some(Hit {
-            t: hit.t,
-            point: origin + dir * hit.t,
+        Hit {
+            t,
+            point: origin + dir * t,
             geo_normal,
             normal,
             front_face,
             material: d.material,
             object: d.object,
             triangle: d.source,
-        })
+        }
     }
 
     /// True when anything lies on the segment `origin + t·dir`, t in (0, tmax).

@@ -53,6 +53,89 @@ impl RayGrid {
     }
 }
 
+/// No triangle on a grid ray ([`first_triangles`]).
+const NONE: u32 = u32::MAX;
+
+/// The triangle of `accel` each grid ray meets first (row-major, [`NONE`] where none), by
+/// rasterising the triangles onto the grid along the light: an orthographic z-buffer whose
+/// pixel centres are the grid rays, a few ten milliseconds for the 1.6 M rays of a 1280² grid
+/// instead of a BVH query per ray. A triangle claims the rays within a small tolerance of its
+/// edges, so that no ray the exact ray-triangle test would give it is lost; the tracer checks
+/// the claim with that test and asks the BVH where it fails.
+pub fn first_triangles(accel: &Accel, grid: &RayGrid) -> Vec<u32> {
+    let n = grid.n as usize;
+    let (r, s) = (grid.radius as f64, grid.spacing() as f64);
+    let frame = [grid.u, grid.v, grid.light].map(|a| a.as_dvec3());
+    // Triangles in pixel units (pixel (i, j) centred on (i, j)) with their depth along the light.
+    let project = |v: Vec3| {
+        let q = (v - grid.centre).as_dvec3();
+        glam::DVec3::new(
+            (q.dot(frame[0]) + r) / s - 0.5,
+            (q.dot(frame[1]) + r) / s - 0.5,
+            q.dot(frame[2]),
+        )
+    };
+    const BAND: usize = 16;
+    let bands = n.div_ceil(BAND);
+    let mut binned: Vec<Vec<u32>> = vec![Vec::new(); bands];
+    let tris: Vec<[glam::DVec3; 3]> = (0..accel.triangle_count())
+        .map(|p| accel.triangle_vertices(p).map(project))
+        .collect();
+    let span = |lo: f64, hi: f64| -> Option<(usize, usize)> {
+        let (a, b) = ((lo - 1e-3).ceil(), (hi + 1e-3).floor());
+        (b >= 0.0 && a <= (n - 1) as f64 && a <= b)
+            .then(|| (a.max(0.0) as usize, b.min((n - 1) as f64) as usize))
+    };
+    for (p, t) in tris.iter().enumerate() {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        if let Some((j0, j1)) = span(lo.y, hi.y) {
+            for list in &mut binned[j0 / BAND..=j1 / BAND] {
+                list.push(p as u32);
+            }
+        }
+    }
+    let rows: Vec<Vec<u32>> = binned
+        .par_iter()
+        .enumerate()
+        .map(|(band, list)| {
+            let (b0, b1) = (band * BAND, ((band + 1) * BAND).min(n));
+            let mut depth = vec![f64::INFINITY; (b1 - b0) * n];
+            let mut first = vec![NONE; (b1 - b0) * n];
+            for &p in list {
+                let [a, b, c] = tris[p as usize];
+                let area = (b - a).truncate().perp_dot((c - a).truncate());
+                if area.abs() < 1e-12 {
+                    continue;
+                }
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                let (Some((i0, i1)), Some((j0, j1))) = (span(lo.x, hi.x), span(lo.y, hi.y)) else {
+                    continue;
+                };
+                for j in j0.max(b0)..=j1.min(b1 - 1) {
+                    for i in i0..=i1 {
+                        let q = glam::DVec2::new(i as f64, j as f64);
+                        let wa = (b.truncate() - q).perp_dot(c.truncate() - q) / area;
+                        let wb = (c.truncate() - q).perp_dot(a.truncate() - q) / area;
+                        let wc = 1.0 - wa - wb;
+                        const TOL: f64 = -1e-4;
+                        if wa < TOL || wb < TOL || wc < TOL {
+                            continue;
+                        }
+                        let z = wa * a.z + wb * b.z + wc * c.z;
+                        let k = (j - b0) * n + i;
+                        if z < depth[k] {
+                            depth[k] = z;
+                            first[k] = p;
+                        }
+                    }
+                }
+            }
+            first
+        })
+        .collect();
+    rows.concat()
+}
+
 /// Totals of the trace stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TraceTotals {
@@ -72,6 +155,7 @@ pub fn trace_grid(
     params: &CslParams,
     progress: &(dyn Fn(u32) -> bool + Sync),
 ) -> Option<(Vec<CausticRay>, TraceTotals)> {
+    let first = first_triangles(accel, grid);
     let done = std::sync::atomic::AtomicU32::new(0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let rows: Vec<(Vec<CausticRay>, TraceTotals)> = (0..grid.n)
@@ -83,11 +167,20 @@ pub fn trace_grid(
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return (out, tot);
             }
-            for i in 0..grid.n {
-                if let Some(o) = grid.origin(i, j) {
-                    trace_one(accel, o, grid.light, params, &mut stack, &mut out, &mut tot);
-                }
+            let n = grid.n as usize;
+            let row = Row {
+                j,
+                first: &first[j as usize * n..(j as usize + 1) * n],
+            };
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the processor has AVX2 (checked above).
+                unsafe { trace_row_avx2(accel, grid, row, params, &mut stack, &mut out, &mut tot) };
+            } else {
+                trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
             }
+            #[cfg(not(target_arch = "x86_64"))]
+            trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if d.is_multiple_of(16) && !progress(d) {
                 cancel.store(true, std::sync::atomic::Ordering::Relaxed);
@@ -109,15 +202,62 @@ pub fn trace_grid(
     Some((rays, tot))
 }
 
+/// Row `j` of the grid, with the triangle each of its rays meets first.
+#[derive(Clone, Copy)]
+struct Row<'a> {
+    j: u32,
+    first: &'a [u32],
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn trace_row_avx2(
+    accel: &Accel,
+    grid: &RayGrid,
+    row: Row,
+    params: &CslParams,
+    stack: &mut PathStack,
+    out: &mut Vec<CausticRay>,
+    tot: &mut TraceTotals,
+) {
+    trace_row(accel, grid, row, params, stack, out, tot)
+}
+
+/// The grid rays of one row.
+#[inline(always)]
+fn trace_row(
+    accel: &Accel,
+    grid: &RayGrid,
+    row: Row,
+    params: &CslParams,
+    stack: &mut PathStack,
+    out: &mut Vec<CausticRay>,
+    tot: &mut TraceTotals,
+) {
+    for i in 0..grid.n {
+        let first = row.first[i as usize];
+        if first == NONE {
+            continue;
+        }
+        if let Some(o) = grid.origin(i, row.j) {
+            trace_one(accel, o, grid.light, first, params, stack, out, tot);
+        }
+    }
+}
+
 /// Paths waiting to be traced: (origin, direction, energy, interactions so far).
 type PathStack = Vec<(Vec3, Vec3, Vec3, u32)>;
 
-/// One grid ray: depth-first over both branches at every hit. `stack` is scratch space (empty
-/// on entry and on return), kept by the caller so that a row allocates it once.
+/// One grid ray, whose first triangle is `first` ([`first_triangles`]): depth-first over both
+/// branches at every hit. `stack` is scratch space (empty on entry and on return), kept by the
+/// caller so that a row allocates it once.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn trace_one(
     accel: &Accel,
     origin: Vec3,
     dir: Vec3,
+    first: u32,
     params: &CslParams,
     stack: &mut PathStack,
     out: &mut Vec<CausticRay>,
@@ -125,7 +265,14 @@ fn trace_one(
 ) {
     stack.push((origin, dir, Vec3::ONE, 0));
     while let Some((o, d, e, depth)) = stack.pop() {
-        let Some(hit) = accel.intersect(o, d, f32::INFINITY) else {
+        let hit = if depth == 0 {
+            accel
+                .triangle_hit(first as usize, o, d, f32::INFINITY)
+                .or_else(|| accel.intersect(o, d, f32::INFINITY))
+        } else {
+            accel.intersect(o, d, f32::INFINITY)
+        };
+        let Some(hit) = hit else {
             if depth > 0 {
                 out.push(CausticRay {
                     origin: o,
@@ -160,6 +307,78 @@ fn trace_one(
                 continue;
             }
             stack.push((hit.spawn(b.dir), b.dir, eb, depth + 1));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_z_buffer_finds_the_triangle_the_bvh_finds() {
+        // A torus seen obliquely (rays through the hole, rays meeting it twice, silhouette
+        // rays) and a cube lit along an axis (rays on shared edges): every grid ray's first
+        // triangle gives the BVH's closest hit, or the tracer's fallback asks the BVH; a ray
+        // with no triangle misses.
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+                 "objects": [
+                   {"name": "ring", "shape": {"type": "torus", "major_radius": 0.5,
+                    "minor_radius": 0.2, "segments": 48}, "material": "glass"},
+                   {"name": "box", "shape": {"type": "box", "size": [0.4, 0.4, 0.4]},
+                    "material": "glass", "transform": {"translation": [2, 0, 0]}}]}"#,
+        )
+        .expect("scene resolves");
+        for (name, light) in [
+            ("ring", Vec3::new(0.3, -1.0, 0.45).normalize()),
+            ("box", Vec3::NEG_Y),
+        ] {
+            let object = world.object(name).unwrap();
+            let local = super::super::rigid_frame_world(&world, object);
+            let accel = Accel::build(&local);
+            let (lo, hi) = local.bounds();
+            let centre = 0.5 * (lo + hi);
+            let (u, v) = light.any_orthonormal_pair();
+            let grid = RayGrid {
+                light,
+                u,
+                v,
+                centre,
+                radius: 0.5 * (hi - lo).length(),
+                n: 200,
+            };
+            let first = first_triangles(&accel, &grid);
+            let (mut hits, mut claims_checked) = (0, 0);
+            for j in 0..grid.n {
+                for i in 0..grid.n {
+                    let Some(o) = grid.origin(i, j) else { continue };
+                    let want = accel.intersect(o, light, f32::INFINITY);
+                    let p = first[(j * grid.n + i) as usize];
+                    if p == NONE {
+                        assert!(want.is_none(), "{name}: ray ({i}, {j}) has no triangle");
+                        continue;
+                    }
+                    hits += want.is_some() as u32;
+                    if let Some(got) = accel.triangle_hit(p as usize, o, light, f32::INFINITY) {
+                        claims_checked += 1;
+                        let want = want.expect("a hit");
+                        assert!(
+                            (got.t - want.t).abs() <= 1e-5 * want.t,
+                            "{name} ({i}, {j}): {} vs {}",
+                            got.t,
+                            want.t
+                        );
+                    }
+                }
+            }
+            eprintln!("{name}: {hits} hits, {claims_checked} claims checked");
+            assert!(hits > 5000, "{name}: {hits}");
+            assert!(
+                claims_checked * 100 >= hits * 99,
+                "{claims_checked} of {hits}"
+            );
         }
     }
 }
