@@ -368,6 +368,8 @@ pub(crate) struct Columns {
     idx: Vec<u32>,
     o: [Vec<f32>; 3],
     d: [Vec<f32>; 3],
+    /// Weight (RGB mean energy).
+    w: Vec<f32>,
 }
 
 /// Positions of one scan block (a block's passes are written branch-free into it).
@@ -386,11 +388,25 @@ impl Columns {
                 col(&|r| r.origin.z),
             ],
             d: [col(&|r| r.dir.x), col(&|r| r.dir.y), col(&|r| r.dir.z)],
+            w: col(&|r| r.weight()),
         }
     }
 
     fn len(&self) -> usize {
         self.idx.len()
+    }
+
+    /// Weight, direction and origin of the ray at position `p`.
+    #[inline(always)]
+    fn ray(&self, p: u32) -> (f32, Vec3, Vec3) {
+        let p = p as usize;
+        let [ox, oy, oz] = &self.o;
+        let [dx, dy, dz] = &self.d;
+        (
+            self.w[p],
+            Vec3::new(dx[p], dy[p], dz[p]),
+            Vec3::new(ox[p], oy[p], oz[p]),
+        )
     }
 
     /// The columns at `positions` (ascending).
@@ -403,12 +419,14 @@ impl Columns {
                 .collect(),
             o: self.o.each_ref().map(pick),
             d: self.d.each_ref().map(pick),
+            w: pick(&self.w),
         }
     }
 
     /// Keep the rays for which `keep(index)` holds.
-    fn retain(&mut self, keep: impl Fn(u32) -> bool) {
+    fn retain(&mut self, keep: impl Fn(u32) -> bool + Sync) {
         let positions: Vec<u32> = (0..self.len() as u32)
+            .into_par_iter()
             .filter(|&p| keep(self.idx[p as usize]))
             .collect();
         *self = self.select(&positions);
@@ -615,9 +633,10 @@ impl<'a> Extractor<'a> {
             let pool = &self.pool;
             pool.select(&pool.scan(o, a, 2.0 * th.distance, relaxed_cos))
         };
-        let members_of = |c: &Columns, o: Vec3, a: Vec3| -> Vec<u32> {
+        let members_of = |c: &Columns, o: Vec3, a: Vec3| -> (Vec<u32>, Vec<u32>) {
             let found = c.scan(o, a, th.distance, th.cos_angle);
-            found.iter().map(|&p| c.idx[p as usize]).collect()
+            let members = found.iter().map(|&p| c.idx[p as usize]).collect();
+            (members, found)
         };
         let mut cand = take(origin, axis);
         let mut cand_at = (origin, axis);
@@ -637,7 +656,7 @@ impl<'a> Extractor<'a> {
                 cand = take(origin, axis);
                 cand_at = (origin, axis);
             }
-            let next = members_of(&cand, origin, axis);
+            let (next, found) = members_of(&cand, origin, axis);
             if next.is_empty() {
                 return None;
             }
@@ -648,8 +667,8 @@ impl<'a> Extractor<'a> {
             let same = changed * 1000 <= next.len();
             members = next;
             // One pass gives the membership's energy and the sums of its axis fit.
-            let sums = AxisSums::of(self.rays, &members);
-            let energy = sums.w;
+            let sums = AxisSums::of(&found, |p| cand.ray(p));
+            let energy = sums.energy();
             if energy > best_energy * 1.001 {
                 (best_energy, best_axis, stall) = (energy, (origin, axis), 0);
             } else {
@@ -673,7 +692,7 @@ impl<'a> Extractor<'a> {
             }
         }
         // The members are those of the whole pool for the final axis.
-        members = members_of(&self.pool, origin, axis);
+        members = members_of(&self.pool, origin, axis).0;
         if members.is_empty() {
             return None;
         }
@@ -691,70 +710,78 @@ impl<'a> Extractor<'a> {
 /// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
 /// mean ray origin.
 pub fn optimise_axis(rays: &[CausticRay], members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
-    AxisSums::of(rays, members).solve(prev)
+    AxisSums::of(members, |i| {
+        let r = &rays[i as usize];
+        (r.weight(), r.dir, r.origin)
+    })
+    .solve(prev)
 }
 
 /// The energy-weighted sums of [`optimise_axis`] over a membership (deterministic parallel
-/// sums); `w` is the membership's energy.
+/// sums): Σw (the membership's energy), Σw·d, Σw·q, Σw·d dᵀ (six distinct entries) and
+/// Σw·d (d·q), from which the normal equations Σw(I − d dᵀ)·o = Σw(I − d dᵀ)·q follow.
 #[derive(Clone, Copy)]
-struct AxisSums {
-    w: f64,
-    d: DVec3,
-    q: DVec3,
-    m: DMat3,
-    rhs: DVec3,
-}
-
-impl std::ops::Add for AxisSums {
-    type Output = AxisSums;
-    fn add(self, o: AxisSums) -> AxisSums {
-        AxisSums {
-            w: self.w + o.w,
-            d: self.d + o.d,
-            q: self.q + o.q,
-            m: self.m + o.m,
-            rhs: self.rhs + o.rhs,
-        }
-    }
-}
+struct AxisSums([f64; 16]);
 
 impl AxisSums {
-    fn of(rays: &[CausticRay], members: &[u32]) -> AxisSums {
-        let zero = AxisSums {
-            w: 0.0,
-            d: DVec3::ZERO,
-            q: DVec3::ZERO,
-            m: DMat3::ZERO,
-            rhs: DVec3::ZERO,
-        };
-        det_sum(members, zero, |&i| {
-            let r = &rays[i as usize];
-            let w = r.weight() as f64;
-            let d = r.dir.as_dvec3();
-            let q = r.origin.as_dvec3();
-            let p = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-            AxisSums {
-                w,
-                d: d * w,
-                q: q * w,
-                m: p * w,
-                rhs: (p * q) * w,
-            }
-        })
+    /// The sums over the rays `ray(k)` (weight, direction, origin) of the `members`.
+    fn of(members: &[u32], ray: impl Fn(u32) -> (f32, Vec3, Vec3) + Sync) -> AxisSums {
+        let add = |x: [f64; 16], y: [f64; 16]| std::array::from_fn(|k| x[k] + y[k]);
+        AxisSums(det_fold(
+            members,
+            [0.0; 16],
+            |&k| {
+                let (w, d, q) = ray(k);
+                let w = w as f64;
+                let [dx, dy, dz] = d.as_dvec3().to_array();
+                let q = q.as_dvec3();
+                let (wx, wy, wz) = (w * dx, w * dy, w * dz);
+                let dq = dx * q.x + dy * q.y + dz * q.z;
+                [
+                    w,
+                    wx,
+                    wy,
+                    wz,
+                    w * q.x,
+                    w * q.y,
+                    w * q.z,
+                    wx * dx,
+                    wx * dy,
+                    wx * dz,
+                    wy * dy,
+                    wy * dz,
+                    wz * dz,
+                    wx * dq,
+                    wy * dq,
+                    wz * dq,
+                ]
+            },
+            add,
+        ))
+    }
+
+    /// Σw: the membership's energy.
+    fn energy(&self) -> f64 {
+        self.0[0]
     }
 
     /// The least-squares axis (origin, unit direction), regularised towards `prev`.
     fn solve(&self, prev: Vec3) -> (Vec3, Vec3) {
-        let axis = self.d.normalize();
-        let lambda = 1e-4 * self.w;
-        let m = self.m + DMat3::IDENTITY * lambda;
-        let rhs = self.rhs + prev.as_dvec3() * lambda;
+        let s = &self.0;
+        let w = s[0];
+        let axis = DVec3::new(s[1], s[2], s[3]).normalize();
+        let wq = DVec3::new(s[4], s[5], s[6]);
+        let dd =
+            DMat3::from_cols_array(&[s[7], s[8], s[9], s[8], s[10], s[11], s[9], s[11], s[12]]);
+        let lambda = 1e-4 * w;
+        let m = DMat3::IDENTITY * (w + lambda) - dd;
+        let rhs = wq - DVec3::new(s[13], s[14], s[15]) + prev.as_dvec3() * lambda;
         let mut o = if m.determinant().abs() > 1e-30 {
             m.inverse() * rhs
         } else {
             prev.as_dvec3()
         };
-        let qbar = self.q / self.w;
+        let qbar = wq / w;
         o += axis * (qbar - o).dot(axis);
         (o.as_vec3(), axis.as_vec3())
     }
