@@ -8,6 +8,12 @@
 
 use super::trace::CausticRay;
 use glam::Vec3;
+use rayon::prelude::*;
+
+/// The rays of one image are splatted in this many fixed shares, in parallel, each into an
+/// image of its own; the shares' images are added in order, so the image does not depend on
+/// the thread count.
+const SHARES: usize = 8;
 
 /// A float intensity image on the light plane: square, `size` texels per side, covering
 /// [-half, half]² in the plane frame (x̂, ŷ).
@@ -35,7 +41,7 @@ pub fn splat(
 ) -> PlaneImage {
     // Plane positions, radial unit vectors and the ellipse's radial semi-axis per ray.
     let pts: Vec<(f32, f32, f32, Vec3)> = kept
-        .iter()
+        .par_iter()
         .map(|&i| {
             let r = &rays[i as usize];
             let da = r.dir.dot(a).max(1e-3);
@@ -50,11 +56,43 @@ pub fn splat(
         .fold(delta, f32::max);
     half *= 1.0 + 1.0 / size as f32;
     let pix = 2.0 * half / size as f32;
+    let pre = 0.25 * pix * pix; // (pix/2)² prefilter variance
+    let share = pts.len().div_ceil(SHARES).max(1);
+    let parts: Vec<(Vec<Vec3>, f64)> = pts
+        .par_chunks(share)
+        .map(|part| splat_share(part, half, pix, pre, delta, size))
+        .collect();
+    let mut parts = parts.into_iter();
+    let (mut texels, mut flux) = parts
+        .next()
+        .unwrap_or_else(|| (vec![Vec3::ZERO; (size * size) as usize], 0.0));
+    for (t, f) in parts {
+        for (a, b) in texels.iter_mut().zip(&t) {
+            *a += *b;
+        }
+        flux += f;
+    }
+    PlaneImage {
+        size,
+        half,
+        texels,
+        flux,
+    }
+}
+
+/// The image of one share of the splats (plane x, y, radial semi-axis, flux) and its flux.
+fn splat_share(
+    pts: &[(f32, f32, f32, Vec3)],
+    half: f32,
+    pix: f32,
+    pre: f32,
+    delta: f32,
+    size: u32,
+) -> (Vec<Vec3>, f64) {
     let mut texels = vec![Vec3::ZERO; (size * size) as usize];
     let mut flux = 0.0f64;
-    let pre = 0.25 * pix * pix; // (pix/2)² prefilter variance
     let mut weights: Vec<(usize, f32)> = Vec::new();
-    for &(px, py, major, e) in &pts {
+    for &(px, py, major, e) in pts {
         let r = (px * px + py * py).sqrt();
         let (ux, uy) = if r > 1e-9 {
             (px / r, py / r)
@@ -99,12 +137,7 @@ pub fn splat(
         }
         flux += (e.element_sum() / 3.0) as f64;
     }
-    PlaneImage {
-        size,
-        half,
-        texels,
-        flux,
-    }
+    (texels, flux)
 }
 
 /// Linear 16-bit quantisation with one scale per image: value = q / 65535 · scale.
