@@ -245,8 +245,9 @@ fn trace_row(
     }
 }
 
-/// Paths waiting to be traced: (origin, direction, energy, interactions so far).
-type PathStack = Vec<(Vec3, Vec3, Vec3, u32)>;
+/// Paths waiting to be traced: (origin, direction, energy, interactions so far, whether it
+/// leaves a convex object and so meets nothing more).
+type PathStack = Vec<(Vec3, Vec3, Vec3, u32, bool)>;
 
 /// One grid ray, whose first triangle is `first` ([`first_triangles`]): depth-first over both
 /// branches at every hit. `stack` is scratch space (empty on entry and on return), kept by the
@@ -263,9 +264,12 @@ fn trace_one(
     out: &mut Vec<CausticRay>,
     tot: &mut TraceTotals,
 ) {
-    stack.push((origin, dir, Vec3::ONE, 0));
-    while let Some((o, d, e, depth)) = stack.pop() {
-        let hit = if depth == 0 {
+    let convex = accel.convex_orientation();
+    stack.push((origin, dir, Vec3::ONE, 0, false));
+    while let Some((o, d, e, depth, leaves)) = stack.pop() {
+        let hit = if leaves {
+            None
+        } else if depth == 0 {
             accel
                 .triangle_hit(first as usize, o, d, f32::INFINITY)
                 .or_else(|| accel.intersect(o, d, f32::INFINITY))
@@ -300,13 +304,23 @@ fn trace_one(
         }
         // Push refraction first so that reflection is traced first: the order is fixed, so the
         // output order is deterministic.
+        // The outward normal of the hit triangle, where the object is convex.
+        let outward = convex.map(|sign| {
+            let winding = if hit.front_face {
+                hit.geo_normal
+            } else {
+                -hit.geo_normal
+            };
+            winding * sign
+        });
         for b in branches.into_iter().rev().flatten() {
             let eb = e * b.weight;
             if eb.element_sum() / 3.0 < params.min_energy {
                 tot.dropped += (eb.element_sum() / 3.0) as f64;
                 continue;
             }
-            stack.push((hit.spawn(b.dir), b.dir, eb, depth + 1));
+            let leaves = outward.is_some_and(|n| b.dir.dot(n) > 0.0);
+            stack.push((hit.spawn(b.dir), b.dir, eb, depth + 1, leaves));
         }
     }
 }
