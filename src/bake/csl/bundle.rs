@@ -151,6 +151,7 @@ impl Volume {
 
     /// The walk of the infinite line o + t·d through the volume, slice by slice across its
     /// major axis (see [`Walk`]); None when the line misses the volume.
+    #[inline(always)]
     fn walk(&self, o: Vec3, d: Vec3) -> Option<Walk> {
         let (t0, t1) = Self::clip(o, d, self.lo, self.hi())?;
         let n = self.n as i64;
