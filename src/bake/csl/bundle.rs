@@ -186,14 +186,14 @@ impl Volume {
         let cell_of = |x: f64| (x.max(0.0) as i64).min(n - 1);
         let (s0, s1) = (cell_of(q0[m]), cell_of(q1[m]));
         let top = (n << FRAC) - 1;
-        let fixed = |x: f64| ((x * one).round() as i64).clamp(0, top);
+        let fixed = |x: f64| ((x * one).round_ties_even() as i64).clamp(0, top);
         // A minor coordinate at x = s0 (fixed point), its step per slice (at most one cell: the
         // minor axes are no steeper than the major one) and its values where the line enters
         // and leaves the volume.
         let minor = |k: usize| {
             let slope = ad[k] / ad[m];
-            let step = ((slope * one).round() as i64).min(1 << FRAC);
-            let at_s0 = ((q0[k] + slope * (s0 as f64 - q0[m])) * one).round() as i64;
+            let step = ((slope * one).round_ties_even() as i64).min(1 << FRAC);
+            let at_s0 = ((q0[k] + slope * (s0 as f64 - q0[m])) * one).round_ties_even() as i64;
             let (lo, hi) = (fixed(q0[k]), fixed(q1[k].max(q0[k])));
             [at_s0, step, lo, hi].map(|v| v as i32)
         };
@@ -377,6 +377,12 @@ pub(crate) struct Columns {
 const BLOCK: usize = 64;
 
 impl Columns {
+    /// All of `rays`, in order.
+    pub(crate) fn all(rays: &[CausticRay]) -> Columns {
+        let idx: Vec<u32> = (0..rays.len() as u32).collect();
+        Self::of(rays, &idx)
+    }
+
     fn of(rays: &[CausticRay], idx: &[u32]) -> Columns {
         let col = |f: &(dyn Fn(&CausticRay) -> f32 + Sync)| -> Vec<f32> {
             idx.par_iter().map(|&i| f(&rays[i as usize])).collect()
@@ -411,26 +417,52 @@ impl Columns {
     }
 
     /// The columns at `positions` (ascending).
+    #[cfg(test)]
     fn select(&self, positions: &[u32]) -> Columns {
-        let pick = |c: &Vec<f32>| positions.par_iter().map(|&p| c[p as usize]).collect();
-        Columns {
-            idx: positions
-                .par_iter()
-                .map(|&p| self.idx[p as usize])
-                .collect(),
-            o: self.o.each_ref().map(pick),
-            d: self.d.each_ref().map(pick),
-            w: pick(&self.w),
-        }
+        let mut out = Columns::default();
+        self.select_into(positions, &mut out);
+        out
     }
 
-    /// Keep the rays for which `keep(index)` holds.
+    /// [`Self::select`] into `out`, whose buffers are reused (no new pages to fault in when an
+    /// extraction takes its candidates again).
+    fn select_into(&self, positions: &[u32], out: &mut Columns) {
+        let pick = |c: &Vec<f32>, to: &mut Vec<f32>| {
+            positions
+                .par_iter()
+                .map(|&p| c[p as usize])
+                .collect_into_vec(to)
+        };
+        positions
+            .par_iter()
+            .map(|&p| self.idx[p as usize])
+            .collect_into_vec(&mut out.idx);
+        for k in 0..3 {
+            pick(&self.o[k], &mut out.o[k]);
+            pick(&self.d[k], &mut out.d[k]);
+        }
+        pick(&self.w, &mut out.w);
+    }
+
+    /// Keep the rays for which `keep(index)` holds: each column compacted in place (no new
+    /// pages to fault in), the columns in parallel.
     fn retain(&mut self, keep: impl Fn(u32) -> bool + Sync) {
-        let positions: Vec<u32> = (0..self.len() as u32)
-            .into_par_iter()
-            .filter(|&p| keep(self.idx[p as usize]))
-            .collect();
-        *self = self.select(&positions);
+        let mask: Vec<bool> = self.idx.par_iter().map(|&i| keep(i)).collect();
+        fn compact<T: Copy>(col: &mut Vec<T>, mask: &[bool]) {
+            let mut w = 0;
+            for r in 0..col.len() {
+                col[w] = col[r];
+                w += mask[r] as usize;
+            }
+            col.truncate(w);
+        }
+        let [o0, o1, o2] = &mut self.o;
+        let [d0, d1, d2] = &mut self.d;
+        let mut floats = [o0, o1, o2, d0, d1, d2, &mut self.w];
+        rayon::join(
+            || compact(&mut self.idx, &mask),
+            || floats.par_iter_mut().for_each(|c| compact(c, &mask)),
+        );
     }
 
     /// Positions (ascending) of the rays within thresholds `distance`, `cos` of the axis line
@@ -448,7 +480,7 @@ impl Columns {
 
     /// Positions (ascending) of the rays (origin, direction) for which `test` holds; in
     /// parallel, eight rays at a time where the processor has AVX2.
-    fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
+    pub(crate) fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
         let n = self.len();
         let chunk = 16 * 1024;
         let parts: Vec<Vec<u32>> = (0..n.div_ceil(chunk))
@@ -630,16 +662,17 @@ impl<'a> Extractor<'a> {
         // taken at; refreshed when the axis has moved half a threshold or turned 5°.
         let angle = th.cos_angle.clamp(-1.0, 1.0).acos();
         let relaxed_cos = (angle + 10f32.to_radians()).min(std::f32::consts::PI).cos();
-        let take = |o: Vec3, a: Vec3| {
+        let take = |o: Vec3, a: Vec3, cand: &mut Columns| {
             let pool = &self.pool;
-            pool.select(&pool.scan(o, a, 2.0 * th.distance, relaxed_cos))
+            pool.select_into(&pool.scan(o, a, 2.0 * th.distance, relaxed_cos), cand)
         };
         let members_of = |c: &Columns, o: Vec3, a: Vec3| -> (Vec<u32>, Vec<u32>) {
             let found = c.scan(o, a, th.distance, th.cos_angle);
             let members = found.iter().map(|&p| c.idx[p as usize]).collect();
             (members, found)
         };
-        let mut cand = take(origin, axis);
+        let mut cand = Columns::default();
+        take(origin, axis, &mut cand);
         let mut cand_at = (origin, axis);
         let mut members: Vec<u32> = Vec::new();
         let mut iterations = 0;
@@ -654,7 +687,7 @@ impl<'a> Extractor<'a> {
             let (co, ca) = cand_at;
             if (origin - co).length() > 0.5 * th.distance || axis.dot(ca) < 5f32.to_radians().cos()
             {
-                cand = take(origin, axis);
+                take(origin, axis, &mut cand);
                 cand_at = (origin, axis);
             }
             let (next, found) = members_of(&cand, origin, axis);

@@ -28,10 +28,11 @@
 //!   linear blend, and the focus law blends as κ = 1/α, γ = β/α (linear in α passes through
 //!   infinity where a bundle turns from converging to diverging).
 
-use super::bundle;
+use super::bundle::{self, Columns};
 use super::trace::{self, CausticRay, RayGrid};
 use super::{
-    ArtifactError, BakeError, Csl, CslParams, CslSet, bake_csl_with, object_hash, rigid_frame_world,
+    ArtifactError, BakeError, Csl, CslParams, CslSet, bake_accel, bake_csl_with, object_hash,
+    rigid_frame_world,
 };
 use crate::bake::Fnv64;
 use crate::scene::World;
@@ -420,33 +421,34 @@ impl Tracked {
         }
     }
 
-    fn members(&self, rays: &[CausticRay], cos_angle: f32, fit_cos: f32) -> Vec<u32> {
-        let (o, a) = (self.origin, self.axis);
-        (0..rays.len() as u32)
-            .filter(|&i| {
-                let r = &rays[i as usize];
-                let da = r.dir.dot(a);
-                if da < cos_angle {
-                    return false;
-                }
-                let p = r.origin + r.dir * ((o - r.origin).dot(a) / da) - o;
-                let rho = p.length();
-                if rho < self.band.0 || rho > self.band.1 {
-                    return false;
-                }
-                let want = (a - p * (self.kappa + self.gamma * rho)).normalize_or_zero();
-                r.dir.dot(want) >= fit_cos
-            })
-            .collect()
+    /// The rays (indices, ascending) the CSL's model still describes; `cols` holds every ray.
+    fn members(&self, cols: &Columns, cos_angle: f32, fit_cos: f32) -> Vec<u32> {
+        let (o, a, band, kappa, gamma) =
+            (self.origin, self.axis, self.band, self.kappa, self.gamma);
+        cols.filter(move |q, d| {
+            // Every test made, and the outcomes combined without branches, so that columns of
+            // rays are tested several at a time; the same operations as one at a time.
+            let da = d.dot(a);
+            let p = q + d * ((o - q).dot(a) / da) - o;
+            let rho = p.length();
+            let want = (a - p * (kappa + gamma * rho)).normalize_or_zero();
+            (da >= cos_angle) & (rho >= band.0) & (rho <= band.1) & (d.dot(want) >= fit_cos)
+        })
     }
 
     /// `area`: cross-section of one traced ray (m²). A membership carrying more than twice or
     /// less than half the CSL's flux has taken in another bundle's rays or lost its own: the
     /// predicted axis is kept.
-    fn step(&mut self, rays: &[CausticRay], cos_angle: f32, fit_cos: f32, area: f32) {
+    fn step(
+        &mut self,
+        (rays, cols): (&[CausticRay], &Columns),
+        cos_angle: f32,
+        fit_cos: f32,
+        area: f32,
+    ) {
         let mut members: Vec<u32> = Vec::new();
         for _ in 0..3 {
-            let next = self.members(rays, cos_angle, fit_cos);
+            let next = self.members(cols, cos_angle, fit_cos);
             if next.is_empty() || next == members {
                 return;
             }
@@ -567,6 +569,7 @@ fn match_edge(
         traced += tot.hits;
         rays.push(r);
     }
+    let cols: Vec<Columns> = rays.iter().map(|r| Columns::all(r)).collect();
     let fit_cos = params.csl.fit_threshold_deg.to_radians().cos();
     let area = (2.0 * radius / params.track_grid as f32).powi(2);
     // Each step first turns the axes with the light about the bounding centre (exact for a
@@ -579,7 +582,7 @@ fn match_edge(
             axes.par_iter_mut().for_each(|t| {
                 t.origin = centre + q * (t.origin - centre);
                 t.axis = (q * t.axis).normalize();
-                t.step(&rays[w[1]], cos_angle, fit_cos, area)
+                t.step((&rays[w[1]], &cols[w[1]]), cos_angle, fit_cos, area)
             });
         }
         axes.iter().map(|t| (t.origin, t.axis)).collect()
@@ -800,8 +803,10 @@ pub fn bake_dynamic(
         }
         !cancel.load(Ordering::Relaxed)
     };
-    // 1. A static set per direction.
+    // 1. A static set per direction, all on one BVH (also the tracking's).
     let t0 = Instant::now();
+    let local = rigid_frame_world(world, object);
+    let accel = bake_accel(&local);
     let nv = ico.vertices.len();
     let done = AtomicU32::new(0);
     check("directions", 0, nv as u32);
@@ -817,6 +822,7 @@ pub fn bake_dynamic(
                 &params.csl,
                 &|_| !cancel.load(Ordering::Relaxed),
                 false,
+                Some(&accel),
             )?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             if !check("directions", d, nv as u32) {
@@ -830,8 +836,6 @@ pub fn bake_dynamic(
 
     // 2. Tracking and matching per edge.
     let t0 = Instant::now();
-    let local = rigid_frame_world(world, object);
-    let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
     let edges = ico.edges();
     let done = AtomicU32::new(0);
     check("tracking", 0, edges.len() as u32);

@@ -346,6 +346,12 @@ pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
     }
 }
 
+/// The BVH a bake traces: over `local`, the object alone in its rigid frame
+/// ([`rigid_frame_world`]).
+pub(crate) fn bake_accel(local: &World) -> Accel {
+    Accel::build_with(local, |_| true, obvhs::BvhBuildParams::fast_build())
+}
+
 /// Content hash of a bake's inputs (the cache key): the object's meshes, materials and scale,
 /// the light direction in its rigid frame and the parameters. Same as [`CslSet::source_hash`].
 pub fn csl_source_hash(
@@ -420,12 +426,13 @@ pub fn bake_csl(
     params: &CslParams,
     progress: &(dyn Fn(Progress) -> bool + Sync),
 ) -> Result<CslSet, BakeError> {
-    bake_csl_with(world, object_name, light_dir, params, progress, true)
+    bake_csl_with(world, object_name, light_dir, params, progress, true, None)
 }
 
 /// [`bake_csl`] for callers that run several bakes side by side (`spare_cores` false): the
-/// fits then do no work on the chance that a core is idle ([`fit::fit_bundle`]'s `beside`).
-/// The same set either way.
+/// fits then do no work on the chance that a core is idle ([`fit::fit_bundle`]'s `beside`);
+/// and that bake one object for many lights: `shared` is then the BVH of the object in its
+/// rigid frame ([`rigid_frame_world`], [`bake_accel`]), built once. The same set either way.
 pub(crate) fn bake_csl_with(
     world: &World,
     object_name: &str,
@@ -433,6 +440,7 @@ pub(crate) fn bake_csl_with(
     params: &CslParams,
     progress: &(dyn Fn(Progress) -> bool + Sync),
     spare_cores: bool,
+    shared: Option<&Accel>,
 ) -> Result<CslSet, BakeError> {
     let t_start = Instant::now();
     params.validate()?;
@@ -463,7 +471,14 @@ pub(crate) fn bake_csl_with(
         .map(|v| (local.objects[0].transform.transform_point3(*v) - centre).length())
         .fold(0.0f32, f32::max)
         * 1.0001;
-    let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
+    let built;
+    let accel = match shared {
+        Some(accel) => accel,
+        None => {
+            built = bake_accel(&local);
+            &built
+        }
+    };
 
     // 1. Trace.
     let (u, v) = light.any_orthonormal_pair();
@@ -481,7 +496,7 @@ pub(crate) fn bake_csl_with(
     if !report("trace", 0.0) {
         return Err(BakeError::Canceled);
     }
-    let (rays, totals) = trace::trace_grid(&accel, &grid, params, &|rows| {
+    let (rays, totals) = trace::trace_grid(accel, &grid, params, &|rows| {
         report("trace", 0.5 * rows as f32 / n as f32)
     })
     .ok_or(BakeError::Canceled)?;
@@ -612,7 +627,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fits_side_by_side_or_in_turn_give_the_same_set() {
+    fn fits_side_by_side_or_in_turn_and_a_shared_bvh_give_the_same_set() {
         // A glass sphere lit obliquely, whose bundles need the second fit (plane before the
         // exits) as well as the first.
         let world = crate::scene::load_scene_json(
@@ -627,8 +642,19 @@ mod tests {
             ..CslParams::fast()
         };
         let light = Vec3::new(0.3, -1.0, 0.2);
-        let a = bake_csl_with(&world, "ball", light, &params, &|_| true, true).unwrap();
-        let b = bake_csl_with(&world, "ball", light, &params, &|_| true, false).unwrap();
+        let a = bake_csl_with(&world, "ball", light, &params, &|_| true, true, None).unwrap();
+        let local = rigid_frame_world(&world, world.object("ball").unwrap());
+        let accel = bake_accel(&local);
+        let b = bake_csl_with(
+            &world,
+            "ball",
+            light,
+            &params,
+            &|_| true,
+            false,
+            Some(&accel),
+        )
+        .unwrap();
         assert!(a.csls.len() > 2, "{}", a.csls.len());
         assert_eq!(a.to_bytes(), b.to_bytes());
     }

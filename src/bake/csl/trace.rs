@@ -155,7 +155,10 @@ pub fn trace_grid(
     params: &CslParams,
     progress: &(dyn Fn(u32) -> bool + Sync),
 ) -> Option<(Vec<CausticRay>, TraceTotals)> {
-    let first = first_triangles(accel, grid);
+    // The z-buffer pays where the rays outnumber the triangles (a 1280² bake grid), not for
+    // the small grids of the dynamic bake's tracking.
+    let first = ((grid.n as usize).pow(2) >= 4 * accel.triangle_count())
+        .then(|| first_triangles(accel, grid));
     let done = std::sync::atomic::AtomicU32::new(0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let rows: Vec<(Vec<CausticRay>, TraceTotals)> = (0..grid.n)
@@ -170,7 +173,9 @@ pub fn trace_grid(
             let n = grid.n as usize;
             let row = Row {
                 j,
-                first: &first[j as usize * n..(j as usize + 1) * n],
+                first: first
+                    .as_ref()
+                    .map(|f| &f[j as usize * n..(j as usize + 1) * n]),
             };
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") {
@@ -202,11 +207,11 @@ pub fn trace_grid(
     Some((rays, tot))
 }
 
-/// Row `j` of the grid, with the triangle each of its rays meets first.
+/// Row `j` of the grid, with the triangle each of its rays meets first where known.
 #[derive(Clone, Copy)]
 struct Row<'a> {
     j: u32,
-    first: &'a [u32],
+    first: Option<&'a [u32]>,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -235,8 +240,8 @@ fn trace_row(
     tot: &mut TraceTotals,
 ) {
     for i in 0..grid.n {
-        let first = row.first[i as usize];
-        if first == NONE {
+        let first = row.first.map(|f| f[i as usize]);
+        if first == Some(NONE) {
             continue;
         }
         if let Some(o) = grid.origin(i, row.j) {
@@ -249,16 +254,16 @@ fn trace_row(
 /// leaves a convex object and so meets nothing more).
 type PathStack = Vec<(Vec3, Vec3, Vec3, u32, bool)>;
 
-/// One grid ray, whose first triangle is `first` ([`first_triangles`]): depth-first over both
-/// branches at every hit. `stack` is scratch space (empty on entry and on return), kept by the
-/// caller so that a row allocates it once.
+/// One grid ray, whose first triangle is `first` where known ([`first_triangles`]): depth-first
+/// over both branches at every hit. `stack` is scratch space (empty on entry and on return),
+/// kept by the caller so that a row allocates it once.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace_one(
     accel: &Accel,
     origin: Vec3,
     dir: Vec3,
-    first: u32,
+    first: Option<u32>,
     params: &CslParams,
     stack: &mut PathStack,
     out: &mut Vec<CausticRay>,
@@ -269,7 +274,7 @@ fn trace_one(
     while let Some((o, d, e, depth, leaves)) = stack.pop() {
         let hit = if leaves {
             None
-        } else if depth == 0 {
+        } else if let (0, Some(first)) = (depth, first) {
             accel
                 .triangle_hit(first as usize, o, d, f32::INFINITY)
                 .or_else(|| accel.intersect(o, d, f32::INFINITY))
