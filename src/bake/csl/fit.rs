@@ -373,9 +373,19 @@ fn within_cap_part(
     const BLOCK: usize = 64;
     let mut out = Vec::with_capacity(part.len());
     for block in part.chunks(BLOCK) {
+        // The block's rays gathered first, so that the arithmetic runs over arrays, several
+        // rays at a time.
+        let mut gathered = [CausticRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::Z,
+            energy: Vec3::ZERO,
+        }; BLOCK];
+        for (g, &i) in gathered.iter_mut().zip(block) {
+            *g = rays[i as usize];
+        }
         let mut pass = [false; BLOCK];
-        for (p, &i) in pass.iter_mut().zip(block) {
-            *p = ray_terms(&rays[i as usize], b, a, ell, kappa, gamma).1 <= cap;
+        for (p, r) in pass.iter_mut().zip(&gathered[..block.len()]) {
+            *p = ray_terms(r, b, a, ell, kappa, gamma).1 <= cap;
         }
         let mut found = [0u32; BLOCK];
         let mut count = 0;
