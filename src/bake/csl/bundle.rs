@@ -8,12 +8,12 @@
 //! identical whatever the thread schedule, and removing a bundle's rays subtracts exactly what
 //! they added.
 //!
-//! The pool of rays not yet in a CSL is kept compact, as columns of origins and directions, so
-//! later bundles do not scan the rays earlier ones took and a scan reads memory front to back,
-//! eight rays at a time. Within one extraction, assignment iterates over a candidate
-//! list (the pool's rays within relaxed thresholds of the axis, refreshed when the axis has moved
-//! far from where it was taken), and the final membership is taken by one pass over the whole
-//! pool with the final axis. Convergence: the membership changed by at most 0.1 % (or the axis
+//! The pool of rays not yet in a CSL is kept compact, as columns of origins, directions and
+//! weights, so later bundles do not scan the rays earlier ones took and a scan reads memory
+//! front to back, eight rays at a time. Within one extraction, assignment iterates over a
+//! candidate list (the pool's rays within relaxed thresholds of the axis, refreshed when the
+//! axis has moved far from where it was taken), and the final membership is taken by one pass
+//! over the whole pool with the final axis. Convergence: the membership changed by at most 0.1 % (or the axis
 //! stopped moving), within the paper's cap of 100 iterations; a bundle whose membership keeps
 //! swinging ends after 12 iterations without a more energetic membership, on the axis of the
 //! most energetic one.
@@ -361,8 +361,8 @@ fn symmetric_difference(a: &[u32], b: &[u32]) -> usize {
     n + (a.len() - i) + (b.len() - j)
 }
 
-/// Rays as columns (origin and direction components, with their indices into the caustic
-/// rays), in ascending index order: the pool and the candidate lists that assignment scans
+/// Rays as columns (origin and direction components and weights, with their indices into the
+/// caustic rays), in ascending index order: the pool and the candidate lists that assignment scans
 /// millions of times per bake, read front to back and tested eight at a time.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Columns {
