@@ -384,19 +384,37 @@ impl Columns {
     }
 
     fn of(rays: &[CausticRay], idx: &[u32]) -> Columns {
-        let col = |f: &(dyn Fn(&CausticRay) -> f32 + Sync)| -> Vec<f32> {
-            idx.par_iter().map(|&i| f(&rays[i as usize])).collect()
-        };
-        Columns {
+        let n = idx.len();
+        let mut c = Columns {
             idx: idx.to_vec(),
-            o: [
-                col(&|r| r.origin.x),
-                col(&|r| r.origin.y),
-                col(&|r| r.origin.z),
-            ],
-            d: [col(&|r| r.dir.x), col(&|r| r.dir.y), col(&|r| r.dir.z)],
-            w: col(&|r| r.weight()),
-        }
+            o: std::array::from_fn(|_| vec![0.0; n]),
+            d: std::array::from_fn(|_| vec![0.0; n]),
+            w: vec![0.0; n],
+        };
+        // One pass over the rays, in shares, writing every column.
+        const SHARE: usize = 16 * 1024;
+        let [ox, oy, oz] = &mut c.o;
+        let [dx, dy, dz] = &mut c.d;
+        (
+            idx.par_chunks(SHARE),
+            ox.par_chunks_mut(SHARE),
+            oy.par_chunks_mut(SHARE),
+            oz.par_chunks_mut(SHARE),
+            dx.par_chunks_mut(SHARE),
+            dy.par_chunks_mut(SHARE),
+            dz.par_chunks_mut(SHARE),
+            c.w.par_chunks_mut(SHARE),
+        )
+            .into_par_iter()
+            .for_each(|(ix, ox, oy, oz, dx, dy, dz, w)| {
+                for (k, &i) in ix.iter().enumerate() {
+                    let r = &rays[i as usize];
+                    (ox[k], oy[k], oz[k]) = (r.origin.x, r.origin.y, r.origin.z);
+                    (dx[k], dy[k], dz[k]) = (r.dir.x, r.dir.y, r.dir.z);
+                    w[k] = r.weight();
+                }
+            });
+        c
     }
 
     fn len(&self) -> usize {

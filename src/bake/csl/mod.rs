@@ -562,11 +562,7 @@ pub(crate) fn bake_csl_with(
         );
         stats.time_fit += t0.elapsed();
         stats.dismissed_rays += f.dismissed as u64;
-        let kept_energy: f64 = f
-            .kept
-            .iter()
-            .map(|&i| rays[i as usize].weight() as f64)
-            .sum();
+        let kept_energy = bundle::det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
         if f.kept.is_empty() || kept_energy < params.min_csl_energy as f64 * total {
             ex.block(cell);
             stats.rejected_bundles += 1;
