@@ -124,7 +124,8 @@ pub fn sample_specular(hit: &Hit, dir: Vec3, mat: &Material, u: f32) -> Option<B
 /// an absorbing dielectric (it hits that object's surface from the inside).
 pub fn segment_transmittance(hit: &Hit, mat: &Material) -> Vec3 {
     match *mat {
-        Material::Dielectric { absorption, .. } if !hit.front_face => {
+        // Clear glass skips the exponentials (exp(−0·t) = 1 for the finite t of a hit).
+        Material::Dielectric { absorption, .. } if !hit.front_face && absorption != Vec3::ZERO => {
             beer_lambert(absorption, hit.t)
         }
         _ => Vec3::ONE,
