@@ -376,6 +376,39 @@ pub(crate) struct Columns {
 /// Positions of one scan block (a block's passes are written branch-free into it).
 const BLOCK: usize = 64;
 
+/// Rays per share of a parallel scan.
+const SCAN_SHARE: usize = 16 * 1024;
+
+/// Candidate rays: the rays of a [`Columns`] that passed a scan, one set of columns per share
+/// of it, in order (no copy into one list).
+struct Shares(Vec<Columns>);
+
+impl Shares {
+    /// The rays within thresholds `distance`, `cos` of the axis line (b, a) ([`within`]):
+    /// their indices (ascending) and their places (share, position).
+    fn scan(&self, b: Vec3, a: Vec3, distance: f32, cos: f32) -> (Vec<u32>, Vec<(u32, u32)>) {
+        let d2 = distance * distance;
+        let found: Vec<Vec<u32>> = self
+            .0
+            .par_iter()
+            .map(|c| c.filter_range_best(0..c.len(), move |q, d| within(q, d, b, a, d2, cos)))
+            .collect();
+        let total = found.iter().map(Vec::len).sum();
+        let (mut members, mut places) = (Vec::with_capacity(total), Vec::with_capacity(total));
+        for (s, (c, found)) in self.0.iter().zip(&found).enumerate() {
+            members.extend(found.iter().map(|&p| c.idx[p as usize]));
+            places.extend(found.iter().map(|&p| (s as u32, p)));
+        }
+        (members, places)
+    }
+
+    /// Weight, direction and origin of the ray at `place`.
+    #[inline(always)]
+    fn ray(&self, (share, p): (u32, u32)) -> (f32, Vec3, Vec3) {
+        self.0[share as usize].ray(p)
+    }
+}
+
 impl Columns {
     /// All of `rays`, in order.
     pub(crate) fn all(rays: &[CausticRay]) -> Columns {
@@ -435,31 +468,15 @@ impl Columns {
     }
 
     /// The columns at `positions` (ascending).
-    #[cfg(test)]
+    /// The columns at `positions` (ascending), on this thread.
     fn select(&self, positions: &[u32]) -> Columns {
-        let mut out = Columns::default();
-        self.select_into(positions, &mut out);
-        out
-    }
-
-    /// [`Self::select`] into `out`, whose buffers are reused (no new pages to fault in when an
-    /// extraction takes its candidates again).
-    fn select_into(&self, positions: &[u32], out: &mut Columns) {
-        let pick = |c: &Vec<f32>, to: &mut Vec<f32>| {
-            positions
-                .par_iter()
-                .map(|&p| c[p as usize])
-                .collect_into_vec(to)
-        };
-        positions
-            .par_iter()
-            .map(|&p| self.idx[p as usize])
-            .collect_into_vec(&mut out.idx);
-        for k in 0..3 {
-            pick(&self.o[k], &mut out.o[k]);
-            pick(&self.d[k], &mut out.d[k]);
+        let pick = |c: &Vec<f32>| positions.iter().map(|&p| c[p as usize]).collect();
+        Columns {
+            idx: positions.iter().map(|&p| self.idx[p as usize]).collect(),
+            o: self.o.each_ref().map(pick),
+            d: self.d.each_ref().map(pick),
+            w: pick(&self.w),
         }
-        pick(&self.w, &mut out.w);
     }
 
     /// Keep the rays for which `keep(index)` holds: each column compacted in place (no new
@@ -496,22 +513,46 @@ impl Columns {
         self.filter(move |q, d| meets_box(q, d, lo, hi))
     }
 
+    /// The rays within thresholds `distance`, `cos` of the axis line (b, a) ([`within`]), as
+    /// [`Shares`]: each share of the pool scanned and its passing rays copied while the share
+    /// is still in the cache.
+    fn scan_shares(&self, b: Vec3, a: Vec3, distance: f32, cos: f32) -> Shares {
+        let d2 = distance * distance;
+        let test = move |q, d| within(q, d, b, a, d2, cos);
+        let n = self.len();
+        Shares(
+            (0..n.div_ceil(SCAN_SHARE))
+                .into_par_iter()
+                .map(|c| {
+                    let range = c * SCAN_SHARE..((c + 1) * SCAN_SHARE).min(n);
+                    self.select(&self.filter_range_best(range, test))
+                })
+                .collect(),
+        )
+    }
+
+    /// Positions (ascending) of the rays in `range` for which `test` holds, on this thread,
+    /// eight rays at a time where the processor has AVX2.
+    fn filter_range_best(
+        &self,
+        range: std::ops::Range<usize>,
+        test: impl Fn(Vec3, Vec3) -> bool,
+    ) -> Vec<u32> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked above).
+            return unsafe { self.filter_range_avx2(range, test) };
+        }
+        self.filter_range(range, test)
+    }
+
     /// Positions (ascending) of the rays (origin, direction) for which `test` holds; in
     /// parallel, eight rays at a time where the processor has AVX2.
     pub(crate) fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
         let n = self.len();
-        let chunk = 16 * 1024;
-        let parts: Vec<Vec<u32>> = (0..n.div_ceil(chunk))
+        let parts: Vec<Vec<u32>> = (0..n.div_ceil(SCAN_SHARE))
             .into_par_iter()
-            .map(|c| {
-                let range = c * chunk..((c + 1) * chunk).min(n);
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the processor has AVX2 (checked above).
-                    return unsafe { self.filter_range_avx2(range, test) };
-                }
-                self.filter_range(range, test)
-            })
+            .map(|c| self.filter_range_best(c * SCAN_SHARE..((c + 1) * SCAN_SHARE).min(n), test))
             .collect();
         parts.concat()
     }
@@ -680,17 +721,8 @@ impl<'a> Extractor<'a> {
         // taken at; refreshed when the axis has moved half a threshold or turned 5°.
         let angle = th.cos_angle.clamp(-1.0, 1.0).acos();
         let relaxed_cos = (angle + 10f32.to_radians()).min(std::f32::consts::PI).cos();
-        let take = |o: Vec3, a: Vec3, cand: &mut Columns| {
-            let pool = &self.pool;
-            pool.select_into(&pool.scan(o, a, 2.0 * th.distance, relaxed_cos), cand)
-        };
-        let members_of = |c: &Columns, o: Vec3, a: Vec3| -> (Vec<u32>, Vec<u32>) {
-            let found = c.scan(o, a, th.distance, th.cos_angle);
-            let members = found.iter().map(|&p| c.idx[p as usize]).collect();
-            (members, found)
-        };
-        let mut cand = Columns::default();
-        take(origin, axis, &mut cand);
+        let take = |o: Vec3, a: Vec3| self.pool.scan_shares(o, a, 2.0 * th.distance, relaxed_cos);
+        let mut cand = take(origin, axis);
         let mut cand_at = (origin, axis);
         let mut members: Vec<u32> = Vec::new();
         let mut iterations = 0;
@@ -705,10 +737,10 @@ impl<'a> Extractor<'a> {
             let (co, ca) = cand_at;
             if (origin - co).length() > 0.5 * th.distance || axis.dot(ca) < 5f32.to_radians().cos()
             {
-                take(origin, axis, &mut cand);
+                cand = take(origin, axis);
                 cand_at = (origin, axis);
             }
-            let (next, found) = members_of(&cand, origin, axis);
+            let (next, places) = cand.scan(origin, axis, th.distance, th.cos_angle);
             if next.is_empty() {
                 return None;
             }
@@ -719,7 +751,7 @@ impl<'a> Extractor<'a> {
             let same = changed * 1000 <= next.len();
             members = next;
             // One pass gives the membership's energy and the sums of its axis fit.
-            let sums = AxisSums::of(&found, |p| cand.ray(p));
+            let sums = AxisSums::of(&places, |&k| cand.ray(k));
             let energy = sums.energy();
             if energy > best_energy * 1.001 {
                 (best_energy, best_axis, stall) = (energy, (origin, axis), 0);
@@ -744,7 +776,12 @@ impl<'a> Extractor<'a> {
             }
         }
         // The members are those of the whole pool for the final axis.
-        members = members_of(&self.pool, origin, axis).0;
+        let pool = &self.pool;
+        members = pool
+            .scan(origin, axis, th.distance, th.cos_angle)
+            .iter()
+            .map(|&p| pool.idx[p as usize])
+            .collect();
         if members.is_empty() {
             return None;
         }
@@ -762,7 +799,7 @@ impl<'a> Extractor<'a> {
 /// origin, for bundles of nearly parallel rays), moved along the axis to the plane of the
 /// mean ray origin.
 pub fn optimise_axis(rays: &[CausticRay], members: &[u32], prev: Vec3) -> (Vec3, Vec3) {
-    AxisSums::of(members, |i| {
+    AxisSums::of(members, |&i| {
         let r = &rays[i as usize];
         (r.weight(), r.dir, r.origin)
     })
@@ -777,12 +814,12 @@ struct AxisSums([f64; 16]);
 
 impl AxisSums {
     /// The sums over the rays `ray(k)` (weight, direction, origin) of the `members`.
-    fn of(members: &[u32], ray: impl Fn(u32) -> (f32, Vec3, Vec3) + Sync) -> AxisSums {
+    fn of<T: Sync>(members: &[T], ray: impl Fn(&T) -> (f32, Vec3, Vec3) + Sync) -> AxisSums {
         let add = |x: [f64; 16], y: [f64; 16]| std::array::from_fn(|k| x[k] + y[k]);
         AxisSums(det_fold(
             members,
             [0.0; 16],
-            |&k| {
+            |k| {
                 let (w, d, q) = ray(k);
                 let w = w as f64;
                 let [dx, dy, dz] = d.as_dvec3().to_array();
