@@ -529,6 +529,7 @@ pub(crate) fn bake_csl_with(
     let far = 4.0 * (hi - lo).length() as f64;
     let mut csls = Vec::new();
     let mut attempts = 0u32;
+    let mut taken: Option<Vec<u32>> = None;
     while remaining > (1.0 - params.coverage as f64) * total
         && csls.len() < params.max_csls as usize
         && attempts < 2 * params.max_csls
@@ -539,6 +540,12 @@ pub(crate) fn bake_csl_with(
             0.5 + 0.5 * (1.0 - remaining / total.max(1e-30)) as f32,
         ) {
             return Err(BakeError::Canceled);
+        }
+        // The last CSL's rays leave the pool only now, when another bundle is wanted.
+        if let Some(kept) = taken.take() {
+            let t0 = Instant::now();
+            ex.remove(&kept);
+            stats.time_bundles += t0.elapsed();
         }
         let Some(cell) = ex.max_cell() else { break };
         let t0 = Instant::now();
@@ -584,12 +591,10 @@ pub(crate) fn bake_csl_with(
         );
         let (scale, texels) = image::quantise(&img.texels);
         stats.time_image += t0.elapsed();
-        let t0 = Instant::now();
-        ex.remove(&f.kept);
-        stats.time_bundles += t0.elapsed();
         remaining -= kept_energy;
         stats.energy_covered += kept_energy;
         stats.iterations += b.iterations;
+        taken = Some(f.kept);
         csls.push(Csl {
             origin: f.origin,
             axis: f.axis,

@@ -157,8 +157,14 @@ pub fn trace_grid(
 ) -> Option<(Vec<CausticRay>, TraceTotals)> {
     // The z-buffer pays where the rays outnumber the triangles (a 1280² bake grid), not for
     // the small grids of the dynamic bake's tracking.
-    let first = ((grid.n as usize).pow(2) >= 4 * accel.triangle_count())
-        .then(|| first_triangles(accel, grid));
+    // The object's convexity (worked out once per BVH) beside it, not on the first ray.
+    let (first, _) = rayon::join(
+        || {
+            ((grid.n as usize).pow(2) >= 4 * accel.triangle_count())
+                .then(|| first_triangles(accel, grid))
+        },
+        || accel.convex_orientation(),
+    );
     let done = std::sync::atomic::AtomicU32::new(0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let rows: Vec<(Vec<CausticRay>, TraceTotals)> = (0..grid.n)
