@@ -13,10 +13,10 @@
 //! front to back, eight rays at a time. Within one extraction, assignment iterates over a
 //! candidate list (the pool's rays within relaxed thresholds of the axis, refreshed when the
 //! axis has moved far from where it was taken), and the final membership is taken by one pass
-//! over the whole pool with the final axis. Convergence: the membership changed by at most 0.1 % (or the axis
-//! stopped moving), within the paper's cap of 100 iterations; a bundle whose membership keeps
-//! swinging ends after 12 iterations without a more energetic membership, on the axis of the
-//! most energetic one.
+//! over the whole pool with the final axis. Convergence: the membership changed by at most
+//! 0.1 % (or the axis stopped moving), within the paper's cap of 100 iterations; a bundle whose
+//! membership keeps swinging ends after 12 iterations without a more energetic membership, on
+//! the axis of the most energetic one.
 
 use super::trace::CausticRay;
 use glam::{DMat3, DVec3, Vec3};
@@ -362,7 +362,7 @@ fn symmetric_difference(a: &[u32], b: &[u32]) -> usize {
 }
 
 /// Rays as columns (origin and direction components and weights, with their indices into the
-/// caustic rays), in ascending index order: the pool and the candidate lists that assignment scans
+/// caustic rays), in ascending index order: the pool and the candidates that assignment scans
 /// millions of times per bake, read front to back and tested eight at a time.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Columns {
@@ -425,7 +425,7 @@ impl Columns {
             w: vec![0.0; n],
         };
         // One pass over the rays, in shares, writing every column.
-        const SHARE: usize = 16 * 1024;
+        const SHARE: usize = SCAN_SHARE;
         let [ox, oy, oz] = &mut c.o;
         let [dx, dy, dz] = &mut c.d;
         (
@@ -467,7 +467,6 @@ impl Columns {
         )
     }
 
-    /// The columns at `positions` (ascending).
     /// The columns at `positions` (ascending), on this thread.
     fn select(&self, positions: &[u32]) -> Columns {
         let pick = |c: &Vec<f32>| positions.iter().map(|&p| c[p as usize]).collect();
