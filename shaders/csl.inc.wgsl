@@ -148,6 +148,20 @@ fn csl_local(c: Csl, x: vec3<f32>) -> CslLocal {
     return l;
 }
 
+// The farthest any ray of the image (radii up to its corner rmax) comes from the axis where the
+// ray map has coefficients a, b: |h(r)| = |r (b - a r)| is largest at rmax or at r = b / 2a.
+fn csl_reach(c: Csl, a: f32, b: f32) -> f32 {
+    let rmax = c.half_extent * 1.4142136;
+    var hmax = abs(rmax * (b - a * rmax));
+    if (a != 0.0) {
+        let rs = b / (2.0 * a);
+        if (rs > 0.0 && rs < rmax) {
+            hmax = max(hmax, abs(rs * (b - a * rs)));
+        }
+    }
+    return hmax;
+}
+
 // The rays of CSL c through point x.
 fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     var out: CslArrivals;
@@ -161,17 +175,8 @@ fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     let uy = l.uy;
     let a = l.a;
     let b = l.b;
-    // Early out: no ray from the image (radii up to rmax) comes this far from the axis at this
-    // height. |h(r)| = |r (b - a r)| is largest at rmax or at the extremum r = b / 2a.
-    let rmax = c.half_extent * 1.4142136;
-    var hmax = abs(rmax * (b - a * rmax));
-    if (a != 0.0) {
-        let rs = b / (2.0 * a);
-        if (rs > 0.0 && rs < rmax) {
-            hmax = max(hmax, abs(rs * (b - a * rs)));
-        }
-    }
-    if (rho > hmax * 1.0001 + 1e-7) {
+    // Early out: no ray from the image comes this far from the axis at this height.
+    if (rho > csl_reach(c, a, b) * 1.0001 + 1e-7) {
         return out;
     }
     // Radii are collected as Csl radii() does (at most three), then turned into arrivals.
@@ -221,17 +226,107 @@ fn csl_irradiance(c: Csl, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
-// Pixel filter (Csl::arrivals_filtered, eval.rs): the mean over a disc of the pixel's area.
+// Pixel filter (Csl::arrivals_filtered, eval.rs): the mean over the pixel's footprint, the
+// parallelogram centre + s*e1 + u*e2 (|s|, |u| <= 1/2) it projects to along the axis in the
+// light plane's coordinates (PixelQuad): neighbouring pixels tile the plane, so a focus lands
+// in exactly one of them. The two slabs |m_i . (q - centre)| <= 1/2 whose intersection it is:
+// m_i, |m_i|, the angle of m_i and m_i . centre.
+struct CslQuad {
+    centre: vec2<f32>,
+    e1: vec2<f32>,
+    e2: vec2<f32>,
+    m: array<vec2<f32>, 2>,
+    len: array<f32, 2>,
+    psi: array<f32, 2>,
+    c: array<f32, 2>,
+    area: f32,
+    ok: bool,
+}
 
-// Angle of the circle of radius t around the axis inside a disc of radius f centred rho from it.
-fn csl_arc_inside(t: f32, rho: f32, f: f32) -> f32 {
-    if (t <= f - rho) {
-        return 3.141592653589793;
+fn csl_quad(centre: vec2<f32>, e1: vec2<f32>, e2: vec2<f32>) -> CslQuad {
+    var q: CslQuad;
+    q.centre = centre;
+    q.e1 = e1;
+    q.e2 = e2;
+    let det = e1.x * e2.y - e1.y * e2.x;
+    let scale = max(dot(e1, e1), dot(e2, e2));
+    q.ok = abs(det) > 1e-6 * scale && abs(det) < 3.0e38;
+    if (!q.ok) {
+        return q;
     }
-    if (t <= 0.0 || t >= rho + f || t <= rho - f) {
-        return 0.0;
+    q.m[0] = vec2<f32>(e2.y, -e2.x) / det;
+    q.m[1] = vec2<f32>(-e1.y, e1.x) / det;
+    for (var i = 0; i < 2; i++) {
+        q.len[i] = length(q.m[i]);
+        q.psi[i] = atan2(q.m[i].y, q.m[i].x);
+        q.c[i] = dot(q.m[i], centre);
     }
-    return acos(clamp((t * t + rho * rho - f * f) / (2.0 * t * rho), -1.0, 1.0));
+    q.area = abs(det);
+    return q;
+}
+
+// Nearest and farthest distance of the parallelogram from the axis (PixelQuad::distances).
+fn csl_quad_distances(q: CslQuad) -> vec2<f32> {
+    let w = q.centre;
+    let corners = array<vec2<f32>, 4>(
+        w - 0.5 * q.e1 - 0.5 * q.e2,
+        w + 0.5 * q.e1 - 0.5 * q.e2,
+        w + 0.5 * q.e1 + 0.5 * q.e2,
+        w - 0.5 * q.e1 + 0.5 * q.e2,
+    );
+    var far = 0.0;
+    var near = 3.0e38;
+    for (var k = 0; k < 4; k++) {
+        let p = corners[k];
+        let d = corners[(k + 1) % 4] - p;
+        far = max(far, length(p));
+        let s = clamp(-dot(p, d) / max(dot(d, d), 1e-30), 0.0, 1.0);
+        near = min(near, length(p + d * s));
+    }
+    if (abs(q.c[0]) <= 0.5 && abs(q.c[1]) <= 0.5) {
+        near = 0.0;
+    }
+    return vec2<f32>(near, far);
+}
+
+// Length of the intersection of the arcs [s1, s1 + l1] and [s2, s2 + l2] (lengths <= pi).
+fn csl_arc_overlap(s1: f32, l1: f32, s2: f32, l2: f32) -> f32 {
+    let tau = 6.283185307179586;
+    let d = (s2 - s1) - tau * floor((s2 - s1) / tau);
+    let a = max(min(l1, d + l2) - max(d, 0.0), 0.0);
+    let b = max(min(l1, d - tau + l2) - max(d - tau, 0.0), 0.0);
+    return a + b;
+}
+
+// Angle of the circle of radius t around the axis inside the parallelogram (PixelQuad::arc).
+fn csl_quad_arc(q: CslQuad, t: f32) -> f32 {
+    var start: array<vec2<f32>, 2>;
+    var span = vec2<f32>(0.0);
+    for (var i = 0; i < 2; i++) {
+        let k = max(t, 0.0) * q.len[i];
+        var lo = -1.0;
+        var hi = 1.0;
+        if (k > 0.0) {
+            lo = (q.c[i] - 0.5) / k;
+            hi = (q.c[i] + 0.5) / k;
+        } else if (abs(q.c[i]) > 0.5) {
+            return 0.0;
+        }
+        if (lo >= 1.0 || hi <= -1.0) {
+            return 0.0;
+        }
+        let a0 = acos(min(hi, 1.0));
+        let a1 = acos(max(lo, -1.0));
+        start[i] = vec2<f32>(q.psi[i] + a0, q.psi[i] - a1);
+        span[i] = a1 - a0;
+    }
+    var sum = 0.0;
+    for (var i = 0; i < 2; i++) {
+        for (var j = 0; j < 2; j++) {
+            sum += csl_arc_overlap(start[0][i], span[0], start[1][j], span[1]);
+        }
+    }
+    return sum;
 }
 
 // Pre-image of level c under g(r) = side*r*(b - a*r) on [lo, hi] (monotonic there), clamped.
@@ -261,27 +356,33 @@ fn csl_pre(a: f32, b: f32, side: f32, lo: f32, hi: f32, glo: f32, ghi: f32, c: f
     return clamp(x, lo, hi);
 }
 
-// ∫ 2 r θ(g(r)) dr over [ra, rb] by 8-point Gauss-Legendre (disc_measure in eval.rs).
-fn csl_disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f32) -> f32 {
+// Flux of the rays of branch [ra, rb] landing in the parallelogram: ∫ I(r) r Θ(g(r)) dr, I read
+// along the pixel centre's direction (ux, uy), by 8-point Gauss-Legendre (Csl::quad_flux).
+fn csl_quad_flux(c: Csl, a: f32, b: f32, side: f32, ra: f32, rb: f32, ux: f32, uy: f32, q: CslQuad) -> vec3<f32> {
     let xs = array<f32, 8>(-0.9602899, -0.7966665, -0.5255324, -0.18343464, 0.18343464, 0.5255324, 0.7966665, 0.9602899);
     let ws = array<f32, 8>(0.10122854, 0.22238103, 0.31370664, 0.3626838, 0.3626838, 0.31370664, 0.22238103, 0.10122854);
     let lo = min(ra, rb);
     let hi = max(ra, rb);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
-    var sum = 0.0;
+    var sum = vec3<f32>(0.0);
     for (var k = 0; k < 8; k++) {
         let r = mid + half * xs[k];
-        let t = side * r * (b - a * r);
-        sum += ws[k] * 2.0 * r * csl_arc_inside(t, rho, f);
+        let arc = csl_quad_arc(q, side * r * (b - a * r));
+        if (arc > 0.0) {
+            let i = csl_intensity(c, side * r * ux, side * r * uy);
+            if (i.x >= 0.0) {
+                sum += i * (ws[k] * r * arc);
+            }
+        }
     }
     return sum * half;
 }
 
-// The light of CSL c reaching a pixel whose footprint on the receiver around x has side
-// `footprint`, averaged over a disc of the pixel's area: one arrival per side of the axis and
-// monotonic branch of the ray map.
-fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
+// The light of CSL c reaching a pixel whose footprint on the receiver is the parallelogram
+// around x with edges e1, e2, averaged over it: one arrival per side of the axis and monotonic
+// branch of the ray map.
+fn csl_arrivals_px(c: Csl, x: vec3<f32>, e1: vec3<f32>, e2: vec3<f32>) -> CslArrivals {
     var out: CslArrivals;
     out.count = 0u;
     let l = csl_local(c, x);
@@ -293,10 +394,21 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
     let uy = l.uy;
     let a = l.a;
     let b = l.b;
+    let q = csl_quad(
+        vec2<f32>(rho * ux, rho * uy),
+        vec2<f32>(dot(e1, c.x_axis), dot(e1, c.y_axis)),
+        vec2<f32>(dot(e2, c.x_axis), dot(e2, c.y_axis)),
+    );
+    if (!q.ok) {
+        return csl_arrivals(c, x);
+    }
     let rmax = c.half_extent * 1.4142135;
-    let f = footprint / sqrt(3.141592653589793);
-    let pa = max(rho - f, 0.0);
-    let pb = rho + f;
+    let band = csl_quad_distances(q);
+    let pa = band.x;
+    let pb = band.y;
+    if (pa > csl_reach(c, a, b) * 1.0001 + 1e-7) {
+        return out;
+    }
     var cuts = array<f32, 3>(0.0, rmax, rmax);
     var pieces = 1;
     if (a != 0.0) {
@@ -316,20 +428,15 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, footprint: f32) -> CslArrivals {
             let ra = csl_pre(a, b, side, lo, hi, glo, ghi, pa);
             let rb = csl_pre(a, b, side, lo, hi, glo, ghi, pb);
             let r = csl_pre(a, b, side, lo, hi, glo, ghi, rho);
-            if (!(abs(rb * rb - ra * ra) > 0.0) || !(r > 0.0)) {
+            if (!(abs(rb * rb - ra * ra) > 0.0) || !(r >= 0.0)) {
                 continue;
             }
-            let px = side * r * ux;
-            let py = side * r * uy;
-            let i = csl_intensity(c, px, py);
-            if (i.x < 0.0) {
+            let flux = csl_quad_flux(c, a, b, side, ra, rb, ux, uy, q);
+            if (!(max(max(flux.x, flux.y), flux.z) > 0.0)) {
                 continue;
             }
-            let m = csl_disc_measure(a, b, side, ra, rb, rho, f);
-            if (!(m > 0.0)) {
-                continue;
-            }
-            csl_push(c, r, px, py, i, 3.141592653589793 * f * f / m, &out);
+            // The pixel's mean flux density, in the direction of the ray through its centre.
+            csl_push(c, r, side * r * ux, side * r * uy, flux, q.area, &out);
         }
     }
     return out;

@@ -193,24 +193,23 @@ fn fs_main(in: VsOut) -> FsOut {
     l += albedo / PI * sh_irradiance(g.sh, n);
     out.direct = vec4<f32>(l, 1.0);
     if CSL_LAYER && g.counts.w > 0u {
-        // The pixel's side on the receiver: |dp/dx × dp/dy| is its area.
-        let footprint = sqrt(length(cross(dx, dy)));
-        out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m, footprint) * g.csl_irradiance.rgb, 1.0);
+        // The pixel's footprint on the receiver: the parallelogram with edges dp/dx, dp/dy.
+        out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m, dx, dy) * g.csl_irradiance.rgb, 1.0);
     }
     return out;
 }
 
 // Caustic radiance towards v per unit light irradiance at receiver point p (shading normal n,
-// geometric ng), averaged over the pixel (side `footprint` on the receiver): every CSL's
-// arrivals, BRDF-weighted, unoccluded ones only. Mirrors bake/csl/eval.rs `shade`.
-fn csl_shade(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, v: vec3<f32>, m: Material, footprint: f32) -> vec3<f32> {
+// geometric ng), averaged over the pixel (its footprint on the receiver has edges e1, e2):
+// every CSL's arrivals, BRDF-weighted, unoccluded ones only. Mirrors bake/csl/eval.rs `shade`.
+fn csl_shade(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, v: vec3<f32>, m: Material, e1: vec3<f32>, e2: vec3<f32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     // Shadow rays start off the surface, on the side they leave towards, by a margin scaled to
     // the coordinates' magnitude (as trace::Hit::spawn).
     let eps = 1e-4 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
     for (var i = 0u; i < g.counts.w; i++) {
         let c = csls[i];
-        let arr = csl_arrivals_px(c, p, footprint);
+        let arr = csl_arrivals_px(c, p, e1, e2);
         for (var k = 0u; k < arr.count; k++) {
             let wi = -arr.dir[k];
             let cos_i = dot(n, wi);

@@ -670,12 +670,15 @@ fn csl_sets(
                     path.display()
                 );
             }
+            timings.push(("csl load".into(), t.elapsed()));
             let t = Instant::now();
             let set = dynset.interpolate(CslSet::light_in_object_frame(o, light.0));
             timings.push(("csl interpolate".into(), t.elapsed()));
             set
         } else {
-            CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?
+            let set = CslSet::from_bytes(&bytes).with_context(|| path.display().to_string())?;
+            timings.push(("csl load".into(), t.elapsed()));
+            set
         };
         csl_cache::RenderSets {
             sets: vec![csl_cache::ObjectSet {
@@ -709,9 +712,9 @@ fn csl_sets(
                 print_bake(name, &s.set);
             }
         }
+        timings.push(("csl bake".into(), t.elapsed()));
         r
     };
-    timings.push(("csl bake".into(), t.elapsed()));
     Ok(sets)
 }
 

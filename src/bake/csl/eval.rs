@@ -100,36 +100,111 @@ const GL8: [(f32, f32); 8] = [
     (0.960_289_9, 0.101_228_54),
 ];
 
-/// Angle (radians, 0..π) of the circle of radius `t` around the axis that lies inside a disc of
-/// radius `f` whose centre is `rho` from the axis, per side.
-pub fn arc_inside(t: f32, rho: f32, f: f32) -> f32 {
-    if t <= f - rho {
-        return std::f32::consts::PI;
-    }
-    if t <= 0.0 || t >= rho + f || t <= rho - f {
-        return 0.0;
-    }
-    ((t * t + rho * rho - f * f) / (2.0 * t * rho))
-        .clamp(-1.0, 1.0)
-        .acos()
+/// A pixel's footprint in a CSL's light-plane coordinates (x̂, ŷ): the parallelogram
+/// w + s·E₁ + u·E₂, |s|, |u| ≤ ½, that the pixel's footprint on the receiver (centre x, edges
+/// e₁ and e₂) projects to along the axis. Neighbouring pixels' footprints tile the receiver, so
+/// their parallelograms tile the plane and the light of a focus lands in exactly one pixel (a
+/// disc of the pixel's area, which this replaced, puts a point focus into none, one or two
+/// pixels: on the 1280² glass-sphere set the floor's caustic flux moved by 3 % between 5×5 and
+/// 8×8 samples a pixel, nearly all of it in the one pixel of the sphere's focus).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelQuad {
+    /// w.
+    centre: glam::Vec2,
+    /// E₁, E₂.
+    edges: [glam::Vec2; 2],
+    /// The slabs |mᵢ·(q − w)| ≤ ½ whose intersection is the parallelogram: (mᵢ, |mᵢ|, the
+    /// angle of mᵢ, mᵢ·w).
+    slabs: [(glam::Vec2, f32, f32, f32); 2],
+    /// |E₁ × E₂|.
+    pub area: f32,
 }
 
-/// Light-plane measure of the rays of one branch [ra, rb] of g(r) = side·r(b − a·r) that land
-/// inside a disc of radius `f` centred `rho` from the axis: ∫ 2·r·θ(g(r)) dr, θ from
-/// [`arc_inside`], by 8-point Gauss-Legendre. With a constant intensity I over the band, the
-/// disc receives I times this, so its mean irradiance is I·this/(π f²).
-#[allow(clippy::too_many_arguments)]
-pub fn disc_measure(a: f32, b: f32, side: f32, ra: f32, rb: f32, rho: f32, f: f32) -> f32 {
-    let (lo, hi) = (ra.min(rb), ra.max(rb));
-    let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-    GL8.iter()
-        .map(|&(x, w)| {
-            let r = mid + half * x;
-            let t = side * r * (b - a * r);
-            w * 2.0 * r * arc_inside(t, rho, f)
+impl PixelQuad {
+    /// The parallelogram centred at `centre` with edges `e1`, `e2`; None when it is
+    /// degenerate (no area to average over).
+    pub fn new(centre: glam::Vec2, e1: glam::Vec2, e2: glam::Vec2) -> Option<Self> {
+        let det = e1.perp_dot(e2);
+        let scale = e1.length_squared().max(e2.length_squared());
+        if !det.is_finite() || det.abs() <= 1e-6 * scale || scale.is_nan() {
+            return None;
+        }
+        // q − w = s·E₁ + u·E₂: s = (q − w) × E₂ / det, u = E₁ × (q − w) / det.
+        let slab = |m: glam::Vec2| (m, m.length(), m.y.atan2(m.x), m.dot(centre));
+        Some(PixelQuad {
+            centre,
+            edges: [e1, e2],
+            slabs: [
+                slab(glam::Vec2::new(e2.y, -e2.x) / det),
+                slab(glam::Vec2::new(-e1.y, e1.x) / det),
+            ],
+            area: det.abs(),
         })
-        .sum::<f32>()
-        * half
+    }
+
+    /// The nearest and farthest distance of the parallelogram from the axis (the origin).
+    pub fn distances(&self) -> (f32, f32) {
+        let [e1, e2] = self.edges;
+        let w = self.centre;
+        let corners = [
+            w - 0.5 * e1 - 0.5 * e2,
+            w + 0.5 * e1 - 0.5 * e2,
+            w + 0.5 * e1 + 0.5 * e2,
+            w - 0.5 * e1 + 0.5 * e2,
+        ];
+        let far = corners.iter().map(|c| c.length()).fold(0.0, f32::max);
+        if self.slabs.iter().all(|&(_, _, _, c)| c.abs() <= 0.5) {
+            return (0.0, far);
+        }
+        let near = (0..4)
+            .map(|k| {
+                let (p, q) = (corners[k], corners[(k + 1) % 4]);
+                let d = q - p;
+                let s = (-p.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, 1.0);
+                (p + d * s).length()
+            })
+            .fold(f32::INFINITY, f32::min);
+        (near, far)
+    }
+
+    /// Angle (radians, 0..2π) of the circle of radius `t` around the axis that lies inside the
+    /// parallelogram: the intersection of the two slabs' arcs.
+    pub fn arc(&self, t: f32) -> f32 {
+        // On the circle q = t·(cos φ, sin φ), mᵢ·q = t|mᵢ|cos(φ − ψᵢ) must lie in
+        // [cᵢ − ½, cᵢ + ½]: two arcs, φ − ψᵢ in [α, β] and [−β, −α].
+        let mut arcs = [[(0.0f32, 0.0f32); 2]; 2];
+        for (i, &(_, len, psi, c)) in self.slabs.iter().enumerate() {
+            let k = t.max(0.0) * len;
+            let (lo, hi) = if k > 0.0 {
+                ((c - 0.5) / k, (c + 0.5) / k)
+            } else if c.abs() <= 0.5 {
+                (-1.0, 1.0)
+            } else {
+                return 0.0;
+            };
+            if lo >= 1.0 || hi <= -1.0 {
+                return 0.0;
+            }
+            let (a0, a1) = (hi.min(1.0).acos(), lo.max(-1.0).acos());
+            arcs[i] = [(psi + a0, a1 - a0), (psi - a1, a1 - a0)];
+        }
+        let mut sum = 0.0;
+        for &(s1, l1) in &arcs[0] {
+            for &(s2, l2) in &arcs[1] {
+                sum += arc_overlap(s1, l1, s2, l2);
+            }
+        }
+        sum
+    }
+}
+
+/// Length of the intersection of the circle's arcs [s1, s1 + l1] and [s2, s2 + l2] (lengths
+/// at most π, so the intersection is one piece).
+pub fn arc_overlap(s1: f32, l1: f32, s2: f32, l2: f32) -> f32 {
+    let tau = std::f32::consts::TAU;
+    let d = (s2 - s1).rem_euclid(tau);
+    let part = |x: f32, y: f32| (l1.min(y) - x.max(0.0)).max(0.0);
+    part(d, d + l2) + part(d - tau, d - tau + l2)
 }
 
 /// A receiver point in a CSL's frame: height z above the light plane, distance ρ from the axis, the unit in-plane direction
@@ -264,6 +339,21 @@ impl Csl {
         })
     }
 
+    /// The farthest any ray of the image (radii up to its corner) comes from the axis at the
+    /// height where the ray map has coefficients `a`, `b`: |h(r)| = |r(b − ar)| is largest at
+    /// the corner radius or at r = b/2a.
+    fn reach(&self, a: f32, b: f32) -> f32 {
+        let rmax = self.half_extent * std::f32::consts::SQRT_2;
+        let mut hmax = (rmax * (b - a * rmax)).abs();
+        if a != 0.0 {
+            let rs = b / (2.0 * a);
+            if rs > 0.0 && rs < rmax {
+                hmax = hmax.max((rs * (b - a * rs)).abs());
+            }
+        }
+        hmax
+    }
+
     /// The CSL rays reaching `x` (same frame as the CSL), at most three.
     pub fn arrivals(&self, x: Vec3) -> ([Arrival; 3], usize) {
         let mut out = [Arrival {
@@ -281,17 +371,7 @@ impl Csl {
         else {
             return (out, 0);
         };
-        // No ray from the image (radii up to its corner) comes this far from the axis at this
-        // height: |h(r)| = |r(b − ar)| is largest at the corner radius or at r = b/2a.
-        let rmax = self.half_extent * std::f32::consts::SQRT_2;
-        let mut hmax = (rmax * (b - a * rmax)).abs();
-        if a != 0.0 {
-            let rs = b / (2.0 * a);
-            if rs > 0.0 && rs < rmax {
-                hmax = hmax.max((rs * (b - a * rs)).abs());
-            }
-        }
-        if rho > hmax * 1.0001 + 1e-7 {
+        if rho > self.reach(a, b) * 1.0001 + 1e-7 {
             return (out, 0);
         }
         let (roots, count) = radii(self.kappa, self.gamma, z, rho);
@@ -307,34 +387,45 @@ impl Csl {
         (out, n)
     }
 
-    /// The CSL light reaching a pixel whose footprint on the receiver around `x` has side
-    /// `footprint` (m), averaged over it: for each side of the axis and each monotonic branch of
-    /// the ray map, the rays landing in the receiver band [ρ − f, ρ + f] (f = footprint/2) carry
-    /// the flux I·π(r_b² − r_a²) of their light-plane band onto π(ρ_b² − ρ_a²) ([`branch_band`]),
-    /// with the intensity and direction of the ray through the pixel centre (or the nearest
-    /// one of the branch). Where h is smooth on the pixel's scale this is Eq. 4; at a focus or
-    /// fold narrower than the pixel it is the pixel's mean, which a point sample at the centre
-    /// misses. `footprint` 0 is [`Self::arrivals`].
-    pub fn arrivals_filtered(&self, x: Vec3, footprint: f32) -> ([Arrival; MAX_ARRIVALS], usize) {
+    /// The CSL light reaching a pixel whose footprint on the receiver is the parallelogram
+    /// around `x` with edges `e1`, `e2` (m; same frame as the CSL), averaged over it. The
+    /// footprint is projected along the axis onto the light plane's coordinates
+    /// ([`PixelQuad`]); for each side of the axis and each monotonic branch of the ray map, the
+    /// rays landing in it carry the flux I·∫r·Θ dr of their light-plane band
+    /// ([`branch_band`], [`Self::quad_flux`]), with the intensity and direction of the ray through
+    /// the pixel centre (or the nearest one of the branch). Where h is smooth on the pixel's
+    /// scale this is Eq. 4; at a focus or fold narrower than the pixel it is the pixel's mean,
+    /// which a point sample at the centre misses, and neighbouring pixels share the light
+    /// without gap or overlap. Zero edges give [`Self::arrivals`].
+    pub fn arrivals_filtered(
+        &self,
+        x: Vec3,
+        e1: Vec3,
+        e2: Vec3,
+    ) -> ([Arrival; MAX_ARRIVALS], usize) {
         let mut out = [Arrival {
             dir: Vec3::ZERO,
             density: Vec3::ZERO,
         }; MAX_ARRIVALS];
-        if footprint <= 0.0 {
-            let (arr, n) = self.arrivals(x);
-            out[..3].copy_from_slice(&arr);
-            return (out, n);
-        }
         let Some(Local {
             rho, ux, uy, a, b, ..
         }) = self.local(x)
         else {
             return (out, 0);
         };
+        let (xa, ya) = (self.x_axis, self.y_axis());
+        let plane = |e: Vec3| glam::Vec2::new(e.dot(xa), e.dot(ya));
+        let Some(quad) = PixelQuad::new(glam::Vec2::new(rho * ux, rho * uy), plane(e1), plane(e2))
+        else {
+            let (arr, n) = self.arrivals(x);
+            out[..3].copy_from_slice(&arr);
+            return (out, n);
+        };
         let rmax = self.half_extent * std::f32::consts::SQRT_2;
-        // The disc of the pixel's area.
-        let f = footprint / std::f32::consts::PI.sqrt();
-        let (pa, pb) = ((rho - f).max(0.0), rho + f);
+        let (pa, pb) = quad.distances();
+        if pa > self.reach(a, b) * 1.0001 + 1e-7 {
+            return (out, 0);
+        }
         let mut cuts = [0.0f32, rmax, rmax];
         let mut pieces = 1;
         if a != 0.0 {
@@ -350,24 +441,51 @@ impl Csl {
                 let (lo, hi) = (cuts[k], cuts[k + 1]);
                 let (ra, rb, r) = branch_band(a, b, side, lo, hi, pa, pb, rho);
                 let light = (rb * rb - ra * ra).abs();
-                if light <= 0.0 || r.is_nan() || r <= 0.0 {
+                if light <= 0.0 || r.is_nan() || r < 0.0 {
                     continue;
                 }
+                let flux = self.quad_flux(a, b, side, ra, rb, ux, uy, &quad);
+                if flux.is_nan() || flux.max_element() <= 0.0 {
+                    continue;
+                }
+                // The pixel's mean flux density, in the direction of the ray through its centre.
                 let (px, py) = (side * r * ux, side * r * uy);
-                let Some(i) = self.intensity(px, py) else {
-                    continue;
-                };
-                // Mean over a disc of the pixel's area around the centre (Eq. 4's ratio for
-                // the flux the branch puts into it).
-                let m = disc_measure(a, b, side, ra, rb, rho, f);
-                if m.is_nan() || m <= 0.0 {
-                    continue;
-                }
-                out[n] = self.arrival(r, px, py, i, std::f32::consts::PI * f * f / m);
+                out[n] = self.arrival(r, px, py, flux, quad.area);
                 n += 1;
             }
         }
         (out, n)
+    }
+
+    /// Flux (per unit irradiance of the light) of the rays of one branch [ra, rb] of
+    /// g(r) = side·r(b − a·r) that land inside the pixel's parallelogram: ∫ I(r)·r·Θ(g(r)) dr,
+    /// Θ from [`PixelQuad::arc`], I read along the pixel centre's direction (ux, uy) from the
+    /// axis, by 8-point Gauss-Legendre.
+    #[allow(clippy::too_many_arguments)]
+    pub fn quad_flux(
+        &self,
+        a: f32,
+        b: f32,
+        side: f32,
+        ra: f32,
+        rb: f32,
+        ux: f32,
+        uy: f32,
+        quad: &PixelQuad,
+    ) -> Vec3 {
+        let (lo, hi) = (ra.min(rb), ra.max(rb));
+        let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        GL8.iter()
+            .map(|&(x, w)| {
+                let r = mid + half * x;
+                let arc = quad.arc(side * r * (b - a * r));
+                match self.intensity(side * r * ux, side * r * uy) {
+                    Some(i) if arc > 0.0 => i * (w * r * arc),
+                    _ => Vec3::ZERO,
+                }
+            })
+            .sum::<Vec3>()
+            * half
     }
 
     /// Irradiance on a surface with unit normal `n` at `x`, per unit irradiance of the light.
@@ -400,8 +518,6 @@ pub fn render_caustics(
     let cam = &world.camera;
     let rays = cam.rays();
     let (w, h) = (cam.width, cam.height);
-    let forward = (cam.target - cam.eye).normalize();
-    let pixel_area = cam.pixel_area();
     let pixels: Vec<Vec3> = (0..w * h)
         .into_par_iter()
         .map(|k| {
@@ -409,10 +525,11 @@ pub fn render_caustics(
             let mut sum = Vec3::ZERO;
             for sy in 0..spp {
                 for sx in 0..spp {
-                    let d = rays.dir(
+                    let (u, v) = (
                         px + (sx as f32 + 0.5) / spp as f32,
                         py + (sy as f32 + 0.5) / spp as f32,
                     );
+                    let d = rays.dir(u, v);
                     let Some(hit) = camera_accel.intersect(cam.eye, d, f32::INFINITY) else {
                         continue;
                     };
@@ -420,14 +537,17 @@ pub fn render_caustics(
                     if mat.is_specular() {
                         continue;
                     }
-                    // The sample's side on the receiver: its solid angle (pixel area at unit
-                    // distance × cos³ off the view axis) × t² / cos at the receiver.
-                    let cos_c = d.dot(forward).max(1e-6);
-                    let t = (hit.point - cam.eye).length();
-                    let cos_r = hit.geo_normal.dot(d).abs().max(1e-3);
-                    let footprint =
-                        (pixel_area * cos_c.powi(3) * t * t / cos_r).sqrt() / spp as f32;
-                    sum += shade(blockers, csls, &hit, -d, mat, footprint) * irradiance;
+                    // The sample's footprint on the receiver's plane: where the rays through
+                    // the middles of its sides meet it.
+                    let h = 0.5 / spp as f32;
+                    let on_plane = |u: f32, v: f32| {
+                        let d = rays.dir(u, v);
+                        let n = hit.geo_normal;
+                        cam.eye + d * ((hit.point - cam.eye).dot(n) / d.dot(n))
+                    };
+                    let e1 = on_plane(u + h, v) - on_plane(u - h, v);
+                    let e2 = on_plane(u, v + h) - on_plane(u, v - h);
+                    sum += shade(blockers, csls, &hit, -d, mat, [e1, e2]) * irradiance;
                 }
             }
             sum / (spp * spp) as f32
@@ -441,19 +561,20 @@ pub fn render_caustics(
 }
 
 /// Outgoing radiance towards `wo` per unit light irradiance at a receiver hit, averaged over
-/// a sample whose footprint on the receiver has side `footprint` (m).
+/// a sample whose footprint on the receiver is the parallelogram with edges `e1`, `e2` (m)
+/// around the hit.
 pub fn shade(
     blockers: &crate::trace::Accel,
     csls: &[Csl],
     hit: &crate::trace::Hit,
     wo: Vec3,
     mat: &crate::scene::Material,
-    footprint: f32,
+    [e1, e2]: [Vec3; 2],
 ) -> Vec3 {
     let n = hit.normal;
     let mut out = Vec3::ZERO;
     for c in csls {
-        let (arr, k) = c.arrivals_filtered(hit.point, footprint);
+        let (arr, k) = c.arrivals_filtered(hit.point, e1, e2);
         for a in &arr[..k] {
             let wi = -a.dir;
             let cos = n.dot(wi);
@@ -495,6 +616,138 @@ mod tests {
             let s = area_ratio(a, b, r, 1e-2);
             assert!(s > 0.0 && s.is_finite() && s < 0.1, "{r}: {s}");
         }
+    }
+
+    /// Parallelograms tiling the plane share every circle around the axis exactly: their arcs
+    /// add to 2π for any radius, also 0 (the axis point lies in exactly one of them) and radii
+    /// through corners; one parallelogram's arc and distances agree with brute force.
+    #[test]
+    fn pixel_quads_tiling_the_plane_share_every_circle() {
+        use glam::Vec2;
+        let mut seed = 0x9e37_79b9u32;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        for case in 0..40 {
+            let e1 = Vec2::new(0.5 + rnd(), rnd() - 0.5) * 1e-3;
+            let e2 = Vec2::new(rnd() - 0.5, 0.5 + rnd()) * 1e-3;
+            let w0 = Vec2::new(rnd() - 0.5, rnd() - 0.5) * 1e-3;
+            // Corners of the tiling lie on the circle through w0 ± (e1 + e2)/2.
+            let corner = (w0 + 0.5 * (e1 + e2)).length();
+            for t in [0.0, 1e-7, 2e-4 * rnd(), corner, 3e-3 * rnd()] {
+                let mut sum = 0.0;
+                for i in -12..=12 {
+                    for j in -12..=12 {
+                        let w = w0 + i as f32 * e1 + j as f32 * e2;
+                        sum += PixelQuad::new(w, e1, e2).unwrap().arc(t);
+                    }
+                }
+                assert!(
+                    (sum - std::f32::consts::TAU).abs() < 2e-3,
+                    "case {case}, t {t}: {sum}"
+                );
+            }
+            let q = PixelQuad::new(w0 * 3.0, e1, e2).unwrap();
+            let inside = |p: Vec2| {
+                let d = p - w0 * 3.0;
+                let det = e1.perp_dot(e2);
+                (d.perp_dot(e2) / det).abs() <= 0.5 && (e1.perp_dot(d) / det).abs() <= 0.5
+            };
+            let (near, far) = q.distances();
+            let mut lo = f32::INFINITY;
+            let mut hi = 0.0f32;
+            for t in [0.3e-3, 1e-3, 2e-3] {
+                let n = 20000;
+                let hits = (0..n)
+                    .filter(|&k| {
+                        let phi = (k as f32 + 0.5) / n as f32 * std::f32::consts::TAU;
+                        inside(t * Vec2::new(phi.cos(), phi.sin()))
+                    })
+                    .count();
+                let brute = hits as f32 / n as f32 * std::f32::consts::TAU;
+                assert!(
+                    (q.arc(t) - brute).abs() < 2e-3,
+                    "{case} {t}: {} vs {brute}",
+                    q.arc(t)
+                );
+            }
+            for a in 0..200 {
+                for b in 0..200 {
+                    let p =
+                        w0 * 3.0 + (a as f32 / 199.0 - 0.5) * e1 + (b as f32 / 199.0 - 0.5) * e2;
+                    lo = lo.min(p.length());
+                    hi = hi.max(p.length());
+                }
+            }
+            assert!(
+                (near - lo).abs() < 1e-5 && (far - hi).abs() < 1e-6,
+                "{near} {far} {lo} {hi}"
+            );
+        }
+    }
+
+    /// A focus narrower than a pixel lands in the pixels whose footprints hold it, whatever the
+    /// pixel grid's offset: the flux over a block of pixels around it does not depend on where
+    /// the grid lies (a disc of each pixel's area counted it 0, 1 or 2 times).
+    #[test]
+    fn a_focus_is_counted_once_wherever_the_pixel_grid_lies() {
+        let size = 64u32;
+        // A converging CSL with a Gaussian image (1/e radius 25 mm) and spherical aberration
+        // γ: the ring at r focuses at height 1/(κ + γr).
+        let half = 0.08f32;
+        let pix = 2.0 * half / size as f32;
+        let texels = (0..size * size)
+            .map(|k| {
+                let (i, j) = (k % size, k / size);
+                let x = -half + (i as f32 + 0.5) * pix;
+                let y = -half + (j as f32 + 0.5) * pix;
+                let v = (65535.0 * (-(x * x + y * y) / (0.025 * 0.025)).exp()).round() as u16;
+                [v, v, v]
+            })
+            .collect();
+        let csl = Csl {
+            origin: Vec3::ZERO,
+            axis: Vec3::Z,
+            x_axis: Vec3::X,
+            kappa: 1.0,
+            gamma: 0.5,
+            half_extent: half,
+            size,
+            scale: 1.0,
+            flux: 0.0,
+            texels,
+        };
+        // The receiver at z = 1/κ: the central rays focus there, the outer ones before it
+        // (h(r) = −r²/2: the light of r ≤ 25 mm lands within 0.3 mm of the axis).
+        let z = 1.0;
+        let s = 0.5e-3; // pixel side
+        let mut totals = Vec::new();
+        for k in 0..16 {
+            let (ox, oy) = ((k % 4) as f32 / 4.0 * s, (k / 4) as f32 / 4.0 * s);
+            let (e1, e2) = (Vec3::X * s, Vec3::Y * s);
+            let mut total = 0.0;
+            for i in -3..=3 {
+                for j in -3..=3 {
+                    let x = Vec3::new(ox + i as f32 * s, oy + j as f32 * s, z);
+                    let (arr, n) = csl.arrivals_filtered(x, e1, e2);
+                    let flux: f32 = arr[..n].iter().map(|a| a.density.x * a.dir.z).sum();
+                    total += flux * s * s;
+                }
+            }
+            totals.push(total);
+        }
+        let (lo, hi) = totals
+            .iter()
+            .fold((f32::INFINITY, 0.0f32), |(a, b), &t| (a.min(t), b.max(t)));
+        // The image's flux: π·(25 mm)² (the Gaussian's tail beyond the image is negligible).
+        let flux = std::f32::consts::PI * 0.025 * 0.025;
+        assert!(
+            lo > 0.98 * flux && hi < 1.02 * flux,
+            "flux near the focus varies with the grid: {totals:?} vs {flux}"
+        );
     }
 
     /// Plug each root back: h(r) = side·ρ.
