@@ -357,14 +357,23 @@ fn csl_pre(a: f32, b: f32, side: f32, lo: f32, hi: f32, glo: f32, ghi: f32, c: f
 }
 
 // Flux of the rays of branch [ra, rb] landing in the parallelogram: ∫ I(r) r Θ(g(r)) dr, I read
-// along the pixel centre's direction (ux, uy), by 8-point Gauss-Legendre (Csl::quad_flux).
-fn csl_quad_flux(c: Csl, a: f32, b: f32, side: f32, ra: f32, rb: f32, ux: f32, uy: f32, q: CslQuad) -> vec3<f32> {
+// along the pixel centre's direction (ux, uy), or `fixed` where `use_fixed`, by 8-point
+// Gauss-Legendre (Csl::quad_flux).
+fn csl_quad_flux(c: Csl, a: f32, b: f32, side: f32, ra: f32, rb: f32, ux: f32, uy: f32, q: CslQuad, fixed: vec3<f32>, use_fixed: bool) -> vec3<f32> {
     let xs = array<f32, 8>(-0.9602899, -0.7966665, -0.5255324, -0.18343464, 0.18343464, 0.5255324, 0.7966665, 0.9602899);
     let ws = array<f32, 8>(0.10122854, 0.22238103, 0.31370664, 0.3626838, 0.3626838, 0.31370664, 0.22238103, 0.10122854);
     let lo = min(ra, rb);
     let hi = max(ra, rb);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
+    if (use_fixed) {
+        var m = 0.0;
+        for (var k = 0; k < 8; k++) {
+            let r = mid + half * xs[k];
+            m += ws[k] * r * csl_quad_arc(q, side * r * (b - a * r));
+        }
+        return fixed * (m * half);
+    }
     var sum = vec3<f32>(0.0);
     for (var k = 0; k < 8; k++) {
         let r = mid + half * xs[k];
@@ -418,6 +427,12 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, e1: vec3<f32>, e2: vec3<f32>) -> CslArr
             pieces = 2;
         }
     }
+    // Each branch's band of light-plane radii (side, ra, rb, r); where every band lies within a
+    // texel, the ray map is smooth on the pixel's scale and the point evaluation is the mean.
+    var bands: array<vec4<f32>, 4>;
+    var count = 0;
+    var wide = false;
+    let texel = 2.0 * c.half_extent / f32(c.size);
     for (var s = 0; s < 2; s++) {
         let side = select(-1.0, 1.0, s == 0);
         for (var k = 0; k < pieces; k++) {
@@ -431,13 +446,37 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, e1: vec3<f32>, e2: vec3<f32>) -> CslArr
             if (!(abs(rb * rb - ra * ra) > 0.0) || !(r >= 0.0)) {
                 continue;
             }
-            let flux = csl_quad_flux(c, a, b, side, ra, rb, ux, uy, q);
-            if (!(max(max(flux.x, flux.y), flux.z) > 0.0)) {
+            wide = wide || abs(rb - ra) > texel;
+            bands[count] = vec4<f32>(side, ra, rb, r);
+            count += 1;
+        }
+    }
+    if (!wide) {
+        return csl_arrivals(c, x);
+    }
+    for (var k = 0; k < count; k++) {
+        let side = bands[k].x;
+        let ra = bands[k].y;
+        let rb = bands[k].z;
+        let r = bands[k].w;
+        // A band within a texel of the image: the intensity of the centre's ray stands for all
+        // of it (one lookup instead of one a node).
+        let px = side * r * ux;
+        let py = side * r * uy;
+        let use_fixed = abs(rb - ra) <= texel;
+        var fixed = vec3<f32>(0.0);
+        if (use_fixed) {
+            fixed = csl_intensity(c, px, py);
+            if (fixed.x < 0.0) {
                 continue;
             }
-            // The pixel's mean flux density, in the direction of the ray through its centre.
-            csl_push(c, r, side * r * ux, side * r * uy, flux, q.area, &out);
         }
+        let flux = csl_quad_flux(c, a, b, side, ra, rb, ux, uy, q, fixed, use_fixed);
+        if (!(max(max(flux.x, flux.y), flux.z) > 0.0)) {
+            continue;
+        }
+        // The pixel's mean flux density, in the direction of the ray through its centre.
+        csl_push(c, r, px, py, flux, q.area, &out);
     }
     return out;
 }

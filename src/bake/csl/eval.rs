@@ -396,7 +396,11 @@ impl Csl {
     /// the pixel centre (or the nearest one of the branch). Where h is smooth on the pixel's
     /// scale this is Eq. 4; at a focus or fold narrower than the pixel it is the pixel's mean,
     /// which a point sample at the centre misses, and neighbouring pixels share the light
-    /// without gap or overlap. Zero edges give [`Self::arrivals`].
+    /// without gap or overlap. Where every branch's band of light-plane radii lies within a
+    /// texel (the ray map smooth on the pixel's scale), the point evaluation
+    /// [`Self::arrivals`] is that mean already and is used instead (same figures against the
+    /// reference, half the time); a band within a texel reads the image once. A degenerate
+    /// footprint (zero edges) gives [`Self::arrivals`].
     pub fn arrivals_filtered(
         &self,
         x: Vec3,
@@ -435,21 +439,47 @@ impl Csl {
                 pieces = 2;
             }
         }
-        let mut n = 0;
+        // Each branch's band of light-plane radii; where every band lies within a texel, the
+        // ray map is smooth on the pixel's scale and the point evaluation is the pixel's mean.
+        let mut bands = [(0.0f32, 0.0f32, 0.0f32, 0.0f32); 4];
+        let mut count = 0;
+        let mut wide = false;
         for side in [1.0f32, -1.0] {
             for k in 0..pieces {
-                let (lo, hi) = (cuts[k], cuts[k + 1]);
-                let (ra, rb, r) = branch_band(a, b, side, lo, hi, pa, pb, rho);
+                let (ra, rb, r) = branch_band(a, b, side, cuts[k], cuts[k + 1], pa, pb, rho);
                 let light = (rb * rb - ra * ra).abs();
                 if light <= 0.0 || r.is_nan() || r < 0.0 {
                     continue;
                 }
-                let flux = self.quad_flux(a, b, side, ra, rb, ux, uy, &quad);
+                wide |= (rb - ra).abs() > 2.0 * self.patch();
+                bands[count] = (side, ra, rb, r);
+                count += 1;
+            }
+        }
+        if !wide {
+            let (arr, k) = self.arrivals(x);
+            out[..3].copy_from_slice(&arr);
+            return (out, k);
+        }
+        let mut n = 0;
+        {
+            for &(side, ra, rb, r) in &bands[..count] {
+                // A band within a texel of the image: the intensity of the centre's ray
+                // stands for all of it (one lookup instead of one a node).
+                let (px, py) = (side * r * ux, side * r * uy);
+                let fixed = if (rb - ra).abs() <= 2.0 * self.patch() {
+                    match self.intensity(px, py) {
+                        Some(i) => Some(i),
+                        None => continue,
+                    }
+                } else {
+                    None
+                };
+                let flux = self.quad_flux(a, b, side, ra, rb, ux, uy, &quad, fixed);
                 if flux.is_nan() || flux.max_element() <= 0.0 {
                     continue;
                 }
                 // The pixel's mean flux density, in the direction of the ray through its centre.
-                let (px, py) = (side * r * ux, side * r * uy);
                 out[n] = self.arrival(r, px, py, flux, quad.area);
                 n += 1;
             }
@@ -460,7 +490,7 @@ impl Csl {
     /// Flux (per unit irradiance of the light) of the rays of one branch [ra, rb] of
     /// g(r) = side·r(b − a·r) that land inside the pixel's parallelogram: ∫ I(r)·r·Θ(g(r)) dr,
     /// Θ from [`PixelQuad::arc`], I read along the pixel centre's direction (ux, uy) from the
-    /// axis, by 8-point Gauss-Legendre.
+    /// axis (or `fixed`, where given), by 8-point Gauss-Legendre.
     #[allow(clippy::too_many_arguments)]
     pub fn quad_flux(
         &self,
@@ -472,9 +502,20 @@ impl Csl {
         ux: f32,
         uy: f32,
         quad: &PixelQuad,
+        fixed: Option<Vec3>,
     ) -> Vec3 {
         let (lo, hi) = (ra.min(rb), ra.max(rb));
         let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        if let Some(i) = fixed {
+            let m: f32 = GL8
+                .iter()
+                .map(|&(x, w)| {
+                    let r = mid + half * x;
+                    w * r * quad.arc(side * r * (b - a * r))
+                })
+                .sum();
+            return i * (m * half);
+        }
         GL8.iter()
             .map(|&(x, w)| {
                 let r = mid + half * x;
