@@ -152,6 +152,13 @@ impl Accel {
     /// Closest hit along `origin + t·dir`, t in (0, tmax). `dir` must be unit length.
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.intersect_prim(origin, dir, tmax).map(|(_, hit)| hit)
+    }
+
+    /// [`Self::intersect`], with the hit triangle's index in the order the BVH keeps them (for
+    /// [`Self::triangle_hit`]).
+    #[inline]
+    pub fn intersect_prim(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<(usize, Hit)> {
         if self.tris.is_empty() {
             return None;
         }
@@ -163,7 +170,8 @@ impl Accel {
         {
             return None;
         }
-        Some(self.hit_on(hit.primitive_id as usize, hit.t, &ray, origin, dir))
+        let id = hit.primitive_id as usize;
+        Some((id, self.hit_on(id, hit.t, &ray, origin, dir)))
     }
 
     /// The hit of `origin + t·dir`, t in (0, tmax), on triangle `prim` alone (an index of
@@ -528,7 +536,7 @@ mod tests {
             // The property the CSL trace relies on: a ray leaving through a triangle (along
             // its outward normal's side) meets nothing more.
             let mut rng = crate::reference::sampling::Pcg::new(21, 4);
-            let mut left = 0;
+            let (mut left, mut guessed) = (0, 0);
             for _ in 0..3000 {
                 let mut unit = || {
                     (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0).normalize_or(Vec3::Y)
@@ -556,8 +564,27 @@ mod tests {
                     hit.point
                 );
                 left += 1;
+                // And one going in meets exactly one triangle, where it leaves: the triangle
+                // a neighbouring ray left through, where this one hits it at all, is where
+                // the BVH finds this one's hit (the CSL trace's exit guesses).
+                let din = -d;
+                let o = hit.spawn(din);
+                let (id, _) = accel.intersect_prim(o, din, 10.0).expect("it leaves");
+                let d2 = (din + unit() * 0.05).normalize();
+                if let Some(g) = accel.triangle_hit(id, o, d2, f32::INFINITY) {
+                    let want = accel.intersect(o, d2, 10.0).expect("it leaves");
+                    assert!(
+                        (g.t - want.t).abs() <= 1e-5 * want.t
+                            && g.point.distance(want.point) < 1e-5,
+                        "{name}: {} vs {}",
+                        g.t,
+                        want.t
+                    );
+                    guessed += 1;
+                }
             }
             assert!(left > 1000, "{name}: {left}");
+            assert!(guessed > 100, "{name}: {guessed}");
         }
         // The mirrored sphere is wound the other way round.
         assert_eq!(

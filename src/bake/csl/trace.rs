@@ -245,24 +245,36 @@ fn trace_row(
     out: &mut Vec<CausticRay>,
     tot: &mut TraceTotals,
 ) {
+    let mut exits = [NONE; EXIT_GUESSES];
     for i in 0..grid.n {
         let first = row.first.map(|f| f[i as usize]);
         if first == Some(NONE) {
             continue;
         }
         if let Some(o) = grid.origin(i, row.j) {
-            trace_one(accel, o, grid.light, first, params, stack, out, tot);
+            trace_one(
+                accel, o, grid.light, first, params, stack, &mut exits, out, tot,
+            );
         }
     }
 }
 
+/// Places of a path in its ray's tree (heap order: the grid ray 1, the branches of place k
+/// 2k and 2k + 1) whose last exit triangle is kept: the first five interactions.
+const EXIT_GUESSES: usize = 64;
+
 /// Paths waiting to be traced: (origin, direction, energy, interactions so far, whether it
-/// leaves a convex object and so meets nothing more).
-type PathStack = Vec<(Vec3, Vec3, Vec3, u32, bool)>;
+/// leaves a convex object and so meets nothing more, place in the ray's tree).
+type PathStack = Vec<(Vec3, Vec3, Vec3, u32, bool, u32)>;
 
 /// One grid ray, whose first triangle is `first` where known ([`first_triangles`]): depth-first
 /// over both branches at every hit. `stack` is scratch space (empty on entry and on return),
 /// kept by the caller so that a row allocates it once.
+///
+/// Inside a convex object a path meets exactly one triangle, where it leaves, so whatever
+/// triangle it hits is the one: the triangle the same place of the previous ray's tree left
+/// through (`exits`, kept along a row, where neighbouring rays take nearly the same paths) is
+/// tried before the BVH.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace_one(
@@ -272,18 +284,29 @@ fn trace_one(
     first: Option<u32>,
     params: &CslParams,
     stack: &mut PathStack,
+    exits: &mut [u32; EXIT_GUESSES],
     out: &mut Vec<CausticRay>,
     tot: &mut TraceTotals,
 ) {
     let convex = accel.convex_orientation();
-    stack.push((origin, dir, Vec3::ONE, 0, false));
-    while let Some((o, d, e, depth, leaves)) = stack.pop() {
+    stack.push((origin, dir, Vec3::ONE, 0, false, 1));
+    while let Some((o, d, e, depth, leaves, place)) = stack.pop() {
         let hit = if leaves {
             None
         } else if let (0, Some(first)) = (depth, first) {
             accel
                 .triangle_hit(first as usize, o, d, f32::INFINITY)
                 .or_else(|| accel.intersect(o, d, f32::INFINITY))
+        } else if convex.is_some() && depth > 0 && (place as usize) < EXIT_GUESSES {
+            let guess = exits[place as usize];
+            let known = (guess != NONE)
+                .then(|| accel.triangle_hit(guess as usize, o, d, f32::INFINITY))
+                .flatten();
+            known.or_else(|| {
+                let (id, hit) = accel.intersect_prim(o, d, f32::INFINITY)?;
+                exits[place as usize] = id as u32;
+                Some(hit)
+            })
         } else {
             accel.intersect(o, d, f32::INFINITY)
         };
@@ -324,14 +347,16 @@ fn trace_one(
             };
             winding * sign
         });
-        for b in branches.into_iter().rev().flatten() {
+        for (k, b) in branches.into_iter().enumerate().rev() {
+            let Some(b) = b else { continue };
             let eb = e * b.weight;
             if eb.element_sum() / 3.0 < params.min_energy {
                 tot.dropped += (eb.element_sum() / 3.0) as f64;
                 continue;
             }
             let leaves = outward.is_some_and(|n| b.dir.dot(n) > 0.0);
-            stack.push((hit.spawn(b.dir), b.dir, eb, depth + 1, leaves));
+            let next = (2 * place + k as u32).min(EXIT_GUESSES as u32);
+            stack.push((hit.spawn(b.dir), b.dir, eb, depth + 1, leaves, next));
         }
     }
 }
