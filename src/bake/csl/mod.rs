@@ -39,7 +39,7 @@ pub use artifact::ArtifactError;
 /// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
 /// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
 /// older algorithm made.
-pub const ALGORITHM: u32 = 6;
+pub const ALGORITHM: u32 = 7;
 
 /// Parameters of a CSL bake. Lengths relative to the object are in units of its bounding
 /// sphere radius R, so that one preset suits objects of any size.
