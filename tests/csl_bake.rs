@@ -151,7 +151,10 @@ fn bakes_are_deterministic_across_thread_counts() {
 
 #[test]
 fn artifact_round_trips_and_rejects_corruption() {
-    let set = bake(&sphere_world("glass"), &SMALL);
+    let mut set = bake(&sphere_world("glass"), &SMALL);
+    // Images of several sizes in one set (each CSL's size follows its extent).
+    set.csls[1] = caustica::bake::csl::image::halve(&set.csls[1]);
+    assert_ne!(set.csls[0].size, set.csls[1].size);
     let bytes = set.to_bytes();
     let back = CslSet::from_bytes(&bytes).expect("parses");
     assert_eq!(back.csls, set.csls);

@@ -1,13 +1,14 @@
 //! The CSL set artifact: little-endian binary, versioned, checksummed.
 //!
 //! ```text
-//! header   magic "CSLSET\0\0" (8) · version u32 · csl count u32 · image size u32 · reserved u32
+//! header   magic "CSLSET\0\0" (8) · version u32 · csl count u32 · largest image size u32 ·
+//!          reserved u32
 //!          source hash u64 · params hash u64
 //!          light dir 3×f32 · centre 3×f32 · radius f32 · spacing f32
 //!          stats: rays traced, rays hit, caustic rays, dismissed rays (4×u64),
 //!                 energy traced, covered, dropped (3×f64), rejected bundles, iterations (2×u32)
-//! per CSL  origin 3×f32 · axis 3×f32 · x axis 3×f32 · κ γ half_extent scale flux (5×f32)
-//!          texels size²×3×u16 (row-major RGB)
+//! per CSL  image size u32 · origin 3×f32 · axis 3×f32 · x axis 3×f32 ·
+//!          κ γ half_extent scale flux (5×f32) · texels size²×3×u16 (row-major RGB)
 //! trailer  FNV-1a 64 of every byte before it (u64)
 //! ```
 //!
@@ -19,9 +20,9 @@ use glam::Vec3;
 use thiserror::Error;
 
 pub const MAGIC: [u8; 8] = *b"CSLSET\0\0";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 * 4 + 2 * 8 + 8 * 4 + 4 * 8 + 3 * 8 + 2 * 4;
-const PER_CSL: usize = 14 * 4;
+const PER_CSL: usize = 15 * 4;
 
 /// Why bytes are not a valid CSL set.
 #[derive(Debug, Error, PartialEq)]
@@ -93,14 +94,15 @@ impl Reader<'_> {
 impl CslSet {
     /// Serialise (deterministic: no timings are written).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let size = self.csls.first().map_or(0, |c| c.size);
+        let largest = self.csls.iter().map(|c| c.size).max().unwrap_or(0);
+        let texels: usize = self.csls.iter().map(|c| c.texels.len() * 6).sum();
         let mut w = Writer(Vec::with_capacity(
-            HEADER + self.csls.len() * (PER_CSL + (size * size) as usize * 6) + 8,
+            HEADER + self.csls.len() * PER_CSL + texels + 8,
         ));
         w.0.extend_from_slice(&MAGIC);
         w.u32(VERSION);
         w.u32(self.csls.len() as u32);
-        w.u32(size);
+        w.u32(largest);
         w.u32(0);
         w.u64(self.source_hash);
         w.u64(self.params_hash);
@@ -118,7 +120,8 @@ impl CslSet {
         w.u32(s.rejected_bundles);
         w.u32(s.iterations);
         for c in &self.csls {
-            assert_eq!(c.size, size, "all images of a set have one size");
+            assert_eq!(c.texels.len(), (c.size * c.size) as usize, "size² texels");
+            w.u32(c.size);
             w.vec3(c.origin);
             w.vec3(c.axis);
             w.vec3(c.x_axis);
@@ -160,19 +163,33 @@ impl CslSet {
             });
         }
         let count = r.u32() as usize;
-        let size = r.u32() as usize;
+        let _largest = r.u32();
         let _reserved = r.u32();
-        if count > 0 && !(1..=4096).contains(&size) {
-            return Err(ArtifactError::Invalid(format!("image size {size}")));
+        // Each CSL's record length from its image size, before anything is read from it.
+        let body = bytes.len() - 8;
+        let mut at = HEADER as u128;
+        for i in 0..count {
+            if at + PER_CSL as u128 > body as u128 {
+                return Err(ArtifactError::Truncated {
+                    got: bytes.len(),
+                    expected: (at + PER_CSL as u128 + 8).min(usize::MAX as u128) as usize,
+                });
+            }
+            let k = at as usize;
+            let size = u32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes")) as u128;
+            if !(1..=4096).contains(&size) {
+                return Err(ArtifactError::Invalid(format!(
+                    "CSL {i}: image size {size}"
+                )));
+            }
+            at += PER_CSL as u128 + size * size * 6;
         }
-        let expected = (count as u128) * (PER_CSL + size * size * 6) as u128 + (HEADER + 8) as u128;
-        if bytes.len() as u128 != expected {
+        if at != body as u128 {
             return Err(ArtifactError::Truncated {
                 got: bytes.len(),
-                expected: expected.min(usize::MAX as u128) as usize,
+                expected: (at + 8).min(usize::MAX as u128) as usize,
             });
         }
-        let body = bytes.len() - 8;
         let stored = u64::from_le_bytes(bytes[body..].try_into().expect("8 bytes"));
         if Fnv64::hash(&bytes[..body]) != stored {
             return Err(ArtifactError::Checksum);
@@ -205,6 +222,7 @@ impl CslSet {
         }
         let mut csls = Vec::with_capacity(count);
         for i in 0..count {
+            let size = r.u32() as usize;
             let origin = r.vec3();
             let axis = r.vec3();
             let x_axis = r.vec3();

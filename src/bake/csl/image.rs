@@ -25,8 +25,24 @@ pub struct PlaneImage {
     pub flux: f64,
 }
 
+/// Texels per side of an image covering [-half, half]² (m): 128, 256 or 512 (the paper's
+/// sizes), the one nearest (in ratio) to a texel of `texel` metres, at most `max_size`.
+pub fn image_size(half: f32, texel: f32, max_size: u32) -> u32 {
+    let raw = 2.0 * half / texel;
+    let n = if raw < 128.0 * std::f32::consts::SQRT_2 {
+        128
+    } else if raw < 256.0 * std::f32::consts::SQRT_2 {
+        256
+    } else {
+        512
+    };
+    n.min(max_size)
+}
+
 /// Splat `kept` rays onto the plane through `c` with normal `a` and in-plane axes `x`, `y`.
-/// `delta` is the splat size (m), `area` the cross-section of one grid ray (m²).
+/// `delta` is the splat size (m), `area` the cross-section of one grid ray (m²); the image's
+/// size follows the extent the rays cover ([`image_size`] for texels of `texel` metres, at most
+/// `max_size` per side).
 #[allow(clippy::too_many_arguments)]
 pub fn splat(
     rays: &[CausticRay],
@@ -37,7 +53,8 @@ pub fn splat(
     y: Vec3,
     delta: f32,
     area: f32,
-    size: u32,
+    texel: f32,
+    max_size: u32,
 ) -> PlaneImage {
     // Plane positions, radial unit vectors and the ellipse's radial semi-axis per ray.
     let pts: Vec<(f32, f32, f32, Vec3)> = kept
@@ -54,6 +71,7 @@ pub fn splat(
         .iter()
         .map(|&(px, py, major, _)| (px * px + py * py).sqrt() + major)
         .fold(delta, f32::max);
+    let size = image_size(half, texel, max_size);
     half *= 1.0 + 1.0 / size as f32;
     let pix = 2.0 * half / size as f32;
     let pre = 0.25 * pix * pix; // (pix/2)² prefilter variance
@@ -254,6 +272,51 @@ mod tests {
             .map(|t| Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32))
             .fold(Vec3::ZERO, |a, b| a + b)
             * (c.scale / 65535.0 * pix * pix)
+    }
+
+    /// The image's size follows the extent its rays cover on the light plane: 128, 256 or 512
+    /// texels a side, whichever gives texels nearest the wanted width, at most the cap; the
+    /// flux is the rays' whatever the size.
+    #[test]
+    fn image_size_follows_the_light_planes_extent() {
+        let t = 1e-3;
+        assert_eq!(image_size(10.0 * t, t, 512), 128);
+        assert_eq!(image_size(90.0 * t, t, 512), 128); // 180 texels wanted: nearer 128
+        assert_eq!(image_size(92.0 * t, t, 512), 256); // 184: nearer 256
+        assert_eq!(image_size(180.0 * t, t, 512), 256);
+        assert_eq!(image_size(182.0 * t, t, 512), 512);
+        assert_eq!(image_size(2000.0 * t, t, 512), 512);
+        assert_eq!(image_size(2000.0 * t, t, 256), 256);
+        assert_eq!(image_size(2000.0 * t, t, 128), 128);
+        // Rays parallel to the axis through a disc of radius ρ: an image of half-width ρ
+        // (plus the splat).
+        for (rho, want) in [(0.02f32, 128u32), (0.12, 256), (0.4, 512)] {
+            let rays: Vec<CausticRay> = (0..2000)
+                .map(|k| {
+                    let (r, phi) = (rho * ((k as f32 + 0.5) / 2000.0).sqrt(), k as f32 * 2.4);
+                    CausticRay {
+                        origin: Vec3::new(r * phi.cos(), r * phi.sin(), -1.0),
+                        dir: Vec3::Z,
+                        energy: Vec3::ONE,
+                    }
+                })
+                .collect();
+            let kept: Vec<u32> = (0..2000).collect();
+            let img = splat(
+                &rays,
+                &kept,
+                Vec3::ZERO,
+                Vec3::Z,
+                Vec3::X,
+                Vec3::Y,
+                t,
+                1e-6,
+                t,
+                512,
+            );
+            assert_eq!(img.size, want, "ρ = {rho}");
+            assert!((img.flux / 2000e-6 - 1.0).abs() < 1e-3, "{}", img.flux);
+        }
     }
 
     #[test]
