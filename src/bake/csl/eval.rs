@@ -462,27 +462,25 @@ impl Csl {
             return (out, k);
         }
         let mut n = 0;
-        {
-            for &(side, ra, rb, r) in &bands[..count] {
-                // A band within a texel of the image: the intensity of the centre's ray
-                // stands for all of it (one lookup instead of one a node).
-                let (px, py) = (side * r * ux, side * r * uy);
-                let fixed = if (rb - ra).abs() <= 2.0 * self.patch() {
-                    match self.intensity(px, py) {
-                        Some(i) => Some(i),
-                        None => continue,
-                    }
-                } else {
-                    None
-                };
-                let flux = self.quad_flux(a, b, side, ra, rb, ux, uy, &quad, fixed);
-                if flux.is_nan() || flux.max_element() <= 0.0 {
-                    continue;
+        for &(side, ra, rb, r) in &bands[..count] {
+            // A band within a texel of the image: the intensity of the centre's ray stands for
+            // all of it (one lookup instead of one a node).
+            let (px, py) = (side * r * ux, side * r * uy);
+            let fixed = if (rb - ra).abs() <= 2.0 * self.patch() {
+                match self.intensity(px, py) {
+                    Some(i) => Some(i),
+                    None => continue,
                 }
-                // The pixel's mean flux density, in the direction of the ray through its centre.
-                out[n] = self.arrival(r, px, py, flux, quad.area);
-                n += 1;
+            } else {
+                None
+            };
+            let flux = self.quad_flux(a, b, side, ra, rb, ux, uy, &quad, fixed);
+            if flux.is_nan() || flux.max_element() <= 0.0 {
+                continue;
             }
+            // The pixel's mean flux density, in the direction of the ray through its centre.
+            out[n] = self.arrival(r, px, py, flux, quad.area);
+            n += 1;
         }
         (out, n)
     }
