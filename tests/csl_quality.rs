@@ -20,9 +20,9 @@
 //! - the GPU pass, one sample per pixel: relative L1 0.129, flux 0.972.
 //!
 //! (0.131 / 0.971 and 0.146 / 0.965 when each pixel averaged over a disc of its area: discs do
-//! not tile the image, and the sphere's focus, a spot far smaller than a pixel holding 12 % of
-//! the floor's caustic flux, fell into none, one or two of them depending on where the pixel
-//! grid lay.)
+//! not tile the image, and the sphere's focus, a spot far smaller than a pixel holding about
+//! 12 % of the floor's caustic flux, fell into none, one or two of them depending on where the
+//! pixel grid lay.)
 //!
 //! What is left is the 3–4 % of the leaving energy the set does not cover (the target is 95 %)
 //! and the CSL model's fit of the far, thin light (1.6 m and more from the focus the set has
