@@ -5,6 +5,11 @@
 const GOLD: f64 = 1.618_033_988_749_895;
 const CGOLD: f64 = 0.381_966_011_250_105;
 const TINY: f64 = 1e-20;
+/// Fractional precision of Powell's line minimisations: Numerical Recipes' `linmin` passes
+/// 2·10⁻⁴ to Brent. The line searches need not be exact, Powell's outer iteration converges
+/// to `ftol` all the same; a tighter 10⁻⁶ took 37 % more evaluations of the CSL fit's
+/// objective and gave the same caustics (glass sphere, 1280² rays: relative L1 0.1376 both).
+const LINE_TOL: f64 = 2e-4;
 
 /// Bracket a minimum of `f` starting from `a`, `b`: returns (a, b, c) with b between a and c
 /// and f(b) ≤ f(a), f(b) ≤ f(c) (or the best found after a fixed number of expansions).
@@ -179,7 +184,7 @@ pub fn powell(
         let (mut ibig, mut del) = (0, 0.0);
         for (i, d) in dirs.iter_mut().enumerate() {
             let fptt = fret;
-            fret = line_min(&mut f, &mut x, d, 1e-6);
+            fret = line_min(&mut f, &mut x, d, LINE_TOL);
             if fptt - fret > del {
                 del = fptt - fret;
                 ibig = i;
@@ -196,7 +201,7 @@ pub fn powell(
             let t = 2.0 * (fp - 2.0 * fret + fptt) * (fp - fret - del).powi(2)
                 - del * (fp - fptt).powi(2);
             if t < 0.0 {
-                fret = line_min(&mut f, &mut x, &mut xit, 1e-6);
+                fret = line_min(&mut f, &mut x, &mut xit, LINE_TOL);
                 dirs[ibig] = dirs[n - 1].clone();
                 dirs[n - 1] = xit;
             }
