@@ -1132,40 +1132,47 @@ fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3
 /// Magic of a dynamic CSL bake artifact.
 pub const MAGIC: [u8; 8] = *b"CSLDYN\0\0";
 /// Format version of the dynamic artifact.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Largest body a dynamic artifact may declare (decompressed), 4 GiB.
 const MAX_BODY: u64 = 1 << 32;
 
-/// Texels as wrapping differences from the previous texel of the same channel (row-major): the
-/// smooth images then deflate to a fraction of their size.
+/// Texels coded for deflate: the channels decorrelated (R, G − R, B − G: the tint of a CSL's
+/// light varies slowly across its image) and each then as the wrapping difference from the
+/// previous texel (row-major), so that smooth images deflate to a fraction of their size. All
+/// arithmetic wraps, so decoding restores every bit.
 fn delta_code(texels: &mut [[u16; 3]], decode: bool) {
     let mut prev = [0u16; 3];
     for t in texels.iter_mut() {
-        for ch in 0..3 {
-            let v = t[ch];
-            if decode {
-                t[ch] = v.wrapping_add(prev[ch]);
-                prev[ch] = t[ch];
-            } else {
-                t[ch] = v.wrapping_sub(prev[ch]);
-                prev[ch] = v;
-            }
+        if decode {
+            let u = [0, 1, 2].map(|ch| t[ch].wrapping_add(prev[ch]));
+            prev = u;
+            let g = u[1].wrapping_add(u[0]);
+            *t = [u[0], g, u[2].wrapping_add(g)];
+        } else {
+            let u = [t[0], t[1].wrapping_sub(t[0]), t[2].wrapping_sub(t[1])];
+            *t = [0, 1, 2].map(|ch| u[ch].wrapping_sub(prev[ch]));
+            prev = u;
         }
     }
 }
 
+/// Deflate level of the artifact's chunks.
+const DEFLATE_LEVEL: u8 = 6;
+
 impl DynamicSet {
-    /// Serialise: a header, the deflated body (every direction's set with delta-coded images,
-    /// the blacks, the triples) and an FNV-1a checksum. Deterministic.
+    /// Serialise: a header, deflated chunks (one per direction: its set with delta-coded
+    /// images, compressed in parallel; then one of the blacks and the triples) and an FNV-1a
+    /// checksum. Deterministic.
     ///
     /// ```text
     /// header  magic "CSLDYN\0\0" · version u32 · subdivisions u32 · directions u32 · faces u32
     ///         source, object, params hash (3×u64)
     ///         stats: csls, blacks, matched, edges, triples, consistent triples (6×u32),
     ///                tracking rays u64
-    ///         body length u64 · deflated length u64 · deflated body
-    /// body    per direction: length u32 · CSL set artifact (texels delta-coded)
-    ///         per direction: blacks u32 · per black: origin, axis, x axis, κ, γ, half extent
+    ///         per chunk (directions + 1): length u64 · deflated length u64
+    ///         the deflated chunks, in that order
+    /// chunk   per direction: its CSL set artifact (texels coded by `delta_code`)
+    /// last    per direction: blacks u32 · per black: origin, axis, x axis, κ, γ, half extent
     ///                        (12×f32) · image size u32
     ///         per face: triples u32 · per triple 3 × (CSL u16 · image share u8: 0 none,
     ///                   1 half, 2 all) · second CSL of a pair triple's third corner u16
@@ -1173,16 +1180,23 @@ impl DynamicSet {
     /// trailer FNV-1a 64 of every byte before it
     /// ```
     pub fn to_bytes(&self) -> Vec<u8> {
+        // One chunk per direction, deflated in parallel, then the blacks and triples.
+        let mut chunks: Vec<(u64, Vec<u8>)> = self
+            .sets
+            .par_iter()
+            .map(|set| {
+                let mut s = set.clone();
+                for c in &mut s.csls {
+                    delta_code(&mut c.texels, false);
+                }
+                let b = s.to_bytes();
+                (
+                    b.len() as u64,
+                    miniz_oxide::deflate::compress_to_vec(&b, DEFLATE_LEVEL),
+                )
+            })
+            .collect();
         let mut body = Vec::new();
-        for set in &self.sets {
-            let mut s = set.clone();
-            for c in &mut s.csls {
-                delta_code(&mut c.texels, false);
-            }
-            let b = s.to_bytes();
-            body.extend_from_slice(&(b.len() as u32).to_le_bytes());
-            body.extend_from_slice(&b);
-        }
         let f32s = |body: &mut Vec<u8>, v: &[f32]| {
             for x in v {
                 body.extend_from_slice(&x.to_le_bytes());
@@ -1212,8 +1226,12 @@ impl DynamicSet {
                 body.extend_from_slice(&t.split.unwrap_or(u16::MAX).to_le_bytes());
             }
         }
-        let packed = miniz_oxide::deflate::compress_to_vec(&body, 6);
-        let mut out = Vec::with_capacity(packed.len() + 128);
+        chunks.push((
+            body.len() as u64,
+            miniz_oxide::deflate::compress_to_vec(&body, DEFLATE_LEVEL),
+        ));
+        let packed: usize = chunks.iter().map(|c| c.1.len()).sum();
+        let mut out = Vec::with_capacity(packed + 16 * chunks.len() + 128);
         out.extend_from_slice(&MAGIC);
         let s = &self.stats;
         for v in [
@@ -1237,10 +1255,14 @@ impl DynamicSet {
         ] {
             out.extend_from_slice(&v.to_le_bytes());
         }
-        for v in [s.tracking_rays, body.len() as u64, packed.len() as u64] {
-            out.extend_from_slice(&v.to_le_bytes());
+        out.extend_from_slice(&s.tracking_rays.to_le_bytes());
+        for (raw, packed) in &chunks {
+            out.extend_from_slice(&raw.to_le_bytes());
+            out.extend_from_slice(&(packed.len() as u64).to_le_bytes());
         }
-        out.extend_from_slice(&packed);
+        for (_, packed) in &chunks {
+            out.extend_from_slice(packed);
+        }
         let sum = Fnv64::hash(&out);
         out.extend_from_slice(&sum.to_le_bytes());
         out
@@ -1249,7 +1271,7 @@ impl DynamicSet {
     /// Parse and validate: magic, version, lengths, checksum, the direction and face counts of
     /// the icosahedron, every set (as [`CslSet::from_bytes`]) and every triple's indices.
     pub fn from_bytes(bytes: &[u8]) -> Result<DynamicSet, ArtifactError> {
-        const HEAD: usize = 8 + 4 * 4 + 3 * 8 + 6 * 4 + 3 * 8;
+        const HEAD: usize = 8 + 4 * 4 + 3 * 8 + 6 * 4 + 8;
         if bytes.len() >= 8 && bytes[..8] != MAGIC {
             return Err(ArtifactError::BadMagic);
         }
@@ -1283,8 +1305,24 @@ impl DynamicSet {
             *v = r.u32()?;
         }
         let tracking_rays = r.u64()?;
-        let (raw_len, packed_len) = (r.u64()?, r.u64()?);
-        let expected = HEAD as u64 + packed_len + 8;
+        // The chunk table: a chunk per direction and one of blacks and triples.
+        let table = HEAD + 16 * (nv + 1);
+        if bytes.len() < table + 8 {
+            return Err(ArtifactError::Truncated {
+                got: bytes.len(),
+                expected: table + 8,
+            });
+        }
+        let mut chunks = Vec::with_capacity(nv + 1);
+        let (mut at, mut raw_total) = (table as u64, 0u64);
+        for _ in 0..=nv {
+            let (raw, packed) = (r.u64()?, r.u64()?);
+            raw_total = raw_total.saturating_add(raw);
+            let end = at.saturating_add(packed);
+            chunks.push((raw, at, end));
+            at = end;
+        }
+        let expected = at.saturating_add(8);
         if bytes.len() as u64 != expected {
             return Err(ArtifactError::Truncated {
                 got: bytes.len(),
@@ -1296,25 +1334,32 @@ impl DynamicSet {
         if Fnv64::hash(&bytes[..end]) != stored {
             return Err(ArtifactError::Checksum);
         }
-        if raw_len > MAX_BODY {
-            return Err(ArtifactError::Invalid(format!("body of {raw_len} bytes")));
+        if raw_total > MAX_BODY {
+            return Err(ArtifactError::Invalid(format!("body of {raw_total} bytes")));
         }
-        let body =
-            miniz_oxide::inflate::decompress_to_vec_with_limit(&bytes[HEAD..end], raw_len as usize)
-                .map_err(|e| ArtifactError::Invalid(format!("body does not inflate: {e:?}")))?;
-        if body.len() as u64 != raw_len {
-            return Err(ArtifactError::Invalid("body length".into()));
-        }
-        let mut r = Cursor { b: &body, at: 0 };
-        let mut sets = Vec::with_capacity(nv);
-        for _ in 0..nv {
-            let n = r.u32()? as usize;
-            let mut set = CslSet::from_bytes(r.slice(n)?)?;
-            for c in &mut set.csls {
-                delta_code(&mut c.texels, true);
+        let inflate = |&(raw, from, to): &(u64, u64, u64)| {
+            let body = miniz_oxide::inflate::decompress_to_vec_with_limit(
+                &bytes[from as usize..to as usize],
+                raw as usize,
+            )
+            .map_err(|e| ArtifactError::Invalid(format!("chunk does not inflate: {e:?}")))?;
+            if body.len() as u64 != raw {
+                return Err(ArtifactError::Invalid("chunk length".into()));
             }
-            sets.push(set);
-        }
+            Ok(body)
+        };
+        let sets: Vec<CslSet> = chunks[..nv]
+            .par_iter()
+            .map(|c| {
+                let mut set = CslSet::from_bytes(&inflate(c)?)?;
+                for c in &mut set.csls {
+                    delta_code(&mut c.texels, true);
+                }
+                Ok(set)
+            })
+            .collect::<Result<_, ArtifactError>>()?;
+        let body = inflate(&chunks[nv])?;
+        let mut r = Cursor { b: &body, at: 0 };
         let mut blacks = Vec::with_capacity(nv);
         for set in &sets {
             let n = r.u32()? as usize;
@@ -1802,6 +1847,30 @@ mod tests {
     }
 
     #[test]
+    fn texel_coding_restores_every_bit() {
+        let mut x = 0x9E37_79B9u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as u16
+        };
+        let mut texels: Vec<[u16; 3]> = (0..4096).map(|_| [next(), next(), next()]).collect();
+        texels.extend([
+            [0, 65535, 0],
+            [65535, 0, 65535],
+            [65535; 3],
+            [0; 3],
+            [1, 0, 65535],
+        ]);
+        let mut coded = texels.clone();
+        delta_code(&mut coded, false);
+        assert!(coded != texels);
+        delta_code(&mut coded, true);
+        assert_eq!(coded, texels);
+    }
+
+    #[test]
     fn artifact_round_trip_and_corruption() {
         let d = rotated_copies(0, 0.25);
         let bytes = d.to_bytes();
@@ -1823,11 +1892,19 @@ mod tests {
             DynamicSet::from_bytes(b"CSLSET\0\0rest"),
             Err(ArtifactError::BadMagic)
         );
-        let mut v2 = bytes.clone();
-        v2[8] = 2;
+        // Any byte of the header and the chunk table changed: an error, never a panic.
+        for k in 0..8 + 4 * 4 + 3 * 8 + 6 * 4 + 8 + 16 * 13 {
+            for bit in [0x01, 0x80] {
+                let mut bad = bytes.clone();
+                bad[k] ^= bit;
+                assert!(DynamicSet::from_bytes(&bad).is_err(), "byte {k}");
+            }
+        }
+        let mut v1 = bytes.clone();
+        v1[8] = 1;
         assert_eq!(
-            DynamicSet::from_bytes(&v2),
-            Err(ArtifactError::UnsupportedVersion(2))
+            DynamicSet::from_bytes(&v1),
+            Err(ArtifactError::UnsupportedVersion(1))
         );
     }
 }
