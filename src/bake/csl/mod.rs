@@ -39,7 +39,7 @@ pub use artifact::ArtifactError;
 /// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
 /// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
 /// older algorithm made.
-pub const ALGORITHM: u32 = 8;
+pub const ALGORITHM: u32 = 9;
 
 /// The texel of an intensity image is about this many grid-ray spacings wide (about 256
 /// rays' cross-sections a texel where the rays keep their spacing), which sets each image's
@@ -527,7 +527,7 @@ pub(crate) fn bake_csl_with(
     // 2.–5. Bundles, fits, images until the coverage target is met.
     let t0 = Instant::now();
     let volume = bundle::Volume::new(centre, params.volume_extent * radius, params.cells);
-    let mut ex = bundle::Extractor::new(&rays, volume);
+    let mut ex = bundle::Extractor::new(&rays, volume, bundle::search_stride(params.grid));
     stats.time_raster = t0.elapsed();
     let thresholds = bundle::Thresholds {
         distance: params.distance_threshold * radius,
