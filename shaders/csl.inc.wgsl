@@ -258,7 +258,6 @@ fn csl_quad(centre: vec2<f32>, e1: vec2<f32>, e2: vec2<f32>) -> CslQuad {
     q.m[1] = vec2<f32>(-e1.y, e1.x) / det;
     for (var i = 0; i < 2; i++) {
         q.len[i] = length(q.m[i]);
-        q.psi[i] = atan2(q.m[i].y, q.m[i].x);
         q.c[i] = dot(q.m[i], centre);
     }
     q.area = abs(det);
@@ -403,7 +402,7 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, e1: vec3<f32>, e2: vec3<f32>) -> CslArr
     let uy = l.uy;
     let a = l.a;
     let b = l.b;
-    let q = csl_quad(
+    var q = csl_quad(
         vec2<f32>(rho * ux, rho * uy),
         vec2<f32>(dot(e1, c.x_axis), dot(e1, c.y_axis)),
         vec2<f32>(dot(e2, c.x_axis), dot(e2, c.y_axis)),
@@ -453,6 +452,11 @@ fn csl_arrivals_px(c: Csl, x: vec3<f32>, e1: vec3<f32>, e2: vec3<f32>) -> CslArr
     }
     if (!wide) {
         return csl_arrivals(c, x);
+    }
+    // The slabs' angles, needed by the arcs of the filtered path only (PixelQuad::new computes
+    // them up front: the same values; here most pixels never need them).
+    for (var i = 0; i < 2; i++) {
+        q.psi[i] = atan2(q.m[i].y, q.m[i].x);
     }
     for (var k = 0; k < count; k++) {
         let side = bands[k].x;
