@@ -635,7 +635,7 @@ fn meets_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
 
 /// One ray in how many takes part in the search for a bundle's axis, for a bake of `grid`²
 /// rays: as many as leaves a sample as dense as the rays of a 640² grid, ⌊(grid / 640)²⌋ (4 at
-/// the paper's 1280², every ray below 905²).
+/// the paper's 1280², every ray up to 905²).
 ///
 /// The axis of a bundle is the least-squares line of its members (§3.1.1 step 4); a sample of
 /// them gives it as well when it is dense enough, at a fraction of the scans. The bundle itself
