@@ -474,7 +474,7 @@ impl Columns {
     fn select(&self, positions: &[u32]) -> Columns {
         let pick = |c: &Vec<f32>| positions.iter().map(|&p| c[p as usize]).collect();
         Columns {
-            idx: positions.iter().map(|&p| self.idx[p as usize]).collect(),
+            idx: self.indices(positions),
             o: self.o.each_ref().map(pick),
             d: self.d.each_ref().map(pick),
             w: pick(&self.w),
@@ -507,6 +507,11 @@ impl Columns {
     fn scan(&self, b: Vec3, a: Vec3, distance: f32, cos: f32) -> Vec<u32> {
         let d2 = distance * distance;
         self.filter(move |q, d| within(q, d, b, a, d2, cos))
+    }
+
+    /// The ray indices at `positions`.
+    fn indices(&self, positions: &[u32]) -> Vec<u32> {
+        positions.iter().map(|&p| self.idx[p as usize]).collect()
     }
 
     /// Positions (ascending) of the rays whose lines meet the box [lo, hi]
@@ -743,12 +748,7 @@ impl<'a> Extractor<'a> {
     /// none); the bundle is every ray of the pool within the thresholds of that axis.
     pub fn extract(&self, cell: usize, th: &Thresholds, scale: f32) -> Option<Bundle> {
         let (lo, hi) = self.volume.cell_bounds(cell);
-        let through = |c: &Columns| -> Vec<u32> {
-            c.meeting_box(lo, hi)
-                .iter()
-                .map(|&p| c.idx[p as usize])
-                .collect()
-        };
+        let through = |c: &Columns| c.indices(&c.meeting_box(lo, hi));
         let search = self.sample.as_ref().unwrap_or(&self.pool);
         let mut seed = through(search);
         if seed.is_empty() {
@@ -830,11 +830,7 @@ impl<'a> Extractor<'a> {
         }
         // The members are those of the whole pool for the final axis.
         let pool = &self.pool;
-        members = pool
-            .scan(origin, axis, th.distance, th.cos_angle)
-            .iter()
-            .map(|&p| pool.idx[p as usize])
-            .collect();
+        members = pool.indices(&pool.scan(origin, axis, th.distance, th.cos_angle));
         if members.is_empty() {
             return None;
         }
