@@ -8,7 +8,7 @@
 //!          stats: rays traced, rays hit, caustic rays, dismissed rays (4×u64),
 //!                 energy traced, covered, dropped (3×f64), rejected bundles, iterations (2×u32)
 //! per CSL  image size u32 · origin 3×f32 · axis 3×f32 · x axis 3×f32 ·
-//!          κ γ half_extent scale flux (5×f32) · texels size²×3×u16 (row-major RGB)
+//!          κ γ half_extent scale flux grain (6×f32) · texels size²×3×u16 (row-major RGB)
 //! trailer  FNV-1a 64 of every byte before it (u64)
 //! ```
 //!
@@ -20,9 +20,9 @@ use glam::Vec3;
 use thiserror::Error;
 
 pub const MAGIC: [u8; 8] = *b"CSLSET\0\0";
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 const HEADER: usize = 8 + 4 * 4 + 2 * 8 + 8 * 4 + 4 * 8 + 3 * 8 + 2 * 4;
-const PER_CSL: usize = 15 * 4;
+const PER_CSL: usize = 16 * 4;
 
 /// Why bytes are not a valid CSL set.
 #[derive(Debug, Error, PartialEq)]
@@ -125,7 +125,7 @@ impl CslSet {
             w.vec3(c.origin);
             w.vec3(c.axis);
             w.vec3(c.x_axis);
-            for v in [c.kappa, c.gamma, c.half_extent, c.scale, c.flux] {
+            for v in [c.kappa, c.gamma, c.half_extent, c.scale, c.flux, c.grain] {
                 w.f32(v);
             }
             for t in &c.texels {
@@ -226,7 +226,7 @@ impl CslSet {
             let origin = r.vec3();
             let axis = r.vec3();
             let x_axis = r.vec3();
-            let [kappa, gamma, half_extent, scale, flux] = std::array::from_fn(|_| r.f32());
+            let [kappa, gamma, half_extent, scale, flux, grain] = std::array::from_fn(|_| r.f32());
             if !origin.is_finite()
                 || !unit(axis)
                 || !unit(x_axis)
@@ -236,6 +236,7 @@ impl CslSet {
                 || !(half_extent > 0.0 && half_extent.is_finite())
                 || !(scale >= 0.0 && scale.is_finite())
                 || !flux.is_finite()
+                || !(grain >= 0.0 && grain.is_finite())
             {
                 return Err(ArtifactError::Invalid(format!("CSL {i}")));
             }
@@ -252,6 +253,7 @@ impl CslSet {
                 size: size as u32,
                 scale,
                 flux,
+                grain,
                 texels,
             });
         }

@@ -385,6 +385,7 @@ fn black_partner(src: &Csl, b: Vec3, a: Vec3, centre: Vec3) -> Csl {
         x_axis: (x - a * x.dot(a)).normalize(),
         scale: 0.0,
         flux: 0.0,
+        grain: 0.0,
         texels: Vec::new(),
         ..src.clone()
     }
@@ -1125,6 +1126,8 @@ fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3
         size,
         scale,
         flux,
+        // Only baked images are coded by their grain; this one is never written.
+        grain: 0.0,
         texels: q,
     })
 }
@@ -1132,9 +1135,74 @@ fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3
 /// Magic of a dynamic CSL bake artifact.
 pub const MAGIC: [u8; 8] = *b"CSLDYN\0\0";
 /// Format version of the dynamic artifact.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Largest body a dynamic artifact may declare (decompressed), 4 GiB.
 const MAX_BODY: u64 = 1 << 32;
+
+/// How coarsely the artifact may code an image, against its sampling noise: the rounding error
+/// of the code (RMS) is at most this fraction of the noise a texel's rays leave in it, at every
+/// level. Independent errors add in squares, so 0.1 adds 0.5 % to the noise.
+pub const CODE_NOISE: f32 = 0.1;
+
+/// Most levels of a square-root code: with more, the lowest codes would stand for the same
+/// 16-bit texel, and decoding then coding again would not give the same codes.
+const MAX_LEVELS: u16 = 256;
+
+/// Levels of the square-root code of `c`'s image ([`sqrt_code`]); 0 where its grain is unknown
+/// or its noise too faint for [`MAX_LEVELS`] (the image is then kept as it is).
+///
+/// A texel of value v holds about v / g rays' worth for the grain g, so its noise is √(v·g).
+/// The code c = round(L·√(v / M)) (M the brightest texel, `scale`) has steps of 2√(v·M) / L
+/// at v, whose rounding error is √(v·M) / (L√3) RMS: the same fraction √(M/g) / (L√3) of the
+/// noise at every level (the variance-stabilising root of a count). Solving for that fraction
+/// = [`CODE_NOISE`] gives L. The grain is kept relative to M, so the levels do not change when
+/// the code's flux correction changes the scale.
+pub fn code_levels(c: &Csl) -> u16 {
+    if !(c.grain > 0.0 && c.scale > 0.0) {
+        return 0;
+    }
+    let l = (1.0 / c.grain as f64).sqrt() / (3f64.sqrt() * CODE_NOISE as f64);
+    if l > MAX_LEVELS as f64 {
+        return 0;
+    }
+    l.ceil().max(1.0) as u16
+}
+
+/// The 16-bit texel each code of a `levels`-level square-root code stands for:
+/// round(65535 · (code / levels)²).
+fn sqrt_levels(levels: u16) -> Vec<u16> {
+    let l = levels as f64;
+    (0..=levels)
+        .map(|c| (65535.0 * (c as f64 / l).powi(2)).round() as u16)
+        .collect()
+}
+
+/// `c`'s image coded with `levels` levels of a square-root code (each texel the code nearest
+/// its root), and the scale that keeps the image's flux (the sum of the decoded texels times
+/// it equals the sum of the texels times `c.scale`).
+fn sqrt_code(c: &Csl, levels: u16) -> (f32, Vec<[u16; 3]>) {
+    let table = sqrt_levels(levels);
+    let l = levels as f64;
+    let (mut before, mut after) = (0u64, 0u64);
+    let codes = c
+        .texels
+        .iter()
+        .map(|t| {
+            t.map(|v| {
+                let k = (l * (v as f64 / 65535.0).sqrt()).round() as u16;
+                before += v as u64;
+                after += table[k as usize] as u64;
+                k
+            })
+        })
+        .collect();
+    let scale = if after > 0 {
+        (c.scale as f64 * before as f64 / after as f64) as f32
+    } else {
+        c.scale
+    };
+    (scale, codes)
+}
 
 /// Texels coded for deflate: the channels decorrelated (R, G − R, B − G: the tint of a CSL's
 /// light varies slowly across its image) and each then as the wrapping difference from the
@@ -1160,9 +1228,10 @@ fn delta_code(texels: &mut [[u16; 3]], decode: bool) {
 const DEFLATE_LEVEL: u8 = 6;
 
 impl DynamicSet {
-    /// Serialise: a header, deflated chunks (one per direction: its set with delta-coded
-    /// images, compressed in parallel; then one of the blacks and the triples) and an FNV-1a
-    /// checksum. Deterministic.
+    /// Serialise: a header, deflated chunks (one per direction: its set, the images coded no
+    /// finer than their noise needs ([`code_levels`]) and delta-coded, compressed in parallel;
+    /// then one of the blacks and the triples) and an FNV-1a checksum. Deterministic; reading
+    /// the bytes back and writing them again gives the same bytes.
     ///
     /// ```text
     /// header  magic "CSLDYN\0\0" · version u32 · subdivisions u32 · directions u32 · faces u32
@@ -1171,7 +1240,9 @@ impl DynamicSet {
     ///                tracking rays u64
     ///         per chunk (directions + 1): length u64 · deflated length u64
     ///         the deflated chunks, in that order
-    /// chunk   per direction: its CSL set artifact (texels coded by `delta_code`)
+    /// chunk   per direction: CSLs n u32 · per CSL the levels of its image's code u16
+    ///         ([`code_levels`]; 0: the texels as they are) · its CSL set artifact, the
+    ///         texels replaced by their codes ([`sqrt_code`]) and coded by `delta_code`
     /// last    per direction: blacks u32 · per black: origin, axis, x axis, κ, γ, half extent
     ///                        (12×f32) · image size u32
     ///         per face: triples u32 · per triple 3 × (CSL u16 · image share u8: 0 none,
@@ -1186,10 +1257,17 @@ impl DynamicSet {
             .par_iter()
             .map(|set| {
                 let mut s = set.clone();
+                let mut b = Vec::with_capacity(4 + 2 * s.csls.len());
+                b.extend_from_slice(&(s.csls.len() as u32).to_le_bytes());
                 for c in &mut s.csls {
+                    let levels = code_levels(c);
+                    if levels > 0 {
+                        (c.scale, c.texels) = sqrt_code(c, levels);
+                    }
+                    b.extend_from_slice(&levels.to_le_bytes());
                     delta_code(&mut c.texels, false);
                 }
-                let b = s.to_bytes();
+                b.extend(s.to_bytes());
                 (
                     b.len() as u64,
                     miniz_oxide::deflate::compress_to_vec(&b, DEFLATE_LEVEL),
@@ -1351,9 +1429,35 @@ impl DynamicSet {
         let sets: Vec<CslSet> = chunks[..nv]
             .par_iter()
             .map(|c| {
-                let mut set = CslSet::from_bytes(&inflate(c)?)?;
-                for c in &mut set.csls {
+                let chunk = inflate(c)?;
+                let mut r = Cursor { b: &chunk, at: 0 };
+                let n = r.u32()? as usize;
+                let levels: Vec<u16> = (0..n)
+                    .map(|_| Ok(u16::from_le_bytes(r.slice(2)?.try_into().expect("2 bytes"))))
+                    .collect::<Result<_, ArtifactError>>()?;
+                let mut set = CslSet::from_bytes(&chunk[r.at..])?;
+                if set.csls.len() != n {
+                    return Err(ArtifactError::Invalid(format!(
+                        "{n} code levels for {} CSLs",
+                        set.csls.len()
+                    )));
+                }
+                for (c, &l) in set.csls.iter_mut().zip(&levels) {
                     delta_code(&mut c.texels, true);
+                    if l == 0 {
+                        continue;
+                    }
+                    if l > MAX_LEVELS {
+                        return Err(ArtifactError::Invalid(format!("{l} code levels")));
+                    }
+                    let table = sqrt_levels(l);
+                    for t in &mut c.texels {
+                        for v in t {
+                            *v = *table.get(*v as usize).ok_or_else(|| {
+                                ArtifactError::Invalid(format!("code {v} of {l} levels"))
+                            })?;
+                        }
+                    }
                 }
                 Ok(set)
             })
@@ -1380,6 +1484,7 @@ impl DynamicSet {
                     size,
                     scale: 0.0,
                     flux: 0.0,
+                    grain: 0.0,
                     texels: Vec::new(),
                 };
                 if !f.iter().all(|v| v.is_finite()) || !c.axis.is_normalized() {
@@ -1684,6 +1789,7 @@ mod tests {
                 size: n,
                 scale: 2.0,
                 flux: 0.1,
+                grain: 0.0,
                 texels: image(cx, cy),
             }
         });
@@ -1868,6 +1974,166 @@ mod tests {
         assert!(coded != texels);
         delta_code(&mut coded, true);
         assert_eq!(coded, texels);
+    }
+
+    /// Decoded texels of `c` coded with `levels` levels: (scale, texels).
+    fn sqrt_round_trip(c: &Csl, levels: u16) -> (f32, Vec<[u16; 3]>) {
+        let (scale, codes) = sqrt_code(c, levels);
+        let table = sqrt_levels(levels);
+        (
+            scale,
+            codes.iter().map(|t| t.map(|k| table[k as usize])).collect(),
+        )
+    }
+
+    #[test]
+    fn the_image_code_errs_by_a_tenth_of_the_sampling_noise() {
+        // Two images of the same tinted light from independent rays: half their squared
+        // difference is the sampling noise's variance. Coding one with the levels its grain
+        // gives errs by about CODE_NOISE of that noise (RMS) at every level of brightness, in
+        // every channel (the dimmest, whose grain is finest, sets the levels), and keeps its flux.
+        let mut x = 0x2545_F491u32;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as f32 / 4_294_967_296.0
+        };
+        let mut image = || {
+            let mut rays: Vec<CausticRay> = (0..60_000)
+                .map(|_| {
+                    // A core on a wide disc an eighth as bright; energies vary as Fresnel's do.
+                    let (r, t) = (next(), std::f32::consts::TAU * next());
+                    let r = if next() < 0.5 {
+                        0.15 * r.sqrt()
+                    } else {
+                        0.4 * r.sqrt()
+                    };
+                    CausticRay {
+                        origin: Vec3::new(r * t.cos(), r * t.sin(), -1.0),
+                        dir: Vec3::Z,
+                        energy: Vec3::new(1.0, 0.9, 0.7) * (0.5 + 0.5 * next()),
+                    }
+                })
+                .collect();
+            // The same extent for both images.
+            for k in 0..4 {
+                let t = std::f32::consts::FRAC_PI_2 * k as f32;
+                rays.push(CausticRay {
+                    origin: Vec3::new(0.45 * t.cos(), 0.45 * t.sin(), -1.0),
+                    dir: Vec3::Z,
+                    energy: Vec3::splat(1e-3),
+                });
+            }
+            let kept: Vec<u32> = (0..rays.len() as u32).collect();
+            let img = super::super::image::splat(
+                &rays,
+                &kept,
+                Vec3::ZERO,
+                Vec3::Z,
+                Vec3::X,
+                Vec3::Y,
+                0.004,
+                1e-4,
+                0.008,
+                128,
+            );
+            let (scale, texels) = super::super::image::quantise(&img.texels);
+            Csl {
+                origin: Vec3::ZERO,
+                axis: Vec3::Z,
+                x_axis: Vec3::X,
+                kappa: 0.0,
+                gamma: 0.0,
+                half_extent: img.half,
+                size: img.size,
+                scale,
+                flux: img.flux as f32,
+                grain: (img.grain / scale as f64) as f32,
+                texels,
+            }
+        };
+        let (a, b) = (image(), image());
+        assert_eq!((a.size, a.half_extent), (b.size, b.half_extent));
+        let levels = code_levels(&a);
+        assert!((8..=MAX_LEVELS).contains(&levels), "{levels} levels");
+        let (scale, coded) = sqrt_round_trip(&a, levels);
+        let value = |t: [u16; 3], s: f32| Vec3::from(t.map(|v| v as f32)) * (s / 65535.0);
+        // Squared error and noise per band of brightness (RGB mean, against the brightest) and
+        // channel.
+        let mut bands = [[(0.0f64, 0.0f64, 0u32); 3]; 2];
+        let (mut before, mut after) = (0.0f64, 0.0f64);
+        for ((&ta, &tb), &tc) in a.texels.iter().zip(&b.texels).zip(&coded) {
+            let (va, vb, vc) = (value(ta, a.scale), value(tb, b.scale), value(tc, scale));
+            before += va.element_sum() as f64;
+            after += vc.element_sum() as f64;
+            let level = va.element_sum() / (3.0 * a.scale);
+            let band = match level {
+                l if l < 0.01 => continue,
+                l if l < 0.3 => 0,
+                _ => 1,
+            };
+            for ch in 0..3 {
+                let b = &mut bands[band][ch];
+                b.0 += ((vc[ch] - va[ch]) as f64).powi(2);
+                b.1 += 0.5 * ((vb[ch] - va[ch]) as f64).powi(2);
+                b.2 += 1;
+            }
+        }
+        assert!(
+            (after / before - 1.0).abs() < 1e-5,
+            "flux {}",
+            after / before
+        );
+        for (k, band) in bands.iter().enumerate() {
+            for (ch, (err, noise, n)) in band.iter().enumerate() {
+                let ratio = (err / noise).sqrt();
+                eprintln!(
+                    "band {k}, channel {ch}: {n} texels, error / noise {ratio:.3} ({levels} levels)"
+                );
+                assert!(*n >= 100, "band {k}: {n} texels");
+                assert!(
+                    (0.5 * CODE_NOISE as f64..=1.3 * CODE_NOISE as f64).contains(&ratio),
+                    "band {k}, channel {ch}: error / noise {ratio:.3}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn coded_images_read_back_to_the_same_bytes() {
+        // With a grain the images are coded: smaller, each texel within half a code step of
+        // its value, and decoding then coding again gives the same bytes.
+        let mut d = rotated_copies(0, 0.25);
+        let exact = d.to_bytes().len();
+        for s in &mut d.sets {
+            for c in &mut s.csls {
+                c.grain = 2e-3;
+            }
+        }
+        let bytes = d.to_bytes();
+        let back = DynamicSet::from_bytes(&bytes).unwrap();
+        assert!(back.to_bytes() == bytes);
+        assert!(bytes.len() * 2 < exact, "{} against {exact}", bytes.len());
+        let c = &d.sets[0].csls[0];
+        let levels = code_levels(c);
+        assert_eq!(levels, 130);
+        let (scale, coded) = sqrt_round_trip(c, levels);
+        assert_eq!(back.sets[0].csls[0].texels, coded);
+        assert_eq!(back.sets[0].csls[0].scale, scale);
+        for (t, u) in c.texels.iter().zip(&coded) {
+            for k in 0..3 {
+                // Half a step of the root: √v changes by ½/L, v by about √v/L · 65535^½.
+                let v = t[k] as f32 / 65535.0;
+                let step = (v.sqrt() + 0.5 / levels as f32) / levels as f32 * 65535.0;
+                assert!(
+                    (t[k] as f32 - u[k] as f32).abs() <= step + 1.0,
+                    "{} against {}",
+                    t[k],
+                    u[k]
+                );
+            }
+        }
     }
 
     #[test]

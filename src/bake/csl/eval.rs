@@ -757,6 +757,7 @@ mod tests {
             size,
             scale: 1.0,
             flux: 0.0,
+            grain: 0.0,
             texels,
         };
         // The receiver at z = 1/κ: the central rays focus there, the outer ones before it

@@ -7,7 +7,7 @@
 //! the light, then quantised to 16 bits.
 
 use super::trace::CausticRay;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 /// The rays of one image are splatted in this many fixed shares, in parallel, each into an
@@ -23,6 +23,12 @@ pub struct PlaneImage {
     pub texels: Vec<Vec3>,
     /// Flux actually deposited (per unit irradiance, m²).
     pub flux: f64,
+    /// The image's grain: the mean contribution of one ray to a texel, weighted by the texels'
+    /// values (texel units), in the channel where it is finest. A texel of value v holds about
+    /// v / grain rays' worth, so its sampling noise is about √(v · grain) (sums of weighted
+    /// rays: the variance of a texel is the sum of its contributions' squares, whose ratio to
+    /// their sum this averages). 0 for an empty image.
+    pub grain: f64,
 }
 
 /// Texels per side of an image covering [-half, half]² (m): 128, 256 or 512 (the paper's
@@ -76,29 +82,42 @@ pub fn splat(
     let pix = 2.0 * half / size as f32;
     let pre = 0.25 * pix * pix; // (pix/2)² prefilter variance
     let share = pts.len().div_ceil(SHARES).max(1);
-    let parts: Vec<(Vec<Vec3>, f64)> = pts
+    let parts: Vec<(Vec<Vec3>, DVec3, DVec3)> = pts
         .par_chunks(share)
         .map(|part| splat_share(part, half, pix, pre, delta, size))
         .collect();
     let mut parts = parts.into_iter();
-    let (mut texels, mut flux) = parts
-        .next()
-        .unwrap_or_else(|| (vec![Vec3::ZERO; (size * size) as usize], 0.0));
-    for (t, f) in parts {
+    let (mut texels, mut flux, mut squares) = parts.next().unwrap_or_else(|| {
+        (
+            vec![Vec3::ZERO; (size * size) as usize],
+            DVec3::ZERO,
+            DVec3::ZERO,
+        )
+    });
+    for (t, f, q) in parts {
         for (a, b) in texels.iter_mut().zip(&t) {
             *a += *b;
         }
         flux += f;
+        squares += q;
     }
+    // Per channel, Σ over texels of the values is the flux over the texel area.
+    let area = pix as f64 * pix as f64;
+    let grain = (0..3)
+        .filter(|&k| flux[k] > 0.0)
+        .map(|k| squares[k] * area / flux[k])
+        .fold(f64::INFINITY, f64::min);
     PlaneImage {
         size,
         half,
         texels,
-        flux,
+        flux: flux.element_sum() / 3.0,
+        grain: if grain.is_finite() { grain } else { 0.0 },
     }
 }
 
-/// The image of one share of the splats (plane x, y, radial semi-axis, flux) and its flux.
+/// The image of one share of the splats (plane x, y, radial semi-axis, flux), its flux and the
+/// sum over its texels of the squares of the rays' contributions, per channel.
 fn splat_share(
     pts: &[(f32, f32, f32, Vec3)],
     half: f32,
@@ -106,9 +125,9 @@ fn splat_share(
     pre: f32,
     delta: f32,
     size: u32,
-) -> (Vec<Vec3>, f64) {
+) -> (Vec<Vec3>, DVec3, DVec3) {
     let mut texels = vec![Vec3::ZERO; (size * size) as usize];
-    let mut flux = 0.0f64;
+    let (mut flux, mut squares) = (DVec3::ZERO, DVec3::ZERO);
     let mut weights: Vec<(usize, f32)> = Vec::new();
     for &(px, py, major, e) in pts {
         let r = (px * px + py * py).sqrt();
@@ -150,12 +169,16 @@ fn splat_share(
             sum = 1.0;
         }
         let scale = 1.0 / (sum * pix * pix);
+        let mut w2 = 0.0f32;
         for &(k, wgt) in &weights {
             texels[k] += e * (wgt * scale);
+            w2 += wgt * wgt;
         }
-        flux += (e.element_sum() / 3.0) as f64;
+        let e = e.as_dvec3();
+        flux += e;
+        squares += e * e * (w2 * scale * scale) as f64;
     }
-    (texels, flux)
+    (texels, flux, squares)
 }
 
 /// Linear 16-bit quantisation with one scale per image: value = q / 65535 · scale.
@@ -198,6 +221,14 @@ pub fn halve(c: &super::Csl) -> super::Csl {
     super::Csl {
         size: m as u32,
         scale,
+        // A ray's contribution to a coarse texel is between a quarter of its contribution to a
+        // fine one (a narrow splat) and all of it (a splat over the four): the smaller bound
+        // keeps the grain's promise (noise no smaller than it says).
+        grain: if scale > 0.0 {
+            c.grain * c.scale / (4.0 * scale)
+        } else {
+            0.0
+        },
         texels,
         ..c.clone()
     }
@@ -261,6 +292,7 @@ mod tests {
             size,
             scale,
             flux,
+            grain: 0.0,
             texels,
         }
     }

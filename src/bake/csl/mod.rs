@@ -227,6 +227,11 @@ pub struct Csl {
     pub scale: f32,
     /// Flux of the CSL per unit irradiance of the light (m²), i.e. its share of the energy.
     pub flux: f32,
+    /// The image's grain relative to `scale`: the mean contribution of one traced ray to a
+    /// texel ([`image::PlaneImage::grain`]) over the value of level 65535. It sets the image's
+    /// sampling noise; 0 where unknown. The dynamic artifact codes the image no finer than that
+    /// noise needs.
+    pub grain: f32,
     /// Row-major RGB texels, row 0 at -y.
     pub texels: Vec<[u16; 3]>,
 }
@@ -617,6 +622,11 @@ pub(crate) fn bake_csl_with(
             size: img.size,
             scale,
             flux: img.flux as f32,
+            grain: if scale > 0.0 {
+                (img.grain / scale as f64) as f32
+            } else {
+                0.0
+            },
             texels,
         });
     }
