@@ -2123,7 +2123,8 @@ mod tests {
         assert_eq!(back.sets[0].csls[0].scale, scale);
         for (t, u) in c.texels.iter().zip(&coded) {
             for k in 0..3 {
-                // Half a step of the root: √v changes by ½/L, v by about √v/L · 65535^½.
+                // v against the brightest: |√v − k/L| ≤ 1/(2L), so |v − (k/L)²| ≤
+                // (√v + 1/(4L)) / L; and the table's rounding to 16 bits.
                 let v = t[k] as f32 / 65535.0;
                 let step = (v.sqrt() + 0.5 / levels as f32) / levels as f32 * 65535.0;
                 assert!(
