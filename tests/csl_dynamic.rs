@@ -193,8 +193,8 @@ fn at_a_bake_direction_the_interpolation_is_the_baked_set() {
 
 /// The light crosses from one face into its neighbour in small steps: the caustic on the floor
 /// changes smoothly, and no more at the boundary than elsewhere. Measured (this bake, frames
-/// 0.50° apart, images coded as the artifact keeps them): relative L1 change 0.78–1.02 % per
-/// step, 0.87 % across the boundary; the flux changes by at most 0.17 % between frames (with
+/// 0.50° apart, images coded as the artifact keeps them): relative L1 change 0.77–1.00 % per
+/// step, 0.85 % across the boundary; the flux changes by at most 0.19 % between frames (with
 /// the images as baked: 0.65–0.91 %, 0.79 % and 0.14 %; 1.0–1.4 %, 1.31 % and 0.31 % when each pixel
 /// averaged over a disc of its area, which put the sphere's focus into none, one or two
 /// pixels). (A first

@@ -424,16 +424,27 @@ impl Tracked {
 
     /// The rays (indices, ascending) the CSL's model still describes; `cols` holds every ray.
     fn members(&self, cols: &Columns, cos_angle: f32, fit_cos: f32) -> Vec<u32> {
-        let (o, a, band, kappa, gamma) =
-            (self.origin, self.axis, self.band, self.kappa, self.gamma);
+        let (o, a, kappa, gamma) = (self.origin, self.axis, self.kappa, self.gamma);
+        let band2 = (self.band.0 * self.band.0, self.band.1 * self.band.1);
+        let fit_cos2 = fit_cos * fit_cos;
+        let acute = fit_cos > 0.0;
         cols.filter(move |q, d| {
             // Every test made, and the outcomes combined without branches, so that columns of
-            // rays are tested several at a time; the same operations as one at a time.
+            // rays are tested several at a time; the same operations as one at a time. The
+            // radius and the angle to the direction the focus law wants (w) are compared
+            // squared: d·ŵ ≥ cos is d·w ≥ 0 and (d·w)² ≥ cos²·|w|² for a positive cos, d·w ≥ 0
+            // or (d·w)² ≤ cos²·|w|² otherwise.
             let da = d.dot(a);
             let p = q + d * ((o - q).dot(a) / da) - o;
-            let rho = p.length();
-            let want = (a - p * (kappa + gamma * rho)).normalize_or_zero();
-            (da >= cos_angle) & (rho >= band.0) & (rho <= band.1) & (d.dot(want) >= fit_cos)
+            let r2 = p.length_squared();
+            let w = a - p * (kappa + gamma * r2.sqrt());
+            let (dw, w2) = (d.dot(w), w.length_squared());
+            let fits = if acute {
+                (dw >= 0.0) & (dw * dw >= fit_cos2 * w2) & (w2 > 0.0)
+            } else {
+                (dw >= 0.0) | (dw * dw <= fit_cos2 * w2)
+            };
+            (da >= cos_angle) & (r2 >= band2.0) & (r2 <= band2.1) & fits
         })
     }
 
