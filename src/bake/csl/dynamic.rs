@@ -432,8 +432,8 @@ impl Tracked {
             // Every test made, and the outcomes combined without branches, so that columns of
             // rays are tested several at a time; the same operations as one at a time. The
             // radius and the angle to the direction the focus law wants (w) are compared
-            // squared: d·ŵ ≥ cos is d·w ≥ 0 and (d·w)² ≥ cos²·|w|² for a positive cos, d·w ≥ 0
-            // or (d·w)² ≤ cos²·|w|² otherwise.
+            // squared: d·ŵ ≥ cos is d·w ≥ 0, (d·w)² ≥ cos²·|w|² and w ≠ 0 for a positive cos,
+            // d·w ≥ 0 or (d·w)² ≤ cos²·|w|² otherwise.
             let da = d.dot(a);
             let p = q + d * ((o - q).dot(a) / da) - o;
             let r2 = p.length_squared();
@@ -1985,6 +1985,79 @@ mod tests {
         assert!(coded != texels);
         delta_code(&mut coded, true);
         assert_eq!(coded, texels);
+    }
+
+    #[test]
+    fn tracking_membership_is_the_model_test() {
+        // The squared comparisons of `Tracked::members` take the rays the direct test takes:
+        // within the angle of the axis, crossing the light plane inside the band, within the
+        // fit threshold of the direction the focus law wants there. Rays within rounding of a
+        // threshold may go either way.
+        let mut x = 0x1234_5678u32;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as f32 / 4_294_967_296.0 * 2.0 - 1.0
+        };
+        let a = Vec3::new(0.1, -1.0, 0.2).normalize();
+        let rays: Vec<CausticRay> = (0..200_000)
+            .map(|_| {
+                let origin = Vec3::new(next(), next(), next()) * 0.3 + a * 0.5;
+                // Directions near the axis, many near the focus law's (focus 1 m ahead).
+                let aim = a * 1.5 - Vec3::new(next(), next(), next()) * 0.3;
+                let dir =
+                    (aim - origin * 0.7 + Vec3::new(next(), next(), next()) * 0.05).normalize();
+                CausticRay {
+                    origin,
+                    dir,
+                    energy: Vec3::ONE,
+                }
+            })
+            .collect();
+        let cols = Columns::all(&rays);
+        for (fit_deg, kappa, gamma) in [(3.0f32, 1.0, 0.4), (20.0, 0.5, -0.3), (120.0, 1.0, 0.0)] {
+            let t = Tracked {
+                origin: a * 0.5,
+                axis: a,
+                kappa,
+                gamma,
+                band: (0.02, 0.2),
+                flux: 1.0,
+            };
+            let (cos_angle, fit_cos) = (60f32.to_radians().cos(), fit_deg.to_radians().cos());
+            let got: BTreeSet<u32> = t.members(&cols, cos_angle, fit_cos).into_iter().collect();
+            let (mut taken, mut unsure) = (0, 0);
+            for (i, r) in rays.iter().enumerate() {
+                let (q, d) = (r.origin, r.dir);
+                let da = d.dot(a);
+                let p = q + d * ((t.origin - q).dot(a) / da) - t.origin;
+                let rho = p.length();
+                let want = (a - p * (kappa + gamma * rho)).normalize_or_zero();
+                let c = d.dot(want);
+                let margin = (da - cos_angle)
+                    .abs()
+                    .min((rho - t.band.0).abs())
+                    .min((rho - t.band.1).abs())
+                    .min((c - fit_cos).abs());
+                if margin < 1e-5 {
+                    unsure += 1;
+                    continue;
+                }
+                let want_in = da >= cos_angle && rho >= t.band.0 && rho <= t.band.1 && c >= fit_cos;
+                assert_eq!(
+                    got.contains(&(i as u32)),
+                    want_in,
+                    "ray {i}, fit {fit_deg}°"
+                );
+                taken += want_in as u32;
+            }
+            eprintln!("fit {fit_deg}°: {taken} members, {unsure} within rounding");
+            assert!(
+                taken > 1000 && unsure < 1000,
+                "{taken} members, {unsure} unsure"
+            );
+        }
     }
 
     /// Decoded texels of `c` coded with `levels` levels: (scale, texels).
