@@ -1616,6 +1616,7 @@ impl<'a> Cursor<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::reference::sampling::Pcg;
 
     #[test]
     fn icosphere_counts_orientation_and_edges() {
@@ -1965,13 +1966,8 @@ mod tests {
 
     #[test]
     fn texel_coding_restores_every_bit() {
-        let mut x = 0x9E37_79B9u32;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x as u16
-        };
+        let mut rng = Pcg::new(1, 0);
+        let mut next = || rng.next_u32() as u16;
         let mut texels: Vec<[u16; 3]> = (0..4096).map(|_| [next(), next(), next()]).collect();
         texels.extend([
             [0, 65535, 0],
@@ -1993,13 +1989,8 @@ mod tests {
         // within the angle of the axis, crossing the light plane inside the band, within the
         // fit threshold of the direction the focus law wants there. Rays within rounding of a
         // threshold may go either way.
-        let mut x = 0x1234_5678u32;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x as f32 / 4_294_967_296.0 * 2.0 - 1.0
-        };
+        let mut rng = Pcg::new(2, 0);
+        let mut next = move || rng.f32() * 2.0 - 1.0;
         let a = Vec3::new(0.1, -1.0, 0.2).normalize();
         let rays: Vec<CausticRay> = (0..200_000)
             .map(|_| {
@@ -2076,13 +2067,8 @@ mod tests {
         // difference is the sampling noise's variance. Coding one with the levels its grain
         // gives errs by about CODE_NOISE of that noise (RMS) at every level of brightness, in
         // every channel (the dimmest, whose grain is finest, sets the levels), and keeps its flux.
-        let mut x = 0x2545_F491u32;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            x as f32 / 4_294_967_296.0
-        };
+        let mut rng = Pcg::new(3, 0);
+        let mut next = move || rng.f32();
         let mut image = || {
             let mut rays: Vec<CausticRay> = (0..60_000)
                 .map(|_| {
