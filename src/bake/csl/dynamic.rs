@@ -409,8 +409,8 @@ struct Tracked {
 }
 
 impl Tracked {
-    fn new(c: &Csl) -> Tracked {
-        let (lo, hi, _) = image_band(c);
+    /// `band`: the CSL's [`image_band`].
+    fn new(c: &Csl, &(lo, hi, _): &(f32, f32, f32)) -> Tracked {
         let margin = 2.0 * c.patch();
         Tracked {
             origin: c.origin,
@@ -535,37 +535,22 @@ struct EdgeMatch {
     rays: u64,
 }
 
-/// Track the CSLs of both ends of edge (s0, s1) across it and match them.
-fn match_edge(
-    accel: &Accel,
-    sets: [&CslSet; 2],
-    params: &DynamicParams,
-    cancel: &AtomicBool,
-) -> Option<EdgeMatch> {
-    let (s0, s1) = (sets[0].light_dir, sets[1].light_dir);
-    let (centre, radius) = (sets[0].centre, sets[0].radius);
-    let cos_angle = params.csl.angle_threshold_deg.to_radians().cos();
-    let trace_params = CslParams {
-        grid: params.track_grid,
-        ..params.csl
-    };
-    let n = params.steps;
-    let angle = s0.angle_between(s1);
-    let dir_at = |k: u32| -> Vec3 {
-        let t = k as f32 / n as f32;
-        if angle < 1e-6 {
-            return s0;
-        }
-        ((s0 * ((1.0 - t) * angle).sin() + s1 * (t * angle).sin()) / angle.sin()).normalize()
-    };
-    // Rays of every step; step 0 is s0 and step n is s1.
-    let mut rays = Vec::with_capacity(n as usize + 1);
-    let mut traced = 0u64;
-    for k in 0..=n {
-        if cancel.load(Ordering::Relaxed) {
-            return None;
-        }
-        let light = dir_at(k);
+/// The rays of one tracking step: the caustic rays of a grid of `params.track_grid`² rays
+/// along `light`, as columns too, and how many grid rays hit the object. None when canceled.
+struct StepRays {
+    rays: Vec<CausticRay>,
+    cols: Columns,
+    hits: u64,
+}
+
+impl StepRays {
+    fn trace(
+        accel: &Accel,
+        light: Vec3,
+        (centre, radius): (Vec3, f32),
+        params: &DynamicParams,
+        cancel: &AtomicBool,
+    ) -> Option<StepRays> {
         let (u, v) = light.any_orthonormal_pair();
         let grid = RayGrid {
             light,
@@ -575,48 +560,106 @@ fn match_edge(
             radius,
             n: params.track_grid,
         };
-        let (r, tot) = trace::trace_grid(accel, &grid, &trace_params, &|_| {
+        let trace_params = CslParams {
+            grid: params.track_grid,
+            ..params.csl
+        };
+        let (rays, tot) = trace::trace_grid(accel, &grid, &trace_params, &|_| {
             !cancel.load(Ordering::Relaxed)
         })?;
-        traced += tot.hits;
-        rays.push(r);
+        let cols = Columns::all(&rays);
+        Some(StepRays {
+            rays,
+            cols,
+            hits: tot.hits,
+        })
     }
-    let cols: Vec<Columns> = rays.iter().map(|r| Columns::all(r)).collect();
+}
+
+/// One end of an edge: its set, the [`image_band`] of each of its CSLs, and the rays traced
+/// along its direction for tracking (shared by the five or six edges that meet there).
+struct End<'a> {
+    set: &'a CslSet,
+    bands: &'a [(f32, f32, f32)],
+    rays: &'a StepRays,
+}
+
+/// Track the CSLs of both ends of edge (s0, s1) across it and match them.
+fn match_edge(
+    accel: &Accel,
+    ends: [End; 2],
+    params: &DynamicParams,
+    cancel: &AtomicBool,
+) -> Option<EdgeMatch> {
+    let sets = [ends[0].set, ends[1].set];
+    let (s0, s1) = (sets[0].light_dir, sets[1].light_dir);
+    let (centre, radius) = (sets[0].centre, sets[0].radius);
+    let cos_angle = params.csl.angle_threshold_deg.to_radians().cos();
+    let n = params.steps;
+    let angle = s0.angle_between(s1);
+    // The ends exactly (their rays are those traced along the sets' directions).
+    let dir_at = |k: u32| -> Vec3 {
+        let t = k as f32 / n as f32;
+        if k == 0 || angle < 1e-6 {
+            return s0;
+        }
+        if k == n {
+            return s1;
+        }
+        ((s0 * ((1.0 - t) * angle).sin() + s1 * (t * angle).sin()) / angle.sin()).normalize()
+    };
+    // Rays of every step; step 0 is s0 and step n is s1, traced once for every edge there.
+    let mut inner = Vec::with_capacity(n as usize);
+    let mut traced = ends[0].rays.hits + ends[1].rays.hits;
+    for k in 1..n {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let r = StepRays::trace(accel, dir_at(k), (centre, radius), params, cancel)?;
+        traced += r.hits;
+        inner.push(r);
+    }
+    let step: Vec<&StepRays> = std::iter::once(ends[0].rays)
+        .chain(&inner)
+        .chain(std::iter::once(ends[1].rays))
+        .collect();
     let fit_cos = params.csl.fit_threshold_deg.to_radians().cos();
     let area = (2.0 * radius / params.track_grid as f32).powi(2);
     // Each step first turns the axes with the light about the bounding centre (exact for a
     // sphere, a prediction otherwise; a CSL whose rays are lost keeps moving that way), then
     // corrects them on the step's rays.
-    let track = |csls: &[Csl], steps: &[usize]| -> Vec<(Vec3, Vec3)> {
-        let mut axes: Vec<Tracked> = csls.iter().map(Tracked::new).collect();
+    let track = |end: &End, steps: &[usize]| -> Vec<(Vec3, Vec3)> {
+        let csls = end.set.csls.iter().zip(end.bands);
+        let mut axes: Vec<Tracked> = csls.map(|(c, band)| Tracked::new(c, band)).collect();
         for w in steps.windows(2) {
             let q = Quat::from_rotation_arc(dir_at(w[0] as u32), dir_at(w[1] as u32));
             axes.par_iter_mut().for_each(|t| {
                 t.origin = centre + q * (t.origin - centre);
                 t.axis = (q * t.axis).normalize();
-                t.step((&rays[w[1]], &cols[w[1]]), cos_angle, fit_cos, area)
+                t.step(
+                    (&step[w[1]].rays, &step[w[1]].cols),
+                    cos_angle,
+                    fit_cos,
+                    area,
+                )
             });
         }
         axes.iter().map(|t| (t.origin, t.axis)).collect()
     };
     let steps: Vec<usize> = (0..=n as usize).collect();
     let back: Vec<usize> = steps.iter().rev().copied().collect();
-    let fwd = track(&sets[0].csls, &steps);
-    let bwd = track(&sets[1].csls, &back);
+    let fwd = track(&ends[0], &steps);
+    let bwd = track(&ends[1], &back);
     // Beyond the paper's axis distance: the CSLs' mean image radii and their fluxes (a
     // quarter radius per factor e), which tell apart the concentric CSLs of one axis.
-    let band = |c: &Csl| image_band(c).2;
-    let (band0, band1): (Vec<f32>, Vec<f32>) = (
-        sets[0].csls.iter().map(band).collect(),
-        sets[1].csls.iter().map(band).collect(),
-    );
+    let (band0, band1) = (ends[0].bands, ends[1].bands);
     let log_flux = |c: &Csl| c.flux.max(1e-12).ln();
 
     // Pairs by increasing distance between s0's moved axes and s1's axes.
     let mut cand: Vec<(f32, u16, u16)> = Vec::new();
     for (i, a) in fwd.iter().enumerate() {
         for (j, c) in sets[1].csls.iter().enumerate() {
-            let dr = band0[i] - band1[j];
+            let dr = band0[i].2 - band1[j].2;
             let df = 0.25 * radius * (log_flux(&sets[0].csls[i]) - log_flux(c));
             let d =
                 (axis_distance(*a, (c.origin, c.axis), centre, radius).powi(2) + dr * dr + df * df)
@@ -846,20 +889,33 @@ pub fn bake_dynamic(
     let sets: Vec<CslSet> = sets.into_iter().collect::<Result<_, _>>()?;
     let time_bakes = t0.elapsed();
 
-    // 2. Tracking and matching per edge.
+    // 2. Tracking and matching per edge, with the rays along every direction traced once for
+    // the edges that meet there (and the CSLs' image bands found once).
     let t0 = Instant::now();
     let edges = ico.edges();
     let done = AtomicU32::new(0);
     check("tracking", 0, edges.len() as u32);
+    let bounds = (sets[0].centre, sets[0].radius);
+    let bands: Vec<Vec<(f32, f32, f32)>> = sets
+        .par_iter()
+        .map(|s| s.csls.iter().map(image_band).collect())
+        .collect();
+    let along: Vec<Option<StepRays>> = sets
+        .par_iter()
+        .map(|s| StepRays::trace(&accel, s.light_dir, bounds, params, &cancel))
+        .collect();
+    let Some(along) = along.into_iter().collect::<Option<Vec<_>>>() else {
+        return Err(BakeError::Canceled);
+    };
+    let end = |i: u32| End {
+        set: &sets[i as usize],
+        bands: &bands[i as usize],
+        rays: &along[i as usize],
+    };
     let matches: Vec<Option<EdgeMatch>> = edges
         .par_iter()
         .map(|&[i, j]| {
-            let m = match_edge(
-                &accel,
-                [&sets[i as usize], &sets[j as usize]],
-                params,
-                &cancel,
-            )?;
+            let m = match_edge(&accel, [end(i), end(j)], params, &cancel)?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
             check("tracking", d, edges.len() as u32).then_some(m)
         })
