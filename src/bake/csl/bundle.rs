@@ -416,13 +416,7 @@ impl Shares {
 }
 
 impl Columns {
-    /// All of `rays`, in order.
-    pub(crate) fn all(rays: &[CausticRay]) -> Columns {
-        let idx: Vec<u32> = (0..rays.len() as u32).collect();
-        Self::of(rays, &idx)
-    }
-
-    fn of(rays: &[CausticRay], idx: &[u32]) -> Columns {
+    pub(crate) fn of(rays: &[CausticRay], idx: &[u32]) -> Columns {
         let n = idx.len();
         let mut c = Columns {
             idx: idx.to_vec(),
@@ -567,9 +561,28 @@ impl Columns {
         self.filter_range(range, test)
     }
 
+    /// Ray indices of the rays at positions in `ranges` for which `test` holds, ascending, on
+    /// this thread.
+    pub(crate) fn filter_ranges(
+        &self,
+        ranges: impl Iterator<Item = std::ops::Range<usize>>,
+        test: impl Fn(Vec3, Vec3) -> bool + Copy,
+    ) -> Vec<u32> {
+        let mut out: Vec<u32> = Vec::new();
+        for range in ranges {
+            out.extend(
+                self.filter_range_best(range, test)
+                    .into_iter()
+                    .map(|p| self.idx[p as usize]),
+            );
+        }
+        out.sort_unstable();
+        out
+    }
+
     /// Positions (ascending) of the rays (origin, direction) for which `test` holds; in
     /// parallel, eight rays at a time where the processor has AVX2.
-    pub(crate) fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
+    fn filter(&self, test: impl Fn(Vec3, Vec3) -> bool + Sync + Copy) -> Vec<u32> {
         let n = self.len();
         let parts: Vec<Vec<u32>> = (0..n.div_ceil(SCAN_SHARE))
             .into_par_iter()

@@ -422,13 +422,15 @@ impl Tracked {
         }
     }
 
-    /// The rays (indices, ascending) the CSL's model still describes; `cols` holds every ray.
-    fn members(&self, cols: &Columns, cos_angle: f32, fit_cos: f32) -> Vec<u32> {
+    /// The rays (indices, ascending) of a step the CSL's model still describes, found among
+    /// the groups of directions within the angle threshold of its axis.
+    fn members(&self, step: &StepRays, cos_angle: f32, fit_cos: f32) -> Vec<u32> {
         let (o, a, kappa, gamma) = (self.origin, self.axis, self.kappa, self.gamma);
         let band2 = (self.band.0 * self.band.0, self.band.1 * self.band.1);
         let fit_cos2 = fit_cos * fit_cos;
         let acute = fit_cos > 0.0;
-        cols.filter(move |q, d| {
+        let near = step.near(a, cos_angle.clamp(-1.0, 1.0).acos());
+        step.cols.filter_ranges(near, move |q, d| {
             // Every test made, and the outcomes combined without branches, so that columns of
             // rays are tested several at a time; the same operations as one at a time. The
             // radius and the angle to the direction the focus law wants (w) are compared
@@ -451,16 +453,11 @@ impl Tracked {
     /// `area`: cross-section of one traced ray (m²). A membership carrying more than twice or
     /// less than half the CSL's flux has taken in another bundle's rays or lost its own: the
     /// predicted axis is kept.
-    fn step(
-        &mut self,
-        (rays, cols): (&[CausticRay], &Columns),
-        cos_angle: f32,
-        fit_cos: f32,
-        area: f32,
-    ) {
+    fn step(&mut self, step: &StepRays, cos_angle: f32, fit_cos: f32, area: f32) {
+        let rays = &step.rays;
         let mut members: Vec<u32> = Vec::new();
         for _ in 0..3 {
-            let next = self.members(cols, cos_angle, fit_cos);
+            let next = self.members(step, cos_angle, fit_cos);
             if next.is_empty() || next == members {
                 return;
             }
@@ -536,14 +533,80 @@ struct EdgeMatch {
 }
 
 /// The rays of one tracking step: the caustic rays of a grid of `params.track_grid`² rays
-/// along `light`, as columns too, and how many grid rays hit the object. None when canceled.
+/// along `light`, as columns grouped by direction ([`DIRECTION_BINS`]), and how many grid rays
+/// hit the object.
 struct StepRays {
     rays: Vec<CausticRay>,
     cols: Columns,
+    /// Per group of directions: the axis of a cone holding them, its half-angle (radians) and
+    /// the group's positions in `cols`.
+    bins: Vec<(Vec3, f32, std::ops::Range<usize>)>,
     hits: u64,
 }
 
+/// Cells per side of each cube face by which a step's rays are grouped by direction: 384
+/// groups of about 11°, so that a CSL's membership test passes over the groups that lie
+/// wholly outside its angle threshold (60°). Two thirds of a teapot's tracking rays are
+/// outside a CSL's 65°.
+const DIRECTION_BINS: usize = 8;
+
+/// The group of direction `d` (a cube-map cell).
+fn direction_bin(d: Vec3) -> usize {
+    let a = d.abs();
+    let (face, u, v, m) = if a.x >= a.y && a.x >= a.z {
+        (usize::from(d.x < 0.0), d.y, d.z, a.x)
+    } else if a.y >= a.z {
+        (2 + usize::from(d.y < 0.0), d.x, d.z, a.y)
+    } else {
+        (4 + usize::from(d.z < 0.0), d.x, d.y, a.z)
+    };
+    let cell = |t: f32| {
+        (((t / m.max(1e-30) + 1.0) * 0.5 * DIRECTION_BINS as f32) as usize).min(DIRECTION_BINS - 1)
+    };
+    (face * DIRECTION_BINS + cell(u)) * DIRECTION_BINS + cell(v)
+}
+
 impl StepRays {
+    fn of(rays: Vec<CausticRay>, hits: u64) -> StepRays {
+        let mut order: Vec<(u32, u32)> = rays
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (direction_bin(r.dir) as u32, i as u32))
+            .collect();
+        order.sort_unstable();
+        let idx: Vec<u32> = order.iter().map(|&(_, i)| i).collect();
+        let cols = Columns::of(&rays, &idx);
+        let mut bins = Vec::new();
+        let mut start = 0;
+        while start < order.len() {
+            let bin = order[start].0;
+            let end = start + order[start..].partition_point(|&(b, _)| b == bin);
+            let members = || idx[start..end].iter().map(|&i| rays[i as usize].dir);
+            let axis = members()
+                .sum::<Vec3>()
+                .normalize_or(members().next().unwrap_or(Vec3::Z));
+            let cos = members().map(|d| d.dot(axis)).fold(1.0f32, f32::min);
+            bins.push((axis, cos.clamp(-1.0, 1.0).acos(), start..end));
+            start = end;
+        }
+        StepRays {
+            rays,
+            cols,
+            bins,
+            hits,
+        }
+    }
+
+    /// The positions of the groups with directions within `angle` (radians) of `axis`: a
+    /// group is left out where its cone lies wholly beyond (by a margin far above rounding).
+    fn near(&self, axis: Vec3, angle: f32) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        self.bins.iter().filter_map(move |(a, half, range)| {
+            let apart = a.dot(axis).clamp(-1.0, 1.0).acos();
+            (apart - half <= angle + 1e-3).then(|| range.clone())
+        })
+    }
+
+    /// The rays along `light`; None when canceled.
     fn trace(
         accel: &Accel,
         light: Vec3,
@@ -567,12 +630,7 @@ impl StepRays {
         let (rays, tot) = trace::trace_grid(accel, &grid, &trace_params, &|_| {
             !cancel.load(Ordering::Relaxed)
         })?;
-        let cols = Columns::all(&rays);
-        Some(StepRays {
-            rays,
-            cols,
-            hits: tot.hits,
-        })
+        Some(StepRays::of(rays, tot.hits))
     }
 }
 
@@ -636,12 +694,7 @@ fn match_edge(
             axes.par_iter_mut().for_each(|t| {
                 t.origin = centre + q * (t.origin - centre);
                 t.axis = (q * t.axis).normalize();
-                t.step(
-                    (&step[w[1]].rays, &step[w[1]].cols),
-                    cos_angle,
-                    fit_cos,
-                    area,
-                )
+                t.step(step[w[1]], cos_angle, fit_cos, area)
             });
         }
         axes.iter().map(|t| (t.origin, t.axis)).collect()
@@ -2048,13 +2101,17 @@ mod tests {
         let mut rng = Pcg::new(2, 0);
         let mut next = move || rng.f32() * 2.0 - 1.0;
         let a = Vec3::new(0.1, -1.0, 0.2).normalize();
-        let rays: Vec<CausticRay> = (0..200_000)
-            .map(|_| {
+        // Directions near the axis, many near the focus law's (focus 1 m ahead); a third in
+        // every direction, as a teapot leaves them.
+        let rays: Vec<CausticRay> = (0..300_000)
+            .map(|k| {
                 let origin = Vec3::new(next(), next(), next()) * 0.3 + a * 0.5;
-                // Directions near the axis, many near the focus law's (focus 1 m ahead).
-                let aim = a * 1.5 - Vec3::new(next(), next(), next()) * 0.3;
-                let dir =
-                    (aim - origin * 0.7 + Vec3::new(next(), next(), next()) * 0.05).normalize();
+                let dir = if k % 3 == 2 {
+                    Vec3::new(next(), next(), next()).normalize_or(a)
+                } else {
+                    let aim = a * 1.5 - Vec3::new(next(), next(), next()) * 0.3;
+                    (aim - origin * 0.7 + Vec3::new(next(), next(), next()) * 0.05).normalize()
+                };
                 CausticRay {
                     origin,
                     dir,
@@ -2062,7 +2119,19 @@ mod tests {
                 }
             })
             .collect();
-        let cols = Columns::all(&rays);
+        let step = StepRays::of(rays.clone(), 0);
+        // Every ray in one group; the groups within 60° of the axis are a part of them.
+        assert_eq!(step.bins.len(), 6 * DIRECTION_BINS * DIRECTION_BINS);
+        let mut seen: Vec<u32> = step.cols.filter_ranges(step.near(a, 7.0), |_, _| true);
+        seen.dedup();
+        assert_eq!(seen.len(), rays.len());
+        let near: usize = step.near(a, 60f32.to_radians()).map(|r| r.len()).sum();
+        // The uniform third: a quarter of the sphere within 60°, less than half with the
+        // groups' width.
+        assert!(
+            (200_000..250_000).contains(&near),
+            "{near} rays in the groups near the axis"
+        );
         for (fit_deg, kappa, gamma) in [(3.0f32, 1.0, 0.4), (20.0, 0.5, -0.3), (120.0, 1.0, 0.0)] {
             let t = Tracked {
                 origin: a * 0.5,
@@ -2073,7 +2142,9 @@ mod tests {
                 flux: 1.0,
             };
             let (cos_angle, fit_cos) = (60f32.to_radians().cos(), fit_deg.to_radians().cos());
-            let got: BTreeSet<u32> = t.members(&cols, cos_angle, fit_cos).into_iter().collect();
+            let got = t.members(&step, cos_angle, fit_cos);
+            assert!(got.windows(2).all(|w| w[0] < w[1]), "members ascending");
+            let got: BTreeSet<u32> = got.into_iter().collect();
             let (mut taken, mut unsure) = (0, 0);
             for (i, r) in rays.iter().enumerate() {
                 let (q, d) = (r.origin, r.dir);
