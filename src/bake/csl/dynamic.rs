@@ -358,8 +358,9 @@ pub fn dynamic_source_hash(
     Some(h.finish())
 }
 
-/// Revision of the matching and triple algorithm (part of the source hash).
-pub const ALGORITHM: u32 = 2;
+/// Revision of the matching and triple algorithm (part of the source hash). 3: the first and
+/// last tracking steps are exactly the bake directions (a few black partners moved).
+pub const ALGORITHM: u32 = 3;
 
 /// The point of the axis line (b, a) nearest to `c`.
 fn axis_point(b: Vec3, a: Vec3, c: Vec3) -> Vec3 {
@@ -666,7 +667,8 @@ fn match_edge(
         }
         ((s0 * ((1.0 - t) * angle).sin() + s1 * (t * angle).sin()) / angle.sin()).normalize()
     };
-    // Rays of every step; step 0 is s0 and step n is s1, traced once for every edge there.
+    // Rays of every step; those of step 0 (s0) and step n (s1) are traced once for all the
+    // edges that meet there.
     let mut inner = Vec::with_capacity(n as usize);
     let mut traced = ends[0].rays.hits + ends[1].rays.hits;
     for k in 1..n {
