@@ -732,7 +732,7 @@ impl<'a> Extractor<'a> {
     /// Take rays (distinct, in the pool) out of the pool, subtracting their energy from the
     /// grid. The columns keep them until they are an eighth of all (compacting the columns of
     /// 1.7 M rays after each of 64 CSLs took 4 % of a dynamic bake); until then the scans leave
-    /// them out of what they find ([`Self::live`]), which gives the same rays in the same order.
+    /// them out of what they find (`live`), which gives the same rays in the same order.
     pub fn remove(&mut self, members: &[u32]) {
         for &m in members {
             self.alive[m as usize] = false;

@@ -2125,6 +2125,7 @@ mod tests {
         // Every ray in one group; the groups within 60° of the axis are a part of them.
         assert_eq!(step.bins.len(), 6 * DIRECTION_BINS * DIRECTION_BINS);
         let mut seen: Vec<u32> = step.cols.filter_ranges(step.near(a, 7.0), |_, _| true);
+        assert_eq!(seen.len(), rays.len());
         seen.dedup();
         assert_eq!(seen.len(), rays.len());
         let near: usize = step.near(a, 60f32.to_radians()).map(|r| r.len()).sum();
