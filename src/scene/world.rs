@@ -79,7 +79,7 @@ impl Camera {
         glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
 
-    /// Right-handed perspective with a [0,1] depth range (wgpu convention).
+    /// Right-handed perspective with a \[0, 1\] depth range (wgpu convention).
     pub fn proj_matrix(&self, near: f32, far: f32) -> Mat4 {
         glam::camera::rh::proj::directx::perspective(
             self.fov_y.to_radians(),

@@ -207,7 +207,7 @@ impl Volume {
     }
 
     /// Visit every cell the infinite line o + t·d passes through, in order along the line
-    /// (the cells [`Walk::cells`] lists).
+    /// (the cells `Walk::cells` lists).
     pub fn dda(&self, o: Vec3, d: Vec3, mut visit: impl FnMut(usize)) {
         let Some(w) = self.walk(o, d) else {
             return;

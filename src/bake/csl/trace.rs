@@ -56,7 +56,7 @@ impl RayGrid {
 /// No triangle on a grid ray ([`first_triangles`]).
 const NONE: u32 = u32::MAX;
 
-/// The triangle of `accel` each grid ray meets first (row-major, [`NONE`] where none), by
+/// The triangle of `accel` each grid ray meets first (row-major, `u32::MAX` where none), by
 /// rasterising the triangles onto the grid along the light: an orthographic z-buffer whose
 /// pixel centres are the grid rays, a few ten milliseconds for the 1.6 M rays of a 1280² grid
 /// instead of a BVH query per ray. A triangle claims the rays within a small tolerance of its
