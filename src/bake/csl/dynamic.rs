@@ -1271,7 +1271,7 @@ pub const CODE_NOISE: f32 = 0.1;
 const MAX_LEVELS: u16 = 256;
 
 /// Levels of the square-root code of `c`'s image (`sqrt_code`); 0 where its grain is unknown
-/// or its noise too faint for `MAX_LEVELS` (256) (the image is then kept as it is).
+/// or its noise too faint for `MAX_LEVELS`, 256 levels (the image is then kept as it is).
 ///
 /// A texel of value v holds about v / g rays' worth for the grain g, so its noise is √(v·g).
 /// The code c = round(L·√(v / M)) (M the brightest texel, `scale`) has steps of 2√(v·M) / L
