@@ -195,12 +195,12 @@ fn at_a_bake_direction_the_interpolation_is_the_baked_set() {
 /// changes smoothly, and no more at the boundary than elsewhere. Measured (this bake, frames
 /// 0.50° apart, images coded as the artifact keeps them): relative L1 change 0.77–1.00 % per
 /// step, 0.85 % across the boundary; the flux changes by at most 0.19 % between frames (with
-/// the images as baked: 0.65–0.91 %, 0.79 % and 0.14 %; 1.0–1.4 %, 1.31 % and 0.31 % when each pixel
-/// averaged over a disc of its area, which put the sphere's focus into none, one or two
-/// pixels). (A first
-/// version that built triples greedily, as the paper's propagation does, and left the unmatched
-/// rest arbitrary jumped by 68 % across an edge of the bare icosahedron; the pair triples of
-/// [`caustica::bake::csl::dynamic::Triple`] make the two faces of an edge agree exactly.)
+/// the images as baked: 0.65–0.91 %, 0.79 % and 0.14 %; 1.0–1.4 %, 1.31 % and 0.31 % when
+/// each pixel averaged over a disc of its area, which put the sphere's focus into none, one or
+/// two pixels). (A first version that built triples greedily, as the paper's propagation does,
+/// and left the unmatched rest arbitrary jumped by 68 % across an edge of the bare icosahedron;
+/// the pair triples of [`caustica::bake::csl::dynamic::Triple`] make the two faces of an edge
+/// agree exactly.)
 #[test]
 fn the_caustic_changes_smoothly_across_a_face_boundary() {
     let (w0, d) = baked();

@@ -1177,21 +1177,15 @@ mod tests {
         assert_eq!(sample.len(), want);
     }
 
-    #[test]
-    fn the_search_sample_takes_every_branch_alike_and_finds_the_same_bundle() {
-        let strides = [128, 512, 905, 906, 1280].map(search_stride);
-        assert_eq!(strides, [1, 1, 1, 2, 4]);
-        // A quarter of the indices of every residue: a grid ray's tree of paths leaves its rays
-        // in a fixed order, and no branch may be left out of the search.
-        for r in 0..4u32 {
-            let n = (0..40_000u32)
-                .filter(|&i| i % 4 == r && in_search_sample(i, 4))
-                .count();
-            assert!((2300..2700).contains(&n), "residue {r}: {n} of 10000");
-        }
-        // A bundle focused at (0, 0, -1) from a disc at z = 1, among as many scattered rays.
-        let mut rng = crate::reference::sampling::Pcg::new(7, 3);
-        let mut rays = random_rays(20_000, 9);
+    /// A bundle focused at (0, 0, -1) from a disc at z = 1 (drawn from `Pcg::new(seed, stream)`),
+    /// among as many scattered rays ([`random_rays`] seeded `scatter`), with a volume and
+    /// thresholds for it.
+    fn focused_bundle(
+        (seed, stream): (u64, u64),
+        scatter: u64,
+    ) -> (Vec<CausticRay>, Volume, Thresholds) {
+        let mut rng = crate::reference::sampling::Pcg::new(seed, stream);
+        let mut rays = random_rays(20_000, scatter);
         for _ in 0..20_000 {
             let (r, phi) = (0.3 * rng.f32().sqrt(), std::f32::consts::TAU * rng.f32());
             let origin = Vec3::new(r * phi.cos(), r * phi.sin(), 1.0);
@@ -1208,6 +1202,22 @@ mod tests {
             cos_angle: 60f32.to_radians().cos(),
             max_iterations: 100,
         };
+        (rays, volume, th)
+    }
+
+    #[test]
+    fn the_search_sample_takes_every_branch_alike_and_finds_the_same_bundle() {
+        let strides = [128, 512, 905, 906, 1280].map(search_stride);
+        assert_eq!(strides, [1, 1, 1, 2, 4]);
+        // A quarter of the indices of every residue: a grid ray's tree of paths leaves its rays
+        // in a fixed order, and no branch may be left out of the search.
+        for r in 0..4u32 {
+            let n = (0..40_000u32)
+                .filter(|&i| i % 4 == r && in_search_sample(i, 4))
+                .count();
+            assert!((2300..2700).contains(&n), "residue {r}: {n} of 10000");
+        }
+        let (rays, volume, th) = focused_bundle((7, 3), 9);
         let [all, sampled] = [1, 4].map(|stride| {
             let ex = Extractor::new(&rays, volume, stride);
             ex.extract(ex.max_cell().unwrap(), &th, 1.0).unwrap()
@@ -1223,24 +1233,7 @@ mod tests {
     fn removed_rays_left_in_the_columns_are_passed_over() {
         // A focused bundle among scattered rays; a few of its rays removed: extraction gives
         // the same bundle, bit for bit, whether the columns still hold them or not.
-        let mut rng = crate::reference::sampling::Pcg::new(5, 11);
-        let mut rays = random_rays(20_000, 3);
-        for _ in 0..20_000 {
-            let (r, phi) = (0.3 * rng.f32().sqrt(), std::f32::consts::TAU * rng.f32());
-            let origin = Vec3::new(r * phi.cos(), r * phi.sin(), 1.0);
-            let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 0.02 - 0.01;
-            rays.push(CausticRay {
-                origin,
-                dir: (Vec3::new(0.0, 0.0, -1.0) + jitter - origin).normalize(),
-                energy: Vec3::ONE,
-            });
-        }
-        let volume = Volume::new(Vec3::ZERO, 3.0, 32);
-        let th = Thresholds {
-            distance: 0.1,
-            cos_angle: 60f32.to_radians().cos(),
-            max_iterations: 100,
-        };
+        let (rays, volume, th) = focused_bundle((5, 11), 3);
         for stride in [1, 4] {
             let mut lazy = Extractor::new(&rays, volume, stride);
             let first = lazy.extract(lazy.max_cell().unwrap(), &th, 1.0).unwrap();
