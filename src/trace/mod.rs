@@ -3,6 +3,7 @@
 //! total internal reflection, Beer-Lambert) that bakes and the reference share. No GPU.
 
 pub mod optics;
+mod wide;
 
 use crate::scene::{Material, World};
 use glam::{Mat4, Vec3, Vec3A};
@@ -60,6 +61,9 @@ impl Hit {
 /// A BVH over a set of world-space triangles, with materials and objects per triangle.
 pub struct Accel {
     bvh: CwBvh,
+    /// The same tree with its boxes decoded, for a faster CPU traversal; None where it could not
+    /// be made (an empty or very deep tree), and obvhs's traversal serves.
+    wide: Option<wide::WideBvh>,
     /// Triangles reordered to `bvh.primitive_indices` so that a primitive id indexes them directly.
     tris: Vec<RtTriangle>,
     data: Vec<TriData>,
@@ -136,6 +140,7 @@ impl Accel {
                 .unzip()
         };
         Accel {
+            wide: wide::WideBvh::from_cwbvh(&bvh),
             bvh,
             tris,
             data,
@@ -163,15 +168,21 @@ impl Accel {
             return None;
         }
         let ray = make_ray(origin, dir, tmax);
-        let mut hit = RayHit::none();
-        if !self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| tri_t(&self.tris[id], r))
-        {
-            return None;
-        }
-        let id = hit.primitive_id as usize;
-        Some((id, self.hit_on(id, hit.t, &ray, origin, dir)))
+        let (id, t) = match &self.wide {
+            Some(w) => w.closest(&ray, |id, r| tri_t(&self.tris[id], r))?,
+            None => {
+                let mut hit = RayHit::none();
+                if !self
+                    .bvh
+                    .ray_traverse(ray, &mut hit, |r, id| tri_t(&self.tris[id], r))
+                {
+                    return None;
+                }
+                (hit.primitive_id, hit.t)
+            }
+        };
+        let id = id as usize;
+        Some((id, self.hit_on(id, t, &ray, origin, dir)))
     }
 
     /// The hit of `origin + t·dir`, t in (0, tmax), on triangle `prim` alone (an index of
@@ -243,9 +254,12 @@ impl Accel {
             return false;
         }
         let ray = make_ray(origin, dir, tmax);
-        !self
-            .bvh
-            .ray_traverse_miss(ray, |r, id| tri_t(&self.tris[id], r))
+        match &self.wide {
+            Some(w) => w.any(&ray, |id, r| tri_t(&self.tris[id], r)),
+            None => !self
+                .bvh
+                .ray_traverse_miss(ray, |r, id| tri_t(&self.tris[id], r)),
+        }
     }
 
     /// The material of a hit.
@@ -598,6 +612,99 @@ mod tests {
             &["ball", "box"],
         ] {
             assert_eq!(only(names).convex_orientation(), None, "{names:?}");
+        }
+    }
+
+    /// The decoded eight-wide tree finds what obvhs's traversal of the CWBVH finds: the same
+    /// closest distance, the same triangle (or another at exactly that distance), and the same
+    /// occlusion, for rays from outside and from the surfaces (as a bake spawns them), in every
+    /// octant, along axes and with signed zeros, and with finite ranges.
+    #[test]
+    fn the_wide_tree_agrees_with_obvhs() {
+        use crate::reference::sampling::Pcg;
+        let teapot = crate::scene::load_scene_file(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-teapot.json"),
+            &Default::default(),
+        )
+        .unwrap();
+        for (name, world) in [("sphere and floor", world()), ("teapot scene", teapot)] {
+            let a = Accel::build(&world);
+            let wide = a.wide.as_ref().expect("a wide tree");
+            let (lo, hi) = world.bounds();
+            let mut rng = Pcg::new(11, 5);
+            let unit = |rng: &mut Pcg| loop {
+                let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+                let l = v.length();
+                if l > 0.1 && l <= 1.0 {
+                    break v / l;
+                }
+            };
+            let (mut hits, mut ties, mut blocked) = (0, 0, 0);
+            for k in 0..60_000 {
+                let mut d = unit(&mut rng);
+                let o = match k % 3 {
+                    // From outside the bounds, towards a point inside them.
+                    0 => {
+                        let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                        p - d * (hi - lo).length()
+                    }
+                    // From a surface point, spawned as a bake does.
+                    _ => {
+                        let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                        match a.intersect(p - d * 10.0, d, f32::INFINITY) {
+                            Some(h) => {
+                                d = unit(&mut rng);
+                                h.spawn(d)
+                            }
+                            None => p,
+                        }
+                    }
+                };
+                if k % 50 == 0 {
+                    // Along an axis, with signed zeros.
+                    let axis = (k / 50) % 3;
+                    d = Vec3::ZERO;
+                    d[axis] = if k % 100 == 0 { 1.0 } else { -1.0 };
+                    d[(axis + 1) % 3] = -0.0;
+                }
+                let tmax = if k % 7 == 0 {
+                    rng.f32() * (hi - lo).length()
+                } else {
+                    f32::INFINITY
+                };
+                let ray = make_ray(o, d, tmax);
+                let mut hit = RayHit::none();
+                let theirs = a
+                    .bvh
+                    .ray_traverse(ray, &mut hit, |r, id| tri_t(&a.tris[id], r))
+                    .then_some((hit.primitive_id, hit.t));
+                let ours = wide.closest(&ray, |id, r| tri_t(&a.tris[id], r));
+                // The portable slab tests give the same as the AVX ones.
+                let portable = wide.closest_in::<false>(&ray, |id, r| tri_t(&a.tris[id], r));
+                assert_eq!(ours, portable, "{name}: ray {k}");
+                match (ours, theirs) {
+                    (Some((p, t)), Some((q, u))) => {
+                        assert_eq!(t.to_bits(), u.to_bits(), "{name}: ray {k} distance");
+                        if p != q {
+                            assert_eq!(tri_t(&a.tris[p as usize], &ray), u, "{name}: ray {k}");
+                            ties += 1;
+                        }
+                        hits += 1;
+                    }
+                    (None, None) => {}
+                    _ => panic!("{name}: ray {k}: {ours:?} against obvhs's {theirs:?}"),
+                }
+                let occluded = wide.any(&ray, |id, r| tri_t(&a.tris[id], r));
+                let miss = a.bvh.ray_traverse_miss(ray, |r, id| tri_t(&a.tris[id], r));
+                assert_eq!(occluded, !miss, "{name}: ray {k} occlusion");
+                let portable = wide.any_in::<false>(&ray, |id, r| tri_t(&a.tris[id], r));
+                assert_eq!(occluded, portable, "{name}: ray {k} occlusion");
+                blocked += occluded as u32;
+            }
+            // Enough of each kind that the comparison means something.
+            eprintln!("{name}: {hits} hits, {ties} ties, {blocked} blocked");
+            assert!(hits > 10_000 && blocked > 10_000, "{name}: {hits} hits");
+            assert!(ties < 60, "{name}: {ties} ties");
         }
     }
 }
