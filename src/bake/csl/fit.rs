@@ -56,12 +56,16 @@ fn ray_terms(r: &CausticRay, b: DVec3, a: DVec3, ell: f64, kappa: f64, gamma: f6
 /// ê = (−g·u, 1)/√(1 + g²|u|²) with g = κ + γ|u|. The same terms as [`ray_terms`], a few times
 /// cheaper per evaluation (Powell needs hundreds).
 ///
-/// The terms are stored as columns and summed in [`LANES`] interleaved partial sums, so that
-/// the compiler evaluates several rays at once in vector registers; the order of every addition
-/// is fixed by the ray's index, so the sum is the same on every machine and thread count.
+/// The terms are stored in blocks of [`LANES`] rays, each block one array per term, and summed
+/// in [`LANES`] interleaved partial sums, so that the compiler evaluates a block's rays at once
+/// in vector registers; the order of every addition is fixed by the ray's index, so the sum is
+/// the same on every machine and thread count.
 struct Terms {
-    /// Per ray: qₓ, q_y, dₓ, d_y, d·â, ‖d‖², s₀, 1/(d·â), weight.
-    cols: [Vec<f64>; 9],
+    /// Per block of [`LANES`] rays, per term, the rays' values: qₓ, q_y, dₓ, d_y, d·â, ‖d‖², s₀,
+    /// 1/(d·â), weight.
+    blocks: Vec<[[f64; LANES]; 9]>,
+    /// The rays after the last whole block, one row each.
+    tail: Vec<[f64; 9]>,
 }
 
 /// Partial sums of the objective (rays i ≡ k mod LANES go to lane k).
@@ -79,13 +83,12 @@ impl Terms {
         } else {
             members.to_vec()
         };
-        let mut cols: [Vec<f64>; 9] = std::array::from_fn(|_| Vec::with_capacity(take.len()));
-        for i in take {
+        let row = |i: u32| {
             let r = &rays[i as usize];
             let q = r.origin.as_dvec3() - b;
             let d = r.dir.as_dvec3();
             let da = d.dot(a);
-            let row = [
+            [
                 q.dot(x),
                 q.dot(y),
                 d.dot(x),
@@ -95,16 +98,22 @@ impl Terms {
                 -q.dot(a) / da,
                 1.0 / da,
                 r.weight() as f64,
-            ];
-            for (c, v) in cols.iter_mut().zip(row) {
-                c.push(v);
-            }
-        }
-        Terms { cols }
-    }
-
-    fn len(&self) -> usize {
-        self.cols[0].len()
+            ]
+        };
+        let whole = take.chunks_exact(LANES);
+        let tail = whole.remainder().iter().map(|&i| row(i)).collect();
+        let blocks = whole
+            .map(|chunk| {
+                let mut block = [[0.0; LANES]; 9];
+                for (k, &i) in chunk.iter().enumerate() {
+                    for (c, v) in block.iter_mut().zip(row(i)) {
+                        c[k] = v;
+                    }
+                }
+                block
+            })
+            .collect();
+        Terms { blocks, tail }
     }
 
     /// Eq. 5 with each ray's squared direction error capped at `cap`, on one thread (an
@@ -129,19 +138,17 @@ impl Terms {
 
     #[inline(always)]
     fn sum(&self, p: [f64; 5]) -> f64 {
-        let n = self.len();
-        let cols = self.cols.each_ref().map(|c| &c[..n]);
         let mut acc = [0.0f64; LANES];
-        let mut i = 0;
-        while i + LANES <= n {
-            let block = cols.map(|c| -> &[f64; LANES] { c[i..i + LANES].try_into().unwrap() });
+        for b in &self.blocks {
             for (k, a) in acc.iter_mut().enumerate() {
-                *a += term(block.map(|c| c[k]), p);
+                let row = [
+                    b[0][k], b[1][k], b[2][k], b[3][k], b[4][k], b[5][k], b[6][k], b[7][k], b[8][k],
+                ];
+                *a += term(row, p);
             }
-            i += LANES;
         }
-        for (k, a) in acc.iter_mut().enumerate().take(n - i) {
-            *a += term(cols.map(|c| c[i + k]), p);
+        for (a, &row) in acc.iter_mut().zip(&self.tail) {
+            *a += term(row, p);
         }
         acc.iter().sum::<f64>()
     }
