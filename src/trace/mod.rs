@@ -23,6 +23,8 @@ pub const RAY_EPSILON: f32 = 1e-4;
 #[derive(Clone, Copy, Debug)]
 struct TriData {
     normals: [Vec3A; 3],
+    /// The unit geometric normal, `RtTriangle::compute_normal` worked out once.
+    geo_normal: Vec3A,
     material: u32,
     object: u32,
     /// Index of the triangle in world order (objects, parts, triangles), stable across builds.
@@ -118,6 +120,7 @@ impl Accel {
                     });
                     data.push(TriData {
                         normals: [nrm[a as usize], nrm[b as usize], nrm[c as usize]],
+                        geo_normal: Vec3A::ZERO,
                         material: p.material,
                         object: oi as u32,
                         source,
@@ -136,11 +139,21 @@ impl Accel {
         } else {
             bvh.primitive_indices
                 .iter()
-                .map(|&i| (RtTriangle::from(&tris[i as usize]), data[i as usize]))
+                .map(|&i| {
+                    let tri = RtTriangle::from(&tris[i as usize]);
+                    let geo_normal = tri.compute_normal();
+                    (
+                        tri,
+                        TriData {
+                            geo_normal,
+                            ..data[i as usize]
+                        },
+                    )
+                })
                 .unzip()
         };
         Accel {
-            wide: wide::WideBvh::from_cwbvh(&bvh),
+            wide: wide::WideBvh::from_cwbvh(&bvh, &tris),
             bvh,
             tris,
             data,
@@ -169,7 +182,7 @@ impl Accel {
         }
         let ray = make_ray(origin, dir, tmax);
         let (id, t) = match &self.wide {
-            Some(w) => w.closest(&ray, |id, r| tri_t(&self.tris[id], r))?,
+            Some(w) => w.closest(&ray)?,
             None => {
                 let mut hit = RayHit::none();
                 if !self
@@ -224,7 +237,7 @@ impl Accel {
         let d = &self.data[id];
         let uv = tri.compute_barycentric(ray);
         let w = 1.0 - uv.x - uv.y;
-        let ng: Vec3 = tri.compute_normal().into();
+        let ng: Vec3 = d.geo_normal.into();
         let front_face = ng.dot(dir) < 0.0;
         let geo_normal = if front_face { ng } else { -ng };
         let ns: Vec3 = (d.normals[0] * w + d.normals[1] * uv.x + d.normals[2] * uv.y).into();
@@ -255,7 +268,7 @@ impl Accel {
         }
         let ray = make_ray(origin, dir, tmax);
         match &self.wide {
-            Some(w) => w.any(&ray, |id, r| tri_t(&self.tris[id], r)),
+            Some(w) => w.any(&ray),
             None => !self
                 .bvh
                 .ray_traverse_miss(ray, |r, id| tri_t(&self.tris[id], r)),
@@ -678,9 +691,9 @@ mod tests {
                     .bvh
                     .ray_traverse(ray, &mut hit, |r, id| tri_t(&a.tris[id], r))
                     .then_some((hit.primitive_id, hit.t));
-                let ours = wide.closest(&ray, |id, r| tri_t(&a.tris[id], r));
+                let ours = wide.closest(&ray);
                 // The portable slab tests give the same as the AVX ones.
-                let portable = wide.closest_in::<false>(&ray, |id, r| tri_t(&a.tris[id], r));
+                let portable = wide.closest_in::<false>(&ray);
                 assert_eq!(ours, portable, "{name}: ray {k}");
                 match (ours, theirs) {
                     (Some((p, t)), Some((q, u))) => {
@@ -694,10 +707,10 @@ mod tests {
                     (None, None) => {}
                     _ => panic!("{name}: ray {k}: {ours:?} against obvhs's {theirs:?}"),
                 }
-                let occluded = wide.any(&ray, |id, r| tri_t(&a.tris[id], r));
+                let occluded = wide.any(&ray);
                 let miss = a.bvh.ray_traverse_miss(ray, |r, id| tri_t(&a.tris[id], r));
                 assert_eq!(occluded, !miss, "{name}: ray {k} occlusion");
-                let portable = wide.any_in::<false>(&ray, |id, r| tri_t(&a.tris[id], r));
+                let portable = wide.any_in::<false>(&ray);
                 assert_eq!(occluded, portable, "{name}: ray {k} occlusion");
                 blocked += occluded as u32;
             }

@@ -1,60 +1,86 @@
-//! An eight-wide BVH with uncompressed f32 child boxes, for CPU traversal.
+//! An eight-wide BVH with uncompressed f32 child boxes and triangles stored eight to a block,
+//! for CPU traversal.
 //!
 //! obvhs's CWBVH is laid out for GPUs: its child boxes are quantised to bytes, and its
 //! traversal decodes them one lane at a time and keeps a GPU-style node-group stack. This is the
 //! same tree (the same nodes, children and leaves), with each child box decoded once at build
 //! time to f32 and widened outwards by one unit in the last place, stored axis by axis so that
-//! one node's eight slab tests are a handful of eight-lane instructions. Traversal is
-//! front-to-back: the children a ray meets are visited nearest first, and a child whose entry
-//! distance lies beyond the closest hit so far is skipped.
+//! one node's eight slab tests are a handful of eight-lane instructions. The triangles of a
+//! node's leaves (at most 24, numbered from the node's first primitive) are stored in blocks of
+//! eight, component by component, and the triangles of the leaves a ray meets are tested a
+//! block at a time. Traversal is front-to-back: the inner children a ray meets are visited
+//! nearest first, and a child whose entry distance lies beyond the closest hit so far is
+//! skipped.
 //!
-//! The closest hit is the same triangle and distance as obvhs's traversal gives, except where
-//! two triangles lie at exactly the same distance (a ray through a shared edge), where the
-//! visiting order picks one of them.
+//! A triangle's distance is computed with the same operations, in the same order, as
+//! [`super::tri_t`], so it is the same number bit for bit. The closest hit is then the same
+//! triangle and distance as obvhs's traversal gives, except where two triangles lie at exactly
+//! the same distance (a ray through a shared edge): the visiting order picks one of them.
 
-use obvhs::{cwbvh::CwBvh, ray::Ray};
+use obvhs::{cwbvh::CwBvh, ray::Ray, rt_triangle::RtTriangle};
 
-/// Set in [`Node::child`] for a leaf: then bits 2.. are the first primitive and bits 0..2 the
-/// count (1 to 3).
+/// Set in [`Node::child`] for a leaf: then bit k (k < 24) is set for each of its triangles,
+/// the k-th from the node's first.
 const LEAF: u32 = 0x8000_0000;
 
 /// Entries the traversal stack holds; a tree whose depth could need more is left to obvhs.
 const STACK: usize = 192;
 
 /// One node: the boxes of its eight children, axis by axis (an empty slot has lo = +∞ and
-/// hi = −∞, which no ray meets), and what each child is.
+/// hi = −∞, which no ray meets), what each child is, and where its leaves' triangles are.
 #[repr(C, align(32))]
 #[derive(Clone, Copy)]
 struct Node {
     lo: [[f32; 8]; 3],
     hi: [[f32; 8]; 3],
-    /// An inner child's node index, or [`LEAF`] with a primitive range.
+    /// An inner child's node index, or [`LEAF`] with the leaf's triangles.
     child: [u32; 8],
+    /// The primitive index (obvhs's `primitive_id`) of the node's first triangle.
+    first_prim: u32,
+    /// The block of [`WideBvh::tris`] holding the node's first eight triangles; the next ones
+    /// follow.
+    first_block: u32,
+}
+
+/// Eight triangles, component by component: v0, e1 = v0 − v1, e2 = v2 − v0 and
+/// ng = e1 × e2 (obvhs's `RtTriangle`). An unused lane has ng = 0, which no ray hits.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Default)]
+struct TriBlock {
+    v0: [[f32; 8]; 3],
+    e1: [[f32; 8]; 3],
+    e2: [[f32; 8]; 3],
+    ng: [[f32; 8]; 3],
 }
 
 /// The tree. Primitive indices are those of the CWBVH (`primitive_id`s, indexing its
 /// `primitive_indices`).
 pub(crate) struct WideBvh {
     nodes: Vec<Node>,
-    /// Whether the processor has AVX2, for the eight-lane slab tests.
+    tris: Vec<TriBlock>,
+    /// Whether the processor has AVX2, for the eight-lane tests.
     avx2: bool,
 }
 
 impl WideBvh {
-    /// The CWBVH's tree with its boxes decoded, or None when the tree is empty or deep enough
-    /// that the traversal stack could overflow.
-    pub(crate) fn from_cwbvh(bvh: &CwBvh) -> Option<WideBvh> {
+    /// The CWBVH's tree with its boxes decoded, over `tris` (in the CWBVH's primitive order),
+    /// or None when the tree is empty or deep enough that the traversal stack could overflow.
+    pub(crate) fn from_cwbvh(bvh: &CwBvh, tris: &[RtTriangle]) -> Option<WideBvh> {
         if bvh.nodes.is_empty() {
             return None;
         }
         let mut nodes = Vec::with_capacity(bvh.nodes.len());
+        let mut blocks: Vec<TriBlock> = Vec::new();
         for n in &bvh.nodes {
             let ext = n.compute_extent();
             let mut node = Node {
                 lo: [[f32::INFINITY; 8]; 3],
                 hi: [[f32::NEG_INFINITY; 8]; 3],
                 child: [0; 8],
+                first_prim: n.primitive_base_idx,
+                first_block: blocks.len() as u32,
             };
+            let mut count = 0;
             for slot in 0..8 {
                 if n.is_child_empty(slot) {
                     continue;
@@ -74,11 +100,13 @@ impl WideBvh {
                     node.hi[a][slot] = (n.p[a] + q_hi[a] as f32 * ext[a]).next_up();
                 }
                 node.child[slot] = if n.is_leaf(slot) {
-                    let (first, count) = n.child_primitives(slot);
-                    if first >= 1 << 29 || !(1..=3).contains(&count) {
+                    let (first, k) = n.child_primitives(slot);
+                    let offset = first.checked_sub(n.primitive_base_idx)?;
+                    if offset + k > 24 || !(1..=3).contains(&k) {
                         return None;
                     }
-                    LEAF | first << 2 | count
+                    count = count.max(offset + k);
+                    LEAF | ((1 << k) - 1) << offset
                 } else {
                     let c = n.child_node_index(slot);
                     if c as usize >= bvh.nodes.len() {
@@ -87,10 +115,27 @@ impl WideBvh {
                     c
                 };
             }
+            for b in 0..count.div_ceil(8) {
+                let mut block = TriBlock::default();
+                for lane in 0..8 {
+                    let p = (n.primitive_base_idx + 8 * b + lane) as usize;
+                    if 8 * b + lane >= count {
+                        break;
+                    }
+                    let t = tris.get(p)?;
+                    for a in 0..3 {
+                        block.v0[a][lane as usize] = t.v0[a];
+                        block.e1[a][lane as usize] = t.e1[a];
+                        block.e2[a][lane as usize] = t.e2[a];
+                        block.ng[a][lane as usize] = t.ng[a];
+                    }
+                }
+                blocks.push(block);
+            }
             nodes.push(node);
         }
         // The stack holds at most seven entries a level (a node pushes all but one of the
-        // children it visits), plus one.
+        // children it visits).
         let mut depth = vec![0u32; nodes.len()];
         let mut deepest = 1;
         let mut todo = vec![(0usize, 1u32)];
@@ -110,90 +155,80 @@ impl WideBvh {
         let avx2 = std::arch::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
-        (7 * (deepest as usize) < STACK).then_some(WideBvh { nodes, avx2 })
+        (7 * (deepest as usize) < STACK).then_some(WideBvh {
+            nodes,
+            tris: blocks,
+            avx2,
+        })
     }
 
-    /// The closest primitive along `ray` for which `tri(primitive, ray)` gives a distance below
-    /// `ray.tmax`, with that distance.
+    /// The closest triangle along `ray` within (`ray.tmin`, `ray.tmax`]: its primitive index
+    /// and distance.
     #[inline]
-    pub(crate) fn closest(
-        &self,
-        ray: &Ray,
-        tri: impl FnMut(usize, &Ray) -> f32,
-    ) -> Option<(u32, f32)> {
+    pub(crate) fn closest(&self, ray: &Ray) -> Option<(u32, f32)> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: the processor has AVX2 (checked when the tree was built).
-            return unsafe { self.closest_avx2(ray, tri) };
+            return unsafe { self.closest_avx2(ray) };
         }
-        self.closest_in::<false>(ray, tri)
+        self.closest_in::<false>(ray)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn closest_avx2(&self, ray: &Ray, tri: impl FnMut(usize, &Ray) -> f32) -> Option<(u32, f32)> {
-        self.closest_in::<true>(ray, tri)
+    fn closest_avx2(&self, ray: &Ray) -> Option<(u32, f32)> {
+        self.closest_in::<true>(ray)
     }
 
     #[inline(always)]
-    pub(super) fn closest_in<const AVX: bool>(
-        &self,
-        ray: &Ray,
-        mut tri: impl FnMut(usize, &Ray) -> f32,
-    ) -> Option<(u32, f32)> {
+    pub(super) fn closest_in<const AVX: bool>(&self, ray: &Ray) -> Option<(u32, f32)> {
         let mut r = *ray;
         let mut best = None;
-        self.walk::<true, AVX>(&mut r, |p, r| {
-            let t = tri(p as usize, r);
-            if t < r.tmax {
-                r.tmax = t;
-                best = Some((p, t));
-            }
+        self.walk::<true, AVX>(&mut r, |p, t, r| {
+            r.tmax = t;
+            best = Some((p, t));
             false
         });
         best
     }
 
-    /// Whether any primitive along `ray` gives `tri(primitive, ray) < ray.tmax`.
+    /// Whether any triangle lies along `ray` within (`ray.tmin`, `ray.tmax`].
     #[inline]
-    pub(crate) fn any(&self, ray: &Ray, tri: impl FnMut(usize, &Ray) -> f32) -> bool {
+    pub(crate) fn any(&self, ray: &Ray) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: the processor has AVX2 (checked when the tree was built).
-            return unsafe { self.any_avx2(ray, tri) };
+            return unsafe { self.any_avx2(ray) };
         }
-        self.any_in::<false>(ray, tri)
+        self.any_in::<false>(ray)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn any_avx2(&self, ray: &Ray, tri: impl FnMut(usize, &Ray) -> f32) -> bool {
-        self.any_in::<true>(ray, tri)
+    fn any_avx2(&self, ray: &Ray) -> bool {
+        self.any_in::<true>(ray)
     }
 
     #[inline(always)]
-    pub(super) fn any_in<const AVX: bool>(
-        &self,
-        ray: &Ray,
-        mut tri: impl FnMut(usize, &Ray) -> f32,
-    ) -> bool {
+    pub(super) fn any_in<const AVX: bool>(&self, ray: &Ray) -> bool {
         let mut r = *ray;
         let mut found = false;
-        self.walk::<false, AVX>(&mut r, |p, r| {
-            found = tri(p as usize, r) < r.tmax;
-            found
+        self.walk::<false, AVX>(&mut r, |_, _, _| {
+            found = true;
+            true
         });
         found
     }
 
-    /// Visit the leaves `ray` meets, handing each primitive to `prim`, which may shorten
-    /// `ray.tmax` and returns true to stop. With `ORDERED` the inner children a node's ray
-    /// meets are visited nearest first.
+    /// Visit the leaves `ray` meets, handing `hit(primitive, distance, ray)` the nearest
+    /// triangle of each block of a node's triangles that the ray hits before `ray.tmax` (the
+    /// lowest primitive index among equals); `hit` may shorten `ray.tmax` and returns true to
+    /// stop. With `ORDERED` the inner children a node's ray meets are visited nearest first.
     #[inline(always)]
     fn walk<const ORDERED: bool, const AVX: bool>(
         &self,
         ray: &mut Ray,
-        mut prim: impl FnMut(u32, &mut Ray) -> bool,
+        mut hit: impl FnMut(u32, f32, &mut Ray) -> bool,
     ) {
         let test = SlabRay::new(ray);
         let mut stack = [std::mem::MaybeUninit::<(u32, f32)>::uninit(); STACK];
@@ -204,20 +239,39 @@ impl WideBvh {
             let (mut mask, tnear) = test.node::<AVX>(node, ray.tmax);
             let mut inner = [(0f32, 0u32); 8];
             let mut k = 0;
+            // The node's triangles (bits by their place from its first) in the leaves met.
+            let mut prims = 0u32;
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let c = node.child[slot];
-                if c & LEAF != 0 {
-                    let first = (c & !LEAF) >> 2;
-                    for p in first..first + (c & 3) {
-                        if prim(p, ray) {
-                            return;
-                        }
+                // Without branches (whether a child is a leaf is hard to predict): a leaf's
+                // triangles join `prims`, an inner child is written and counted.
+                let leaf = c >> 31;
+                prims |= c & leaf.wrapping_neg() & 0x00ff_ffff;
+                inner[k] = (tnear[slot], c);
+                k += (1 - leaf) as usize;
+            }
+            while prims != 0 {
+                let b = prims.trailing_zeros() / 8;
+                let lanes = (prims >> (8 * b)) & 0xff;
+                prims &= !(0xff << (8 * b));
+                let block = &self.tris[(node.first_block + b) as usize];
+                let t = test.triangles::<AVX>(block, ray.tmax);
+                let (mut lane, mut nearest) = (8, f32::INFINITY);
+                let mut l = lanes;
+                while l != 0 {
+                    let j = l.trailing_zeros() as usize;
+                    l &= l - 1;
+                    if t[j] < nearest {
+                        (lane, nearest) = (j, t[j]);
                     }
-                } else {
-                    inner[k] = (tnear[slot], c);
-                    k += 1;
+                }
+                if lane < 8
+                    && nearest < ray.tmax
+                    && hit(node.first_prim + 8 * b + lane as u32, nearest, ray)
+                {
+                    return;
                 }
             }
             if ORDERED && k > 1 {
@@ -260,10 +314,12 @@ impl WideBvh {
     }
 }
 
-/// A ray prepared for slab tests: its origin, the reciprocal of its direction (obvhs's, with
-/// components near zero clamped), and for each axis whether it runs towards −.
+/// A ray prepared for slab and triangle tests: its origin and direction, the reciprocal of its
+/// direction (obvhs's, with components near zero clamped), and for each axis whether it runs
+/// towards −.
 struct SlabRay {
     o: [f32; 3],
+    d: [f32; 3],
     inv: [f32; 3],
     neg: [bool; 3],
     tmin: f32,
@@ -274,6 +330,7 @@ impl SlabRay {
     fn new(ray: &Ray) -> SlabRay {
         SlabRay {
             o: ray.origin.to_array(),
+            d: ray.direction.to_array(),
             inv: ray.inv_direction.to_array(),
             neg: [0, 1, 2].map(|a| ray.inv_direction[a] < 0.0),
             tmin: ray.tmin,
@@ -345,6 +402,111 @@ impl SlabRay {
             let mut tnear = [0f32; 8];
             _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
             (_mm256_movemask_ps(hit) as u32, tnear)
+        }
+    }
+
+    /// The distance to each triangle of `block` within (tmin, tmax], ∞ where the ray misses
+    /// it: [`super::tri_t`] lane by lane.
+    #[inline(always)]
+    fn triangles<const AVX: bool>(&self, block: &TriBlock, tmax: f32) -> [f32; 8] {
+        #[cfg(target_arch = "x86_64")]
+        if AVX {
+            // SAFETY: AVX is only asked for from functions compiled with AVX2.
+            return unsafe { self.triangles_avx(block, tmax) };
+        }
+        self.triangles_scalar(block, tmax)
+    }
+
+    /// The operations of [`super::tri_t`] (glam's Vec3A cross and dot products, without fused
+    /// multiply-adds: a cross product's component is a·b − c·d, a dot product (x + y) + z).
+    #[inline(always)]
+    fn triangles_scalar(&self, block: &TriBlock, tmax: f32) -> [f32; 8] {
+        let [ox, oy, oz] = self.o;
+        let [dx, dy, dz] = self.d;
+        let mut out = [f32::INFINITY; 8];
+        for (l, out) in out.iter_mut().enumerate() {
+            let (cx, cy, cz) = (
+                block.v0[0][l] - ox,
+                block.v0[1][l] - oy,
+                block.v0[2][l] - oz,
+            );
+            let (rx, ry, rz) = (cy * dz - cz * dy, cz * dx - cx * dz, cx * dy - cy * dx);
+            let [nx, ny, nz] = [block.ng[0][l], block.ng[1][l], block.ng[2][l]];
+            let den = -((nx * dx + ny * dy) + nz * dz);
+            let abs_den = den.abs();
+            let sgn = den.to_bits() & 0x8000_0000;
+            let u = (rx * block.e2[0][l] + ry * block.e2[1][l]) + rz * block.e2[2][l];
+            let v = (rx * block.e1[0][l] + ry * block.e1[1][l]) + rz * block.e1[2][l];
+            let u = f32::from_bits(u.to_bits() ^ sgn);
+            let v = f32::from_bits(v.to_bits() ^ sgn);
+            let w = abs_den - u - v;
+            if den == 0.0 || u < 0.0 || v < 0.0 || w < 0.0 {
+                continue;
+            }
+            let t = -((nx * cx + ny * cy) + nz * cz);
+            let t = f32::from_bits(t.to_bits() ^ sgn);
+            if abs_den * self.tmin < t && t <= abs_den * tmax {
+                *out = t / abs_den;
+            }
+        }
+        out
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    fn triangles_avx(&self, block: &TriBlock, tmax: f32) -> [f32; 8] {
+        use std::arch::x86_64::*;
+        // SAFETY: the loads are of whole [f32; 8] rows, 32-byte aligned (`TriBlock` is
+        // `align(32)`).
+        unsafe {
+            let ld = |row: &[f32; 8]| _mm256_load_ps(row.as_ptr());
+            let (add, sub, mul) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps);
+            let [ox, oy, oz] = self.o.map(|v| _mm256_set1_ps(v));
+            let [dx, dy, dz] = self.d.map(|v| _mm256_set1_ps(v));
+            let sign = _mm256_set1_ps(-0.0);
+            let zero = _mm256_setzero_ps();
+            let cx = sub(ld(&block.v0[0]), ox);
+            let cy = sub(ld(&block.v0[1]), oy);
+            let cz = sub(ld(&block.v0[2]), oz);
+            let rx = sub(mul(cy, dz), mul(cz, dy));
+            let ry = sub(mul(cz, dx), mul(cx, dz));
+            let rz = sub(mul(cx, dy), mul(cy, dx));
+            let (nx, ny, nz) = (ld(&block.ng[0]), ld(&block.ng[1]), ld(&block.ng[2]));
+            let den = _mm256_xor_ps(add(add(mul(nx, dx), mul(ny, dy)), mul(nz, dz)), sign);
+            let abs_den = _mm256_andnot_ps(sign, den);
+            let sgn = _mm256_and_ps(den, sign);
+            let dot_r = |e: &[[f32; 8]; 3]| {
+                add(
+                    add(mul(rx, ld(&e[0])), mul(ry, ld(&e[1]))),
+                    mul(rz, ld(&e[2])),
+                )
+            };
+            let u = _mm256_xor_ps(dot_r(&block.e2), sgn);
+            let v = _mm256_xor_ps(dot_r(&block.e1), sgn);
+            let w = sub(sub(abs_den, u), v);
+            let miss = _mm256_or_ps(
+                _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_EQ_OQ>(den, zero),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(u, zero),
+                ),
+                _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(v, zero),
+                    _mm256_cmp_ps::<_CMP_LT_OQ>(w, zero),
+                ),
+            );
+            let t = _mm256_xor_ps(add(add(mul(nx, cx), mul(ny, cy)), mul(nz, cz)), sign);
+            let t = _mm256_xor_ps(t, sgn);
+            let within = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(mul(abs_den, _mm256_set1_ps(self.tmin)), t),
+                _mm256_cmp_ps::<_CMP_LE_OQ>(t, mul(abs_den, _mm256_set1_ps(tmax))),
+            );
+            let ok = _mm256_andnot_ps(miss, within);
+            let dist =
+                _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), _mm256_div_ps(t, abs_den), ok);
+            let mut out = [0f32; 8];
+            _mm256_storeu_ps(out.as_mut_ptr(), dist);
+            out
         }
     }
 }
