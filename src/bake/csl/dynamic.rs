@@ -687,24 +687,33 @@ fn match_edge(
     let area = (2.0 * radius / params.track_grid as f32).powi(2);
     // Each step first turns the axes with the light about the bounding centre (exact for a
     // sphere, a prediction otherwise; a CSL whose rays are lost keeps moving that way), then
-    // corrects them on the step's rays.
-    let track = |end: &End, steps: &[usize]| -> Vec<(Vec3, Vec3)> {
-        let csls = end.set.csls.iter().zip(end.bands);
-        let mut axes: Vec<Tracked> = csls.map(|(c, band)| Tracked::new(c, band)).collect();
+    // corrects them on the step's rays. Each CSL is tracked on its own, so only those of
+    // `end` for which `wanted` holds are.
+    let track = |end: &End, steps: &[usize], wanted: &dyn Fn(usize) -> bool| {
+        let csls = end.set.csls.iter().zip(end.bands).enumerate();
+        let mut axes: Vec<(usize, Tracked)> = csls
+            .filter(|(i, _)| wanted(*i))
+            .map(|(i, (c, band))| (i, Tracked::new(c, band)))
+            .collect();
         for w in steps.windows(2) {
             let q = Quat::from_rotation_arc(dir_at(w[0] as u32), dir_at(w[1] as u32));
-            axes.par_iter_mut().for_each(|t| {
+            axes.par_iter_mut().for_each(|(_, t)| {
                 t.origin = centre + q * (t.origin - centre);
                 t.axis = (q * t.axis).normalize();
                 t.step(step[w[1]], cos_angle, fit_cos, area)
             });
         }
-        axes.iter().map(|t| (t.origin, t.axis)).collect()
+        let mut out = vec![None; end.set.csls.len()];
+        for (i, t) in axes {
+            out[i] = Some((t.origin, t.axis));
+        }
+        out
     };
     let steps: Vec<usize> = (0..=n as usize).collect();
-    let back: Vec<usize> = steps.iter().rev().copied().collect();
-    let fwd = track(&ends[0], &steps);
-    let bwd = track(&ends[1], &back);
+    let fwd: Vec<(Vec3, Vec3)> = track(&ends[0], &steps, &|_| true)
+        .into_iter()
+        .flatten()
+        .collect();
     // Beyond the paper's axis distance: the CSLs' mean image radii and their fluxes (a
     // quarter radius per factor e), which tell apart the concentric CSLs of one axis.
     let (band0, band1) = (ends[0].bands, ends[1].bands);
@@ -753,9 +762,11 @@ fn match_edge(
             ));
         }
     }
+    // The CSLs of s1 are tracked back to s0 only to place the blacks of those left unmatched.
+    let back: Vec<usize> = steps.iter().rev().copied().collect();
+    let bwd = track(&ends[1], &back, &|j| !used[1][j]);
     for (j, c) in sets[1].csls.iter().enumerate() {
-        if !used[1][j] {
-            let (b, a) = bwd[j];
+        if let Some((b, a)) = bwd[j] {
             blacks[0].push(black_partner(c, b, a, centre));
             pairs.push((
                 u16::MAX - (blacks[0].len() as u16 - 1),
