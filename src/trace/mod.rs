@@ -714,6 +714,13 @@ mod tests {
                 assert_eq!(occluded, portable, "{name}: ray {k} occlusion");
                 blocked += occluded as u32;
             }
+            // A ray with a NaN component (passes every slab test) ends, hitting nothing.
+            for bad in [Vec3::new(f32::NAN, 0.0, 0.0), Vec3::NAN] {
+                let ray = make_ray(bad, Vec3::Y, f32::INFINITY);
+                assert_eq!(wide.closest(&ray), None);
+                assert_eq!(wide.closest_in::<false>(&ray), None);
+                assert!(!wide.any(&ray) && !wide.any_in::<false>(&ray));
+            }
             // Enough of each kind that the comparison means something.
             eprintln!("{name}: {hits} hits, {ties} ties, {blocked} blocked");
             assert!(hits > 10_000 && blocked > 10_000, "{name}: {hits} hits");

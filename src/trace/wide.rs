@@ -40,6 +40,8 @@ struct Node {
     /// The block of [`WideBvh::tris`] holding the node's first eight triangles; the next ones
     /// follow.
     first_block: u32,
+    /// A bit per slot that holds a child (a ray with a NaN component passes every slab test).
+    used: u32,
 }
 
 /// Eight triangles, component by component: v0, e1 = v0 − v1, e2 = v2 − v0 and
@@ -79,12 +81,14 @@ impl WideBvh {
                 child: [0; 8],
                 first_prim: n.primitive_base_idx,
                 first_block: blocks.len() as u32,
+                used: 0,
             };
             let mut count = 0;
             for slot in 0..8 {
                 if n.is_child_empty(slot) {
                     continue;
                 }
+                node.used |= 1 << slot;
                 let q_lo = [
                     n.child_min_x[slot],
                     n.child_min_y[slot],
@@ -236,7 +240,8 @@ impl WideBvh {
         let mut cur = 0u32;
         loop {
             let node = &self.nodes[cur as usize];
-            let (mut mask, tnear) = test.node::<AVX>(node, ray.tmax);
+            let (mask, tnear) = test.node::<AVX>(node, ray.tmax);
+            let mut mask = mask & node.used;
             let mut inner = [(0f32, 0u32); 8];
             let mut k = 0;
             // The node's triangles (bits by their place from its first) in the leaves met.
