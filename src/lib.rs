@@ -3,7 +3,8 @@
 //! Data flows one way: `http` → `jobs` → (`bake` | `render`) → `encode` → `http`.
 //!
 //! - [`scene`]: the scene model, JSON schema, glTF import, validation. No GPU, no HTTP.
-//! - [`trace`]: CPU ray tracing on obvhs (BVH, closest hit, occlusion, Fresnel/Snell paths).
+//! - [`trace`]: CPU ray tracing (an obvhs-built BVH walked eight children at a time, closest
+//!   hit, occlusion, Fresnel/Snell paths).
 //! - [`bake`]: deterministic CPU precomputation per method (CSL sets), cached by content hash.
 //! - [`reference`](mod@reference): photon tracing + camera paths, the ground truth other methods are judged by.
 //! - [`gpu`]: headless wgpu device, adapter choice, error scopes, device-loss recovery, readback.
