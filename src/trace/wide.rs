@@ -60,7 +60,8 @@ struct TriBlock {
 pub(crate) struct WideBvh {
     nodes: Vec<Node>,
     tris: Vec<TriBlock>,
-    /// Whether the processor has AVX2, for the eight-lane tests.
+    /// Whether the processor has AVX2, for the eight-lane tests (read on x86-64 only).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     avx2: bool,
 }
 
