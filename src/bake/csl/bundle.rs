@@ -327,6 +327,21 @@ fn rasterise_part_avx2(rays: &[CausticRay], fixed: &[u64], part: &[u32], v: Volu
 fn rasterise_part(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volume) -> Vec<u64> {
     let cells = (volume.n as usize).pow(3);
     let mut g = vec![0u64; cells + 8];
+    splat::<true>(rays, fixed, part, volume, &mut g);
+    g
+}
+
+/// Add (`ADD`) or subtract the energy of the lines of `rays[part]` to or from the cells of
+/// `grid` they visit; `grid` holds the volume's cells and eight dummy cells after them.
+#[inline(always)]
+fn splat<const ADD: bool>(
+    rays: &[CausticRay],
+    fixed: &[u64],
+    part: &[u32],
+    volume: Volume,
+    grid: &mut [u64],
+) {
+    let cells = grid.len() - 8;
     let mut list = [[0u32; MAX_CELLS]; 3];
     for &i in part {
         let r = &rays[i as usize];
@@ -338,11 +353,20 @@ fn rasterise_part(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volu
         for j in 0..w.slices {
             for l in &list {
                 let c = l[j] as usize;
-                g[c] = g[c].wrapping_add(e);
+                grid[c] = if ADD {
+                    grid[c].wrapping_add(e)
+                } else {
+                    grid[c].wrapping_sub(e)
+                };
             }
         }
     }
-    g
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn subtract_avx2(rays: &[CausticRay], fixed: &[u64], part: &[u32], v: Volume, grid: &mut [u64]) {
+    splat::<false>(rays, fixed, part, v, grid)
 }
 
 /// Number of elements in exactly one of two ascending lists.
@@ -733,13 +757,38 @@ impl<'a> Extractor<'a> {
     /// grid. The columns keep them until they are an eighth of all (compacting the columns of
     /// 1.7 M rays after each of 64 CSLs took 4 % of a dynamic bake); until then the scans leave
     /// them out of what they find (`live`), which gives the same rays in the same order.
-    pub fn remove(&mut self, members: &[u32]) {
+    ///
+    /// `in_place`: subtract their lines from the grid on this thread, for callers that keep
+    /// every core busy; otherwise they are rasterised into a grid per thread, in parallel, and
+    /// that is subtracted. The integer sums are the same either way. Measured on the teapot at
+    /// 1280² (63 removals of 16 k rays on average): in place, a 42-direction dynamic bake's
+    /// sets took 76.3 → 74.5 s (the grids per thread, 2 MB each at 64³ cells, are zeroed,
+    /// summed and subtracted for every removal), while a static bake with a core to spare
+    /// spent about 100 ms more on its bundles.
+    pub fn remove(&mut self, members: &[u32], in_place: bool) {
         for &m in members {
             self.alive[m as usize] = false;
         }
         self.dead += members.len();
         if self.dead * 8 > self.pool.len() {
             self.compact();
+        }
+        if in_place {
+            let cells = self.grid.len();
+            self.grid.resize(cells + 8, 0);
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the processor has AVX2 (checked above).
+                unsafe {
+                    subtract_avx2(self.rays, &self.fixed, members, self.volume, &mut self.grid)
+                };
+            } else {
+                splat::<false>(self.rays, &self.fixed, members, self.volume, &mut self.grid);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            splat::<false>(self.rays, &self.fixed, members, self.volume, &mut self.grid);
+            self.grid.truncate(cells);
+            return;
         }
         let delta = rasterise(self.rays, &self.fixed, members, self.volume);
         for (g, d) in self.grid.iter_mut().zip(&delta) {
@@ -1154,7 +1203,7 @@ mod tests {
         }
         assert_eq!(ex.grid, want);
         let gone: Vec<u32> = (0..rays.len() as u32).filter(|i| i % 3 == 1).collect();
-        ex.remove(&gone);
+        ex.remove(&gone, false);
         let mut want = vec![0u64; 24 * 24 * 24];
         for (i, (r, &e)) in rays.iter().zip(&ex.fixed).enumerate() {
             if i % 3 != 1 {
@@ -1175,6 +1224,16 @@ mod tests {
             .filter(|&i| i % 3 != 1 && in_search_sample(i, 4))
             .count();
         assert_eq!(sample.len(), want);
+        // Removed in place, on this thread: the same exact sums.
+        let gone: Vec<u32> = (0..rays.len() as u32).filter(|i| i % 3 == 2).collect();
+        ex.remove(&gone, true);
+        let mut want = vec![0u64; 24 * 24 * 24];
+        for (i, (r, &e)) in rays.iter().zip(&ex.fixed).enumerate() {
+            if i % 3 == 0 {
+                volume.dda(r.origin, r.dir, |c| want[c] += e);
+            }
+        }
+        assert_eq!(ex.grid, want);
     }
 
     /// A bundle focused at (0, 0, -1) from a disc at z = 1 (drawn from `Pcg::new(seed, stream)`),
@@ -1244,10 +1303,10 @@ mod tests {
                 .copied()
                 .filter(|i| i % 40 == 7 || *i < 300)
                 .collect();
-            lazy.remove(&gone);
+            lazy.remove(&gone, false);
             assert!(lazy.dead > 0, "stride {stride}: the columns were compacted");
             let mut compacted = Extractor::new(&rays, volume, stride);
-            compacted.remove(&gone);
+            compacted.remove(&gone, false);
             compacted.compact();
             assert_eq!(lazy.remaining_energy(), compacted.remaining_energy());
             let cell = lazy.max_cell().unwrap();

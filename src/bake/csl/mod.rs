@@ -560,7 +560,7 @@ pub(crate) fn bake_csl_with(
         // The last CSL's rays leave the pool only now, when another bundle is wanted.
         if let Some(kept) = taken.take() {
             let t0 = Instant::now();
-            ex.remove(&kept);
+            ex.remove(&kept, !spare_cores);
             stats.time_bundles += t0.elapsed();
         }
         let Some(cell) = ex.max_cell() else { break };
