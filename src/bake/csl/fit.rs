@@ -123,10 +123,21 @@ impl Terms {
     fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
         let p = [ell, kappa, gamma, w, cap];
         #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the processor has AVX-512F (checked above).
+            return unsafe { self.sum_avx512(p) };
+        }
+        #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2 (checked above).
             return unsafe { self.sum_avx2(p) };
         }
+        self.sum(p)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn sum_avx512(&self, p: [f64; 5]) -> f64 {
         self.sum(p)
     }
 
