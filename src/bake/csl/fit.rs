@@ -211,13 +211,43 @@ pub fn fit_bundle(
     samples: usize,
     beside: bool,
 ) -> Fit {
-    let b = bundle.origin.as_dvec3();
-    let a = bundle.axis.as_dvec3();
-    let (lmin, lmax) = bundle
+    // The bundle's rays side by side, in member order: the fit passes over them a dozen times
+    // (the initial guess, each round's samples and dismissal), which then read memory front to
+    // back instead of single rays scattered over the pool. The fit sees the members as
+    // positions in `local`, ascending as the members are, so it makes the same choices; the
+    // rays it keeps are turned back into ray indices.
+    let local: Vec<CausticRay> = bundle
         .members
         .par_iter()
-        .map(|&i| {
-            let t = (rays[i as usize].origin.as_dvec3() - b).dot(a);
+        .map(|&i| rays[i as usize])
+        .collect();
+    let positions = Bundle {
+        members: (0..local.len() as u32).collect(),
+        ..*bundle
+    };
+    let mut fit = fit_local(&local, &positions, length, w, max_angle, samples, beside);
+    for k in &mut fit.kept {
+        *k = bundle.members[*k as usize];
+    }
+    fit
+}
+
+/// [`fit_bundle`] on rays whose members are positions in `rays`.
+fn fit_local(
+    rays: &[CausticRay],
+    bundle: &Bundle,
+    length: f64,
+    w: f64,
+    max_angle: f64,
+    samples: usize,
+    beside: bool,
+) -> Fit {
+    let b = bundle.origin.as_dvec3();
+    let a = bundle.axis.as_dvec3();
+    let (lmin, lmax) = rays
+        .par_iter()
+        .map(|r| {
+            let t = (r.origin.as_dvec3() - b).dot(a);
             (t, t)
         })
         .reduce(
