@@ -539,9 +539,9 @@ struct EdgeMatch {
 struct StepRays {
     rays: Vec<CausticRay>,
     cols: Columns,
-    /// Per group of directions: the axis of a cone holding them, its half-angle (radians) and
-    /// the group's positions in `cols`.
-    bins: Vec<(Vec3, f32, std::ops::Range<usize>)>,
+    /// Per group of directions: the axis of a cone holding them, its half-angle (radians),
+    /// that angle's cosine and sine, and the group's positions in `cols`.
+    bins: Vec<(Vec3, f32, [f32; 2], std::ops::Range<usize>)>,
     hits: u64,
 }
 
@@ -587,7 +587,8 @@ impl StepRays {
                 .sum::<Vec3>()
                 .normalize_or(members().next().unwrap_or(Vec3::Z));
             let cos = members().map(|d| d.dot(axis)).fold(1.0f32, f32::min);
-            bins.push((axis, cos.clamp(-1.0, 1.0).acos(), start..end));
+            let half = cos.clamp(-1.0, 1.0).acos();
+            bins.push((axis, half, [half.cos(), half.sin()], start..end));
             start = end;
         }
         StepRays {
@@ -601,10 +602,17 @@ impl StepRays {
     /// The positions of the groups with directions within `angle` (radians) of `axis`: a
     /// group is left out where its cone lies wholly beyond (by a margin far above rounding).
     fn near(&self, axis: Vec3, angle: f32) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
-        self.bins.iter().filter_map(move |(a, half, range)| {
-            let apart = a.dot(axis).clamp(-1.0, 1.0).acos();
-            (apart - half <= angle + 1e-3).then(|| range.clone())
-        })
+        // Apart by at most angle + 1e-3 + half: the cosine of the angle between the axes at
+        // least that of the sum, from the sum's cosine formula (no arc cosine per group).
+        let reach = angle + 1e-3;
+        let (cos_r, sin_r) = (reach.cos(), reach.sin());
+        self.bins
+            .iter()
+            .filter_map(move |(a, half, [cos_h, sin_h], range)| {
+                let within = reach + half >= std::f32::consts::PI
+                    || a.dot(axis) >= cos_r * cos_h - sin_r * sin_h;
+                within.then(|| range.clone())
+            })
     }
 
     /// The rays along `light`; None when canceled.
