@@ -120,8 +120,9 @@ impl Terms {
     /// evaluation takes microseconds, less than handing work to another thread and waking it),
     /// with the widest vector instructions the processor has: the same operations either way
     /// (no fused multiply-adds), so the same result on every machine. Square roots and
-    /// divisions bound it; with AVX-512 a block's eight rays take one instruction each, and a
-    /// static teapot bake's fit took 497 instead of 812 ms (2 cores, the same bytes).
+    /// divisions bound it; with AVX-512 each of them covers a block's eight rays in one
+    /// instruction, and a static teapot bake's fit took 497 instead of 812 ms (2 cores, the
+    /// same bytes).
     fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
         let p = [ell, kappa, gamma, w, cap];
         #[cfg(target_arch = "x86_64")]
