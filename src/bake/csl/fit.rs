@@ -228,23 +228,23 @@ pub fn fit_bundle(
         members: (0..local.len() as u32).collect(),
         ..*bundle
     };
-    let mut fit = fit_local(&local, &positions, length, w, max_angle, samples, beside);
+    let args = (length, w, max_angle, samples);
+    let mut fit = fit_local(&local, &positions, args, beside);
     for k in &mut fit.kept {
         *k = bundle.members[*k as usize];
     }
     fit
 }
 
-/// [`fit_bundle`] on rays whose members are positions in `rays`.
+/// [`fit_bundle`] on rays whose members are positions in `rays`; `args` are its
+/// (length, w, max_angle, samples), as [`fit_in_range`] takes them.
 fn fit_local(
     rays: &[CausticRay],
     bundle: &Bundle,
-    length: f64,
-    w: f64,
-    max_angle: f64,
-    samples: usize,
+    args: (f64, f64, f64, usize),
     beside: bool,
 ) -> Fit {
+    let length = args.0;
     let b = bundle.origin.as_dvec3();
     let a = bundle.axis.as_dvec3();
     let (lmin, lmax) = rays
@@ -257,7 +257,6 @@ fn fit_local(
             || (f64::INFINITY, f64::NEG_INFINITY),
             |x, y| (x.0.min(y.0), x.1.max(y.1)),
         );
-    let args = (length, w, max_angle, samples);
     let free_range = (lmin.min(0.0), lmax.max(0.0));
     let before_range = (lmin - length, lmin);
     // The free plane beyond the first exit (or not a number).
