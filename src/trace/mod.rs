@@ -199,6 +199,34 @@ impl Accel {
         Some((id, self.hit_on(id, t, &ray, origin, dir)))
     }
 
+    /// [`Self::intersect_prim`] for up to eight rays `(origin, dir)` at once (`out[r]` for
+    /// `rays[r]`), with no range limit: the same hits, faster where the rays are coherent
+    /// (neighbouring rays that took the same path), as the packet shares one tree walk.
+    pub fn intersect_packet(&self, rays: &[(Vec3, Vec3)], out: &mut [Option<(usize, Hit)>]) {
+        assert!(rays.len() <= 8 && out.len() == rays.len());
+        let Some(wide) = self.wide.as_ref().filter(|_| !rays.is_empty()) else {
+            for (o, &(origin, dir)) in out.iter_mut().zip(rays) {
+                *o = self.intersect_prim(origin, dir, f32::INFINITY);
+            }
+            return;
+        };
+        let made: [Ray; 8] = std::array::from_fn(|r| {
+            let (origin, dir) = rays[r.min(rays.len() - 1)];
+            make_ray(origin, dir, f32::INFINITY)
+        });
+        let mut found = [None; 8];
+        wide.closest_packet(&made[..rays.len()], &mut found[..rays.len()]);
+        for (r, o) in out.iter_mut().enumerate() {
+            *o = found[r].map(|(id, t)| {
+                let (origin, dir) = rays[r];
+                (
+                    id as usize,
+                    self.hit_on(id as usize, t, &made[r], origin, dir),
+                )
+            });
+        }
+    }
+
     /// The hit of `origin + t·dir`, t in (0, tmax), on triangle `prim` alone (an index of
     /// [`Self::triangle_vertices`]), the same as [`Self::intersect`] gives when that triangle is
     /// the closest; None when the ray misses it.
@@ -730,6 +758,181 @@ mod tests {
             eprintln!("{name}: {hits} hits, {ties} ties, {blocked} blocked");
             assert!(hits > 10_000 && blocked > 10_000, "{name}: {hits} hits");
             assert!(ties < 60, "{name}: {ties} ties");
+        }
+    }
+
+    /// Rays traced eight to a packet find what each finds alone: the same triangle (also
+    /// where two lie at one distance: along a cube's face diagonals and edges, where the packet
+    /// hands the ray to the single walk) and the same distance bit for bit, for coherent
+    /// packets (neighbouring rays from a surface, as a bake's waves form them), incoherent
+    /// ones and partial ones, with the AVX and the portable slab tests alike.
+    #[test]
+    fn packets_find_what_single_rays_find() {
+        use crate::reference::sampling::Pcg;
+        let teapot = crate::scene::load_scene_file(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-teapot.json"),
+            &Default::default(),
+        )
+        .unwrap();
+        let cube = resolve(
+            &parse_scene(
+                br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+                     "materials": {"d": {"type": "diffuse", "albedo": 0.5}},
+                     "objects": [{"name": "box", "shape": {"type": "box",
+                                  "size": [0.4, 0.4, 0.4]}, "material": "d"}]}"#,
+            )
+            .unwrap(),
+            &MapSource::default(),
+            &Default::default(),
+        )
+        .unwrap();
+        // Sixteen cubes side by side, touching (their corners exact in binary): a ray down
+        // through a seam meets the tops of two at exactly one distance, in different leaves.
+        let boxes: Vec<String> = (0..16)
+            .map(|k| {
+                format!(
+                    r#"{{"name": "b{k}", "shape": {{"type": "box", "size": [0.5, 0.5, 0.5]}},
+                        "material": "d", "transform": {{"translation": [{}, 0, 0]}}}}"#,
+                    0.5 * k as f32
+                )
+            })
+            .collect();
+        let row = resolve(
+            &parse_scene(
+                format!(
+                    r#"{{"camera": {{"eye": [0, 3, 3], "target": [0, 0, 0]}},
+                         "materials": {{"d": {{"type": "diffuse", "albedo": 0.5}}}},
+                         "objects": [{}]}}"#,
+                    boxes.join(",")
+                )
+                .as_bytes(),
+            )
+            .unwrap(),
+            &MapSource::default(),
+            &Default::default(),
+        )
+        .unwrap();
+        for (name, world) in [
+            ("sphere and floor", world()),
+            ("teapot scene", teapot),
+            ("cube", cube),
+            ("row of cubes", row),
+        ] {
+            let a = Accel::build(&world);
+            let wide = a.wide.as_ref().expect("a wide tree");
+            let (lo, hi) = world.bounds();
+            let size = (hi - lo).length();
+            let mut rng = Pcg::new(5, 9);
+            let unit = |rng: &mut Pcg| loop {
+                let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+                let l = v.length();
+                if l > 0.1 && l <= 1.0 {
+                    break v / l;
+                }
+            };
+            let (mut hits, mut rays, mut ties) = (0, 0, 0);
+            for k in 0..6000 {
+                let n = if k % 5 == 0 { 1 + k % 8 } else { 8 };
+                let mut packet = Vec::with_capacity(n);
+                match k % 4 {
+                    // Down through the seams between cubes, with rays along the row.
+                    0 | 1 if name == "row of cubes" => {
+                        for r in 0..n {
+                            if r % 2 == 0 {
+                                // A seam near the end the other rays come from.
+                                let seam = (rng.f32() * 3.0).floor();
+                                let seam = if k % 8 == 0 { seam } else { 14.0 - seam };
+                                let x = 0.25 + 0.5 * seam;
+                                let o = Vec3::new(x, 2.0, 0.4 * rng.f32() - 0.2);
+                                packet.push((o, Vec3::NEG_Y));
+                            } else {
+                                // Along the row, from one end or the other: the packet then
+                                // meets the cubes nearest that end first.
+                                let z = 0.4 * rng.f32() - 0.2;
+                                packet.push(if k % 8 == 0 {
+                                    (Vec3::new(-0.3, 0.0, z), Vec3::X)
+                                } else {
+                                    (Vec3::new(7.8, 0.0, z), Vec3::NEG_X)
+                                });
+                            }
+                        }
+                    }
+                    // Through the cube's face diagonals and edges, and the sphere's poles.
+                    0 => {
+                        let axis = k % 3;
+                        let mut d = Vec3::ZERO;
+                        d[axis] = if k % 8 < 4 { 1.0 } else { -1.0 };
+                        for r in 0..n {
+                            let mut o = 0.5 * (lo + hi) - d * size;
+                            let s = (r as f32 - 4.0) * 0.02 * size;
+                            o[(axis + 1) % 3] += s;
+                            o[(axis + 2) % 3] += if k % 3 == 1 { 0.2 } else { s };
+                            packet.push((o, d));
+                        }
+                    }
+                    // Incoherent: anywhere, any way.
+                    1 => {
+                        for _ in 0..n {
+                            let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                            let d = unit(&mut rng);
+                            packet.push((p - d * size, d));
+                        }
+                    }
+                    // Coherent: neighbours leaving a surface the same way, as a wave's.
+                    _ => {
+                        let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                        let d0 = unit(&mut rng);
+                        let Some(h) = a.intersect(p - d0 * size, d0, f32::INFINITY) else {
+                            continue;
+                        };
+                        let d1 = unit(&mut rng);
+                        for r in 0..n {
+                            let jitter = 1e-3 * r as f32;
+                            let d = (d1 + jitter * unit(&mut rng)).normalize();
+                            let o = h.point + (hi - lo) * jitter * unit(&mut rng);
+                            let Some(h) = a.intersect(o - d0 * size, d0, f32::INFINITY) else {
+                                continue;
+                            };
+                            packet.push((h.spawn(d), d));
+                        }
+                    }
+                }
+                if packet.is_empty() {
+                    continue;
+                }
+                let mut got = vec![None; packet.len()];
+                a.intersect_packet(&packet, &mut got);
+                let made: Vec<Ray> = packet
+                    .iter()
+                    .map(|&(o, d)| make_ray(o, d, f32::INFINITY))
+                    .collect();
+                let mut portable = vec![None; packet.len()];
+                wide.closest_packet_in::<false>(&made, &mut portable);
+                for (r, &(o, d)) in packet.iter().enumerate() {
+                    let want = a.intersect_prim(o, d, f32::INFINITY);
+                    let key = |h: &Option<(usize, Hit)>| h.map(|(p, h)| (p, h.t.to_bits()));
+                    assert_eq!(key(&got[r]), key(&want), "{name}: packet {k}, ray {r}");
+                    assert_eq!(
+                        portable[r],
+                        want.map(|(p, h)| (p as u32, h.t)),
+                        "{name}: packet {k}, ray {r} (portable)"
+                    );
+                    hits += want.is_some() as u32;
+                    rays += 1;
+                    // Ties: another triangle at exactly that distance (counted on the small
+                    // meshes).
+                    if let Some((_, h)) = want.filter(|_| a.tris.len() < 500) {
+                        let ray = make_ray(o, d, f32::INFINITY);
+                        ties +=
+                            (a.tris.iter().filter(|t| tri_t(t, &ray) == h.t).count() > 1) as u32;
+                    }
+                }
+            }
+            eprintln!("{name}: {rays} rays, {hits} hits, {ties} ties");
+            assert!(hits > 10_000, "{name}: {hits} hits");
+            if name.contains("cube") {
+                assert!(ties > 1000, "{name}: {ties} ties");
+            }
         }
     }
 }

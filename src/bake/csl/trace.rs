@@ -167,6 +167,11 @@ pub fn trace_grid(
         },
         || accel.convex_orientation(),
     );
+    // Objects that are not convex are traced in waves ([`trace_row_waves`]); a convex one
+    // ray by ray, where a path's exit guess saves most of the tree walks.
+    let waved = accel.convex_orientation().is_none()
+        && params.max_depth <= WAVE_MAX_DEPTH
+        && grid.n >= WAVE_MIN_GRID;
     let done = std::sync::atomic::AtomicU32::new(0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let rows: Vec<(Vec<CausticRay>, TraceTotals)> = (0..grid.n)
@@ -174,6 +179,7 @@ pub fn trace_grid(
         .map(|j| {
             let mut out = Vec::new();
             let mut stack = Vec::new();
+            let mut waves = Waves::default();
             let mut tot = TraceTotals::default();
             if cancel.load(std::sync::atomic::Ordering::Relaxed) {
                 return (out, tot);
@@ -185,15 +191,21 @@ pub fn trace_grid(
                     .as_ref()
                     .map(|f| &f[j as usize * n..(j as usize + 1) * n]),
             };
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the processor has AVX2 (checked above).
-                unsafe { trace_row_avx2(accel, grid, row, params, &mut stack, &mut out, &mut tot) };
+            if waved {
+                trace_row_waves(accel, grid, row, params, &mut waves, &mut out, &mut tot);
             } else {
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the processor has AVX2 (checked above).
+                    unsafe {
+                        trace_row_avx2(accel, grid, row, params, &mut stack, &mut out, &mut tot)
+                    };
+                } else {
+                    trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
                 trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
             }
-            #[cfg(not(target_arch = "x86_64"))]
-            trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if d.is_multiple_of(16) && !progress(d) {
                 cancel.store(true, std::sync::atomic::Ordering::Relaxed);
@@ -258,6 +270,235 @@ fn trace_row(
                 accel, o, grid.light, first, params, stack, &mut exits, out, tot,
             );
         }
+    }
+}
+
+/// The deepest paths [`trace_row_waves`] keys (two bits a level in a u64, and one more
+/// level for what the deepest leave behind).
+const WAVE_MAX_DEPTH: u32 = 31;
+
+const WAVE_MIN_GRID: u32 = 256;
+
+/// A path of [`trace_row_waves`]: its grid ray (place in the row), its key (the branches it
+/// took, see [`key_at`]), interactions so far, origin, direction and energy.
+#[derive(Clone, Copy)]
+struct Path {
+    key: u64,
+    ray: u32,
+    depth: u32,
+    o: Vec3,
+    d: Vec3,
+    e: Vec3,
+}
+
+/// What a path leaves behind: a ray leaving the object (`out`) or energy dropped, with the
+/// energy; sorted by grid ray and key they come in the order [`trace_one`] makes them.
+#[derive(Clone, Copy)]
+struct Event {
+    ray: u32,
+    key: u64,
+    out: bool,
+    o: Vec3,
+    d: Vec3,
+    e: Vec3,
+}
+
+/// Scratch space of [`trace_row_waves`], kept by the caller so that a row allocates it once.
+#[derive(Default)]
+struct Waves {
+    paths: Vec<Path>,
+    next: Vec<Path>,
+    /// The reflected and the refracted branches of the paths of one key.
+    branches: [Vec<Path>; 2],
+    events: Vec<Event>,
+    /// The events' order, and the start of each grid ray's events in it.
+    order: Vec<u32>,
+    starts: Vec<u32>,
+}
+
+/// `key` with digit `v` at level `depth`: two bits a level, first level highest, so that keys
+/// sort as [`trace_one`]'s depth-first order visits. At a path's level, 0 marks what it leaves
+/// behind itself (an exit, or energy dropped at the depth limit or on a non-specular part) or
+/// its refracted branch's dropped energy, 1 its reflected branch's dropped energy (the order
+/// [`trace_one`] drops them in), 2 its reflected branch and 3 its refracted one (reflection
+/// is traced first).
+#[inline(always)]
+fn key_at(key: u64, depth: u32, v: u64) -> u64 {
+    key | v << (62 - 2 * depth)
+}
+
+/// The row's grid rays traced in waves, a level of every ray's path tree at a time, so that
+/// the paths of neighbouring rays that took the same branches are traced together, eight to a
+/// packet ([`Accel::intersect_packet`]): the same hits as [`trace_one`] finds, and the same
+/// rays and totals in the same order (what each path leaves behind is put into its
+/// depth-first order before it is written or summed).
+///
+/// Each wave is in order of key, then grid ray: the branches of the paths of one key are
+/// appended reflected ones first, so the next wave is in that order too without a sort.
+fn trace_row_waves(
+    accel: &Accel,
+    grid: &RayGrid,
+    row: Row,
+    params: &CslParams,
+    w: &mut Waves,
+    out: &mut Vec<CausticRay>,
+    tot: &mut TraceTotals,
+) {
+    w.paths.clear();
+    w.events.clear();
+    for i in 0..grid.n {
+        if row.first.is_some_and(|f| f[i as usize] == NONE) {
+            continue;
+        }
+        if let Some(o) = grid.origin(i, row.j) {
+            w.paths.push(Path {
+                key: 0,
+                ray: i,
+                depth: 0,
+                o,
+                d: grid.light,
+                e: Vec3::ONE,
+            });
+        }
+    }
+    while !w.paths.is_empty() {
+        let paths = std::mem::take(&mut w.paths);
+        w.next.clear();
+        let mut start = 0;
+        while start < paths.len() {
+            let key = paths[start].key;
+            let end = start + paths[start..].partition_point(|p| p.key == key);
+            for run in paths[start..end].chunks(8) {
+                let mut hits = [None; 8];
+                if run[0].depth == 0 {
+                    for (h, p) in hits.iter_mut().zip(run) {
+                        let first = row.first.map(|f| f[p.ray as usize] as usize);
+                        *h = match first {
+                            Some(f) => accel.triangle_hit(f, p.o, p.d, f32::INFINITY),
+                            None => None,
+                        }
+                        .or_else(|| accel.intersect(p.o, p.d, f32::INFINITY));
+                    }
+                } else if run.len() == 1 {
+                    hits[0] = accel
+                        .intersect_prim(run[0].o, run[0].d, f32::INFINITY)
+                        .map(|(_, h)| h);
+                } else {
+                    let rays: [(Vec3, Vec3); 8] = std::array::from_fn(|k| {
+                        run.get(k).map_or((Vec3::ZERO, Vec3::Z), |p| (p.o, p.d))
+                    });
+                    let mut found = [None; 8];
+                    accel.intersect_packet(&rays[..run.len()], &mut found[..run.len()]);
+                    for (h, f) in hits.iter_mut().zip(found) {
+                        *h = f.map(|(_, h)| h);
+                    }
+                }
+                for (p, hit) in run.iter().zip(hits) {
+                    shade_path(accel, params, p, hit, w, tot);
+                }
+            }
+            let [reflected, refracted] = &mut w.branches;
+            w.next.append(reflected);
+            w.next.append(refracted);
+            start = end;
+        }
+        w.paths = paths;
+        std::mem::swap(&mut w.paths, &mut w.next);
+    }
+    // The events by grid ray (a counting sort, keeping their order), then each ray's by key.
+    let n = grid.n as usize;
+    w.starts.clear();
+    w.starts.resize(n + 1, 0);
+    for ev in &w.events {
+        w.starts[ev.ray as usize + 1] += 1;
+    }
+    for i in 0..n {
+        w.starts[i + 1] += w.starts[i];
+    }
+    w.order.clear();
+    w.order.resize(w.events.len(), 0);
+    let mut fill = w.starts.clone();
+    for (k, ev) in w.events.iter().enumerate() {
+        let slot = &mut fill[ev.ray as usize];
+        w.order[*slot as usize] = k as u32;
+        *slot += 1;
+    }
+    for i in 0..n {
+        let (a, b) = (w.starts[i] as usize, w.starts[i + 1] as usize);
+        let events = &w.events;
+        w.order[a..b].sort_unstable_by_key(|&k| events[k as usize].key);
+    }
+    for &k in &w.order {
+        let ev = &w.events[k as usize];
+        let weight = (ev.e.element_sum() / 3.0) as f64;
+        if ev.out {
+            out.push(CausticRay {
+                origin: ev.o,
+                dir: ev.d,
+                energy: ev.e,
+            });
+            tot.exiting += weight;
+        } else {
+            tot.dropped += weight;
+        }
+    }
+}
+
+/// One path of [`trace_row_waves`] at its hit (None: it left the object): [`trace_one`]'s
+/// steps for an object that is not convex, its branches joining `w.branches` and what it
+/// leaves behind `w.events`.
+#[inline(always)]
+fn shade_path(
+    accel: &Accel,
+    params: &CslParams,
+    p: &Path,
+    hit: Option<crate::trace::Hit>,
+    w: &mut Waves,
+    tot: &mut TraceTotals,
+) {
+    let event = |v: u64, out: bool, e: Vec3| Event {
+        ray: p.ray,
+        key: key_at(p.key, p.depth, v),
+        out,
+        o: p.o,
+        d: p.d,
+        e,
+    };
+    let Some(hit) = hit else {
+        if p.depth > 0 {
+            w.events.push(event(0, true, p.e));
+        }
+        return;
+    };
+    if p.depth == 0 {
+        tot.hits += 1;
+    }
+    let mat = accel.material(&hit);
+    let e = p.e * optics::segment_transmittance(&hit, mat);
+    if p.depth >= params.max_depth {
+        w.events.push(event(0, false, e));
+        return;
+    }
+    let branches = optics::specular_branches(&hit, p.d, mat);
+    if branches.iter().all(Option::is_none) {
+        w.events.push(event(0, false, e));
+        return;
+    }
+    for (k, b) in branches.into_iter().enumerate().rev() {
+        let Some(b) = b else { continue };
+        let eb = e * b.weight;
+        if eb.element_sum() / 3.0 < params.min_energy {
+            w.events.push(event(1 - k as u64, false, eb));
+            continue;
+        }
+        w.branches[k].push(Path {
+            key: key_at(p.key, p.depth, 2 + k as u64),
+            ray: p.ray,
+            depth: p.depth + 1,
+            o: hit.spawn(b.dir),
+            d: b.dir,
+            e: eb,
+        });
     }
 }
 
@@ -431,6 +672,92 @@ mod tests {
                 claims_checked * 100 >= hits * 99,
                 "{claims_checked} of {hits}"
             );
+        }
+    }
+
+    /// Waves and packets trace what the ray-by-ray tracer traces, bit for bit and in the same
+    /// order: the caustic rays and the totals, row by row, for a torus and the glass teapot
+    /// (neither convex: total internal reflection, rays leaving and meeting the object again),
+    /// with and without the z-buffer's first triangles.
+    #[test]
+    fn waves_trace_what_the_ray_by_ray_tracer_traces() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let teapot = crate::scene::load_scene_file(
+            &dir.join("scenes/glass-teapot.json"),
+            &Default::default(),
+        )
+        .expect("teapot scene");
+        let torus = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+                 "objects": [{"name": "ring", "shape": {"type": "torus", "major_radius": 0.5,
+                              "minor_radius": 0.2, "segments": 48}, "material": "glass"}]}"#,
+        )
+        .expect("scene resolves");
+        let params = CslParams::default();
+        for (world, name, light) in [
+            (&torus, "ring", Vec3::new(0.3, -1.0, 0.45).normalize()),
+            (&teapot, "teapot", Vec3::new(-0.2, -1.0, 0.3).normalize()),
+        ] {
+            let object = world.object(name).expect("the object");
+            let local = super::super::rigid_frame_world(world, object);
+            let accel = Accel::build(&local);
+            assert!(accel.convex_orientation().is_none());
+            let (lo, hi) = local.bounds();
+            let (u, v) = light.any_orthonormal_pair();
+            let grid = RayGrid {
+                light,
+                u,
+                v,
+                centre: 0.5 * (lo + hi),
+                radius: 0.5 * (hi - lo).length(),
+                n: 96,
+            };
+            let first = first_triangles(&accel, &grid);
+            let n = grid.n as usize;
+            let (mut stack, mut waves) = (Vec::new(), Waves::default());
+            let mut rays = 0;
+            for j in 0..grid.n {
+                for zbuffer in [false, true] {
+                    let row = Row {
+                        j,
+                        first: zbuffer.then(|| &first[j as usize * n..(j as usize + 1) * n]),
+                    };
+                    let (mut want, mut got) = (Vec::new(), Vec::new());
+                    let (mut want_tot, mut got_tot) = Default::default();
+                    trace_row(
+                        &accel,
+                        &grid,
+                        row,
+                        &params,
+                        &mut stack,
+                        &mut want,
+                        &mut want_tot,
+                    );
+                    trace_row_waves(
+                        &accel,
+                        &grid,
+                        row,
+                        &params,
+                        &mut waves,
+                        &mut got,
+                        &mut got_tot,
+                    );
+                    let bits = |r: &CausticRay| {
+                        [r.origin, r.dir, r.energy].map(|v| v.to_array().map(f32::to_bits))
+                    };
+                    assert_eq!(
+                        want.iter().map(bits).collect::<Vec<_>>(),
+                        got.iter().map(bits).collect::<Vec<_>>(),
+                        "{name}: row {j}"
+                    );
+                    let tot = |t: TraceTotals| (t.hits, t.exiting.to_bits(), t.dropped.to_bits());
+                    assert_eq!(tot(want_tot), tot(got_tot), "{name}: row {j}");
+                    rays += want.len();
+                }
+            }
+            eprintln!("{name}: {rays} rays");
+            assert!(rays > 10_000, "{name}: {rays} rays");
         }
     }
 }
