@@ -1366,7 +1366,21 @@ fn delta_code(texels: &mut [[u16; 3]], decode: bool) {
 }
 
 /// Deflate level of the artifact's chunks.
-const DEFLATE_LEVEL: u8 = 6;
+const DEFLATE_LEVEL: u32 = 6;
+
+/// `raw` deflated (raw deflate, no zlib header) at [`DEFLATE_LEVEL`], by zlib-rs: at the same
+/// level it took half miniz_oxide's time and wrote 2.4 % less (the chunks of a 12-direction
+/// teapot bake: 1.06 s → 0.51 s, 5.50 → 5.37 MB). Deterministic: the same bytes in, the same
+/// bytes out.
+fn deflate(raw: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::DeflateEncoder::new(
+        Vec::with_capacity(raw.len() / 8),
+        flate2::Compression::new(DEFLATE_LEVEL),
+    );
+    e.write_all(raw).expect("writing to memory");
+    e.finish().expect("writing to memory")
+}
 
 impl DynamicSet {
     /// Serialise: a header, deflated chunks (one per direction: its set, the images coded no
@@ -1411,7 +1425,7 @@ impl DynamicSet {
                 b.extend(s.to_bytes());
                 (
                     b.len() as u64,
-                    miniz_oxide::deflate::compress_to_vec(&b, DEFLATE_LEVEL),
+                    deflate(&b),
                 )
             })
             .collect();
@@ -1447,7 +1461,7 @@ impl DynamicSet {
         }
         chunks.push((
             body.len() as u64,
-            miniz_oxide::deflate::compress_to_vec(&body, DEFLATE_LEVEL),
+            deflate(&body),
         ));
         let packed: usize = chunks.iter().map(|c| c.1.len()).sum();
         let mut out = Vec::with_capacity(packed + 16 * chunks.len() + 128);
