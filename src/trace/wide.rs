@@ -313,7 +313,8 @@ impl WideBvh {
                     let mut lanes = (prims >> (8 * b)) & 0xff;
                     prims &= !(0xff << (8 * b));
                     let block = &self.tris[(node.first_block + b) as usize];
-                    let t = tests[r].triangles::<AVX>(block, bound[r]);
+                    let (t, met) = tests[r].triangles::<AVX>(block, bound[r]);
+                    lanes &= met;
                     while lanes != 0 {
                         let j = lanes.trailing_zeros() as usize;
                         lanes &= lanes - 1;
@@ -432,9 +433,9 @@ impl WideBvh {
                 let lanes = (prims >> (8 * b)) & 0xff;
                 prims &= !(0xff << (8 * b));
                 let block = &self.tris[(node.first_block + b) as usize];
-                let t = test.triangles::<AVX>(block, ray.tmax);
+                let (t, met) = test.triangles::<AVX>(block, ray.tmax);
                 let (mut lane, mut nearest) = (8, f32::INFINITY);
-                let mut l = lanes;
+                let mut l = lanes & met;
                 while l != 0 {
                     let j = l.trailing_zeros() as usize;
                     l &= l - 1;
@@ -581,15 +582,18 @@ impl SlabRay {
     }
 
     /// The distance to each triangle of `block` within (tmin, tmax], ∞ where the ray misses
-    /// it: [`super::tri_t`] lane by lane.
+    /// it ([`super::tri_t`] lane by lane), and a bit for each lane that may be met (at least
+    /// those with a finite distance), so that callers pass over the rest.
     #[inline(always)]
-    fn triangles<const AVX: bool>(&self, block: &TriBlock, tmax: f32) -> [f32; 8] {
+    fn triangles<const AVX: bool>(&self, block: &TriBlock, tmax: f32) -> ([f32; 8], u32) {
         #[cfg(target_arch = "x86_64")]
         if AVX {
             // SAFETY: AVX is only asked for from functions compiled with AVX2.
             return unsafe { self.triangles_avx(block, tmax) };
         }
-        self.triangles_scalar(block, tmax)
+        let t = self.triangles_scalar(block, tmax);
+        let met = (0..8).fold(0, |m, l| m | u32::from(t[l] != f32::INFINITY) << l);
+        (t, met)
     }
 
     /// The operations of [`super::tri_t`] (glam's Vec3A cross and dot products, without fused
@@ -630,7 +634,7 @@ impl SlabRay {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     #[inline]
-    fn triangles_avx(&self, block: &TriBlock, tmax: f32) -> [f32; 8] {
+    fn triangles_avx(&self, block: &TriBlock, tmax: f32) -> ([f32; 8], u32) {
         use std::arch::x86_64::*;
         // SAFETY: the loads are of whole [f32; 8] rows, 32-byte aligned (`TriBlock` is
         // `align(32)`).
@@ -681,7 +685,7 @@ impl SlabRay {
                 _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), _mm256_div_ps(t, abs_den), ok);
             let mut out = [0f32; 8];
             _mm256_storeu_ps(out.as_mut_ptr(), dist);
-            out
+            (out, _mm256_movemask_ps(ok) as u32)
         }
     }
 }

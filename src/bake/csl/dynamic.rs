@@ -1423,10 +1423,7 @@ impl DynamicSet {
                     delta_code(&mut c.texels, false);
                 }
                 b.extend(s.to_bytes());
-                (
-                    b.len() as u64,
-                    deflate(&b),
-                )
+                (b.len() as u64, deflate(&b))
             })
             .collect();
         let mut body = Vec::new();
@@ -1459,10 +1456,7 @@ impl DynamicSet {
                 body.extend_from_slice(&t.split.unwrap_or(u16::MAX).to_le_bytes());
             }
         }
-        chunks.push((
-            body.len() as u64,
-            deflate(&body),
-        ));
+        chunks.push((body.len() as u64, deflate(&body)));
         let packed: usize = chunks.iter().map(|c| c.1.len()).sum();
         let mut out = Vec::with_capacity(packed + 16 * chunks.len() + 128);
         out.extend_from_slice(&MAGIC);
