@@ -293,21 +293,55 @@ impl WideBvh {
         let (mut cur, mut live) = (0u32, (1u32 << n) - 1);
         loop {
             let node = &self.nodes[cur as usize];
+            // Each live ray's slab tests: the triangles of the leaves it meets, and per inner
+            // child the rays that meet it and the nearest entry.
+            let mut prims = [0u32; 8];
             let mut slot_rays = [0u32; 8];
             let mut slot_near = [f32::INFINITY; 8];
+            let scalar = |prims: &mut [u32; 8], rays: &mut [u32; 8], near: &mut [f32; 8]| {
+                let mut m = live;
+                while m != 0 {
+                    let r = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let (mask, tnear) = tests[r].node::<false>(node, bound[r]);
+                    let mask = mask & node.used;
+                    let mut leaves = mask & node.leaves;
+                    while leaves != 0 {
+                        let slot = leaves.trailing_zeros() as usize;
+                        leaves &= leaves - 1;
+                        prims[r] |= node.child[slot] & 0x00ff_ffff;
+                    }
+                    let mut inner = mask & !node.leaves;
+                    while inner != 0 {
+                        let slot = inner.trailing_zeros() as usize;
+                        inner &= inner - 1;
+                        rays[slot] |= 1 << r;
+                        near[slot] = near[slot].min(tnear[slot]);
+                    }
+                }
+            };
+            #[cfg(target_arch = "x86_64")]
+            if AVX {
+                // SAFETY: AVX is only asked for from functions compiled with AVX2.
+                unsafe {
+                    node_rays_avx(
+                        &tests,
+                        node,
+                        live,
+                        &bound,
+                        (&mut prims, &mut slot_rays, &mut slot_near),
+                    )
+                };
+            } else {
+                scalar(&mut prims, &mut slot_rays, &mut slot_near);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            scalar(&mut prims, &mut slot_rays, &mut slot_near);
             let mut m = live;
             while m != 0 {
                 let r = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let (mask, tnear) = tests[r].node::<AVX>(node, bound[r]);
-                let mask = mask & node.used;
-                let mut leaves = mask & node.leaves;
-                let mut prims = 0u32;
-                while leaves != 0 {
-                    let slot = leaves.trailing_zeros() as usize;
-                    leaves &= leaves - 1;
-                    prims |= node.child[slot] & 0x00ff_ffff;
-                }
+                let mut prims = prims[r];
                 while prims != 0 {
                     let b = prims.trailing_zeros() / 8;
                     let mut lanes = (prims >> (8 * b)) & 0xff;
@@ -333,13 +367,6 @@ impl WideBvh {
                             near |= 1 << r;
                         }
                     }
-                }
-                let mut inner = mask & !node.leaves;
-                while inner != 0 {
-                    let slot = inner.trailing_zeros() as usize;
-                    inner &= inner - 1;
-                    slot_rays[slot] |= 1 << r;
-                    slot_near[slot] = slot_near[slot].min(tnear[slot]);
                 }
             }
             // The inner children met, farthest first (by their nearest ray's entry).
@@ -487,6 +514,77 @@ impl WideBvh {
                 }
             }
         }
+    }
+}
+
+/// The slab tests of a packet's `live` rays at `node`, eight children a ray at a time: per
+/// ray the triangles of the leaves it meets (bits as in [`Node::child`]), and per inner child
+/// the rays that meet it (a bit each) and their nearest entry, gathered in vector registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn node_rays_avx(
+    tests: &[SlabRay; 8],
+    node: &Node,
+    live: u32,
+    bound: &[f32; 8],
+    (prims, rays, near): (&mut [u32; 8], &mut [u32; 8], &mut [f32; 8]),
+) {
+    use std::arch::x86_64::*;
+    // SAFETY: the loads are of whole [f32; 8] and [u32; 8] rows, 32-byte aligned (`Node` is
+    // `align(32)`, its rows at multiples of 32 bytes); the stores unaligned.
+    unsafe {
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let set = |mask: u32| {
+            _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(mask as i32), bits), bits)
+        };
+        let used = set(node.used);
+        let leaf = _mm256_and_si256(set(node.leaves), used);
+        let inner = _mm256_andnot_si256(leaf, used);
+        let child = _mm256_load_si256(node.child.as_ptr().cast());
+        let leaf_prims = _mm256_and_si256(
+            _mm256_and_si256(child, _mm256_set1_epi32(0x00ff_ffff)),
+            leaf,
+        );
+        let (mut slot_rays, mut slot_near) =
+            (_mm256_setzero_si256(), _mm256_set1_ps(f32::INFINITY));
+        let mut m = live;
+        while m != 0 {
+            let r = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let test = &tests[r];
+            let mut t0 = _mm256_set1_ps(test.tmin);
+            let mut t1 = _mm256_set1_ps(bound[r]);
+            for a in 0..3 {
+                let (n, f) = if test.neg[a] {
+                    (&node.hi[a], &node.lo[a])
+                } else {
+                    (&node.lo[a], &node.hi[a])
+                };
+                let o = _mm256_set1_ps(test.o[a]);
+                let inv = _mm256_set1_ps(test.inv[a]);
+                let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.as_ptr()), o), inv);
+                let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(f.as_ptr()), o), inv);
+                // As in `SlabRay::node_avx`.
+                t0 = _mm256_max_ps(tn, t0);
+                t1 = _mm256_min_ps(tf, t1);
+            }
+            let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1));
+            // The leaves' triangles, OR-ed across the lanes.
+            let p = _mm256_and_si256(hit, leaf_prims);
+            let p = _mm_or_si128(_mm256_castsi256_si128(p), _mm256_extracti128_si256::<1>(p));
+            let p = _mm_or_si128(p, _mm_unpackhi_epi64(p, p));
+            let p = _mm_or_si128(p, _mm_shuffle_epi32::<0b01>(p));
+            prims[r] = _mm_cvtsi128_si32(p) as u32;
+            let met = _mm256_and_si256(hit, inner);
+            slot_rays =
+                _mm256_or_si256(slot_rays, _mm256_and_si256(met, _mm256_set1_epi32(1 << r)));
+            let entry =
+                _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), t0, _mm256_castsi256_ps(met));
+            slot_near = _mm256_min_ps(entry, slot_near);
+        }
+        _mm256_storeu_si256(rays.as_mut_ptr().cast(), slot_rays);
+        _mm256_storeu_ps(near.as_mut_ptr(), slot_near);
     }
 }
 
