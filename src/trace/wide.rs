@@ -438,23 +438,17 @@ impl WideBvh {
         let mut cur = 0u32;
         loop {
             let node = &self.nodes[cur as usize];
-            let (mask, tnear) = test.node::<AVX>(node, ray.tmax);
-            let mut mask = mask & node.used;
-            let mut inner = [(0f32, 0u32); 8];
-            let mut k = 0;
-            // The node's triangles (bits by their place from its first) in the leaves met.
-            let mut prims = 0u32;
-            while mask != 0 {
-                let slot = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let c = node.child[slot];
-                // Without branches (whether a child is a leaf is hard to predict): a leaf's
-                // triangles join `prims`, an inner child is written and counted.
-                let leaf = c >> 31;
-                prims |= c & leaf.wrapping_neg() & 0x00ff_ffff;
-                inner[k] = (tnear[slot], c);
-                k += (1 - leaf) as usize;
-            }
+            // The node's triangles (bits by their place from its first) in the leaves met, and
+            // the inner children met (entry distances and nodes), in slot order.
+            #[cfg(target_arch = "x86_64")]
+            let (mut prims, k, mut inner_t, mut inner_c) = if AVX {
+                // SAFETY: AVX is only asked for from functions compiled with AVX2.
+                unsafe { node_ray_avx(&test, node, ray.tmax) }
+            } else {
+                node_ray(&test, node, ray.tmax)
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let (mut prims, k, mut inner_t, mut inner_c) = node_ray(&test, node, ray.tmax);
             while prims != 0 {
                 let b = prims.trailing_zeros() / 8;
                 let lanes = (prims >> (8 * b)) & 0xff;
@@ -481,21 +475,22 @@ impl WideBvh {
                 // Insertion sort, farthest first, so that the nearest is taken next and the
                 // rest are pushed far to near.
                 for i in 1..k {
-                    let e = inner[i];
+                    let (et, ec) = (inner_t[i], inner_c[i]);
                     let mut j = i;
-                    while j > 0 && inner[j - 1].0 < e.0 {
-                        inner[j] = inner[j - 1];
+                    while j > 0 && inner_t[j - 1] < et {
+                        inner_t[j] = inner_t[j - 1];
+                        inner_c[j] = inner_c[j - 1];
                         j -= 1;
                     }
-                    inner[j] = e;
+                    (inner_t[j], inner_c[j]) = (et, ec);
                 }
             }
             if k > 0 {
-                for &(t, c) in &inner[..k - 1] {
+                for (&t, &c) in inner_t[..k - 1].iter().zip(&inner_c[..k - 1]) {
                     stack[sp].write((c, t));
                     sp += 1;
                 }
-                let (t, c) = inner[k - 1];
+                let (t, c) = (inner_t[k - 1], inner_c[k - 1]);
                 if t <= ray.tmax {
                     cur = c;
                     continue;
@@ -514,6 +509,112 @@ impl WideBvh {
                 }
             }
         }
+    }
+}
+
+/// A ray's slab tests at `node`: the triangles of the leaves it meets (bits as in
+/// [`Node::child`]), and how many inner children it meets, their entry distances and their
+/// nodes, in slot order.
+#[inline(always)]
+fn node_ray(test: &SlabRay, node: &Node, tmax: f32) -> (u32, usize, [f32; 8], [u32; 8]) {
+    let (mask, tnear) = test.node::<false>(node, tmax);
+    let mut mask = mask & node.used;
+    let (mut inner_t, mut inner_c) = ([0f32; 8], [0u32; 8]);
+    let mut k = 0;
+    let mut prims = 0u32;
+    while mask != 0 {
+        let slot = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let c = node.child[slot];
+        // Without branches (whether a child is a leaf is hard to predict): a leaf's
+        // triangles join `prims`, an inner child is written and counted.
+        let leaf = c >> 31;
+        prims |= c & leaf.wrapping_neg() & 0x00ff_ffff;
+        (inner_t[k], inner_c[k]) = (tnear[slot], c);
+        k += (1 - leaf) as usize;
+    }
+    (prims, k, inner_t, inner_c)
+}
+
+/// For each set of slots (a bit each), the slots in ascending order, then zeros: the lanes
+/// that pack a vector's lanes of those slots to its front.
+const PACK: [[u32; 8]; 256] = {
+    let mut table = [[0u32; 8]; 256];
+    let mut m = 0;
+    while m < 256 {
+        let (mut slot, mut k) = (0, 0);
+        while slot < 8 {
+            if m & (1 << slot) != 0 {
+                table[m][k] = slot as u32;
+                k += 1;
+            }
+            slot += 1;
+        }
+        m += 1;
+    }
+    table
+};
+
+/// [`node_ray`] in vector registers: the leaves' triangles OR-ed across the lanes, and the
+/// inner children met packed to the front ([`PACK`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn node_ray_avx(test: &SlabRay, node: &Node, tmax: f32) -> (u32, usize, [f32; 8], [u32; 8]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the loads are of whole [f32; 8] and [u32; 8] rows, 32-byte aligned (`Node` is
+    // `align(32)`, its rows at multiples of 32 bytes) or of a row of `PACK`; the stores
+    // unaligned.
+    unsafe {
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let used = _mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(node.used as i32), bits),
+            bits,
+        );
+        let child = _mm256_load_si256(node.child.as_ptr().cast());
+        // A leaf's child word has its top bit set.
+        let leaf = _mm256_srai_epi32::<31>(child);
+        let mut t0 = _mm256_set1_ps(test.tmin);
+        let mut t1 = _mm256_set1_ps(tmax);
+        for a in 0..3 {
+            let (n, f) = if test.neg[a] {
+                (&node.hi[a], &node.lo[a])
+            } else {
+                (&node.lo[a], &node.hi[a])
+            };
+            let o = _mm256_set1_ps(test.o[a]);
+            let inv = _mm256_set1_ps(test.inv[a]);
+            let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.as_ptr()), o), inv);
+            let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(f.as_ptr()), o), inv);
+            // As in `SlabRay::node_avx`.
+            t0 = _mm256_max_ps(tn, t0);
+            t1 = _mm256_min_ps(tf, t1);
+        }
+        let hit = _mm256_and_si256(
+            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)),
+            used,
+        );
+        let p = _mm256_and_si256(
+            _mm256_and_si256(hit, leaf),
+            _mm256_and_si256(child, _mm256_set1_epi32(0x00ff_ffff)),
+        );
+        let p = _mm_or_si128(_mm256_castsi256_si128(p), _mm256_extracti128_si256::<1>(p));
+        let p = _mm_or_si128(p, _mm_unpackhi_epi64(p, p));
+        let p = _mm_or_si128(p, _mm_shuffle_epi32::<0b01>(p));
+        let met = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_andnot_si256(leaf, hit))) as usize;
+        let pack = _mm256_loadu_si256(PACK[met].as_ptr().cast());
+        let (mut inner_t, mut inner_c) = ([0f32; 8], [0u32; 8]);
+        _mm256_storeu_ps(inner_t.as_mut_ptr(), _mm256_permutevar8x32_ps(t0, pack));
+        _mm256_storeu_si256(
+            inner_c.as_mut_ptr().cast(),
+            _mm256_permutevar8x32_epi32(child, pack),
+        );
+        (
+            _mm_cvtsi128_si32(p) as u32,
+            met.count_ones() as usize,
+            inner_t,
+            inner_c,
+        )
     }
 }
 
