@@ -169,9 +169,7 @@ pub fn trace_grid(
     );
     // Objects that are not convex are traced in waves ([`trace_row_waves`]); a convex one
     // ray by ray, where a path's exit guess saves most of the tree walks.
-    let waved = accel.convex_orientation().is_none()
-        && params.max_depth <= WAVE_MAX_DEPTH
-        && grid.n >= WAVE_MIN_GRID;
+    let waved = accel.convex_orientation().is_none() && params.max_depth <= WAVE_MAX_DEPTH;
     let done = std::sync::atomic::AtomicU32::new(0);
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let rows: Vec<(Vec<CausticRay>, TraceTotals)> = (0..grid.n)
@@ -276,8 +274,6 @@ fn trace_row(
 /// The deepest paths [`trace_row_waves`] keys (two bits a level in a u64, and one more
 /// level for what the deepest leave behind).
 const WAVE_MAX_DEPTH: u32 = 31;
-
-const WAVE_MIN_GRID: u32 = 256;
 
 /// A path of [`trace_row_waves`]: its grid ray (place in the row), its key (the branches it
 /// took, see [`key_at`]), interactions so far, origin, direction and energy.
