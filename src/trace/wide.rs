@@ -303,7 +303,7 @@ impl WideBvh {
                 while m != 0 {
                     let r = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    let (mask, tnear) = tests[r].node::<false>(node, bound[r]);
+                    let (mask, tnear) = tests[r].node(node, bound[r]);
                     let mask = mask & node.used;
                     let mut leaves = mask & node.leaves;
                     while leaves != 0 {
@@ -517,7 +517,7 @@ impl WideBvh {
 /// nodes, in slot order.
 #[inline(always)]
 fn node_ray(test: &SlabRay, node: &Node, tmax: f32) -> (u32, usize, [f32; 8], [u32; 8]) {
-    let (mask, tnear) = test.node::<false>(node, tmax);
+    let (mask, tnear) = test.node(node, tmax);
     let mut mask = mask & node.used;
     let (mut inner_t, mut inner_c) = ([0f32; 8], [0u32; 8]);
     let mut k = 0;
@@ -574,26 +574,8 @@ fn node_ray_avx(test: &SlabRay, node: &Node, tmax: f32) -> (u32, usize, [f32; 8]
         let child = _mm256_load_si256(node.child.as_ptr().cast());
         // A leaf's child word has its top bit set.
         let leaf = _mm256_srai_epi32::<31>(child);
-        let mut t0 = _mm256_set1_ps(test.tmin);
-        let mut t1 = _mm256_set1_ps(tmax);
-        for a in 0..3 {
-            let (n, f) = if test.neg[a] {
-                (&node.hi[a], &node.lo[a])
-            } else {
-                (&node.lo[a], &node.hi[a])
-            };
-            let o = _mm256_set1_ps(test.o[a]);
-            let inv = _mm256_set1_ps(test.inv[a]);
-            let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.as_ptr()), o), inv);
-            let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(f.as_ptr()), o), inv);
-            // As in `SlabRay::node_avx`.
-            t0 = _mm256_max_ps(tn, t0);
-            t1 = _mm256_min_ps(tf, t1);
-        }
-        let hit = _mm256_and_si256(
-            _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)),
-            used,
-        );
+        let (t0, hit) = test.slab_avx(node, tmax);
+        let hit = _mm256_and_si256(hit, used);
         let p = _mm256_and_si256(
             _mm256_and_si256(hit, leaf),
             _mm256_and_si256(child, _mm256_set1_epi32(0x00ff_ffff)),
@@ -653,24 +635,7 @@ fn node_rays_avx(
         while m != 0 {
             let r = m.trailing_zeros() as usize;
             m &= m - 1;
-            let test = &tests[r];
-            let mut t0 = _mm256_set1_ps(test.tmin);
-            let mut t1 = _mm256_set1_ps(bound[r]);
-            for a in 0..3 {
-                let (n, f) = if test.neg[a] {
-                    (&node.hi[a], &node.lo[a])
-                } else {
-                    (&node.lo[a], &node.hi[a])
-                };
-                let o = _mm256_set1_ps(test.o[a]);
-                let inv = _mm256_set1_ps(test.inv[a]);
-                let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(n.as_ptr()), o), inv);
-                let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(f.as_ptr()), o), inv);
-                // As in `SlabRay::node_avx`.
-                t0 = _mm256_max_ps(tn, t0);
-                t1 = _mm256_min_ps(tf, t1);
-            }
-            let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1));
+            let (t0, hit) = tests[r].slab_avx(node, bound[r]);
             // The leaves' triangles, OR-ed across the lanes.
             let p = _mm256_and_si256(hit, leaf_prims);
             let p = _mm_or_si128(_mm256_castsi256_si128(p), _mm256_extracti128_si256::<1>(p));
@@ -715,17 +680,7 @@ impl SlabRay {
     /// The children of `node` the ray meets within [tmin, tmax] (a bit per slot), and each
     /// slot's entry distance.
     #[inline(always)]
-    fn node<const AVX: bool>(&self, node: &Node, tmax: f32) -> (u32, [f32; 8]) {
-        #[cfg(target_arch = "x86_64")]
-        if AVX {
-            // SAFETY: AVX is only asked for from functions compiled with AVX2.
-            return unsafe { self.node_avx(node, tmax) };
-        }
-        self.node_scalar(node, tmax)
-    }
-
-    #[inline(always)]
-    fn node_scalar(&self, node: &Node, tmax: f32) -> (u32, [f32; 8]) {
+    fn node(&self, node: &Node, tmax: f32) -> (u32, [f32; 8]) {
         let mut tnear = [0f32; 8];
         let mut mask = 0;
         for (s, near) in tnear.iter_mut().enumerate() {
@@ -748,10 +703,16 @@ impl SlabRay {
         (mask, tnear)
     }
 
+    /// [`Self::node`] in vector registers: each slot's entry distance, and all ones in the
+    /// slots the ray meets (not yet masked by the slots used).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
+    #[target_feature(enable = "avx2")]
     #[inline]
-    fn node_avx(&self, node: &Node, tmax: f32) -> (u32, [f32; 8]) {
+    fn slab_avx(
+        &self,
+        node: &Node,
+        tmax: f32,
+    ) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256i) {
         use std::arch::x86_64::*;
         // SAFETY: the loads are of whole [f32; 8] rows, 32-byte aligned (`Node` is
         // `align(32)`).
@@ -773,10 +734,7 @@ impl SlabRay {
                 t0 = _mm256_max_ps(tn, t0);
                 t1 = _mm256_min_ps(tf, t1);
             }
-            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1);
-            let mut tnear = [0f32; 8];
-            _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
-            (_mm256_movemask_ps(hit) as u32, tnear)
+            (t0, _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)))
         }
     }
 
