@@ -50,6 +50,23 @@ fn bench(c: &mut Criterion) {
             })
         })
     });
+    // The same grid, eight neighbouring rays of a row to a packet (as the CSL bake traces
+    // the paths of neighbouring grid rays that took the same branches).
+    g.bench_function("closest_hit_coherent_packets", |b| {
+        b.iter(|| {
+            (0..n).into_par_iter().for_each(|y| {
+                let mut hits = [None; 8];
+                for x0 in (0..n).step_by(8) {
+                    let packet: [(Vec3, Vec3); 8] = std::array::from_fn(|k| {
+                        let x = (x0 + k as u32) as f32 + 0.5;
+                        (cam.eye, rays.dir(x, y as f32 + 0.5))
+                    });
+                    accel.intersect_packet(&packet, &mut hits);
+                    black_box(&hits);
+                }
+            })
+        })
+    });
     // Incoherent: random directions from random points inside the sphere's bounds, like
     // secondary rays after refraction and diffuse bounces.
     let m = 1 << 20;
