@@ -764,9 +764,8 @@ mod tests {
     /// Rays traced eight to a packet find what each finds alone: the same triangle (also
     /// where two lie at exactly one distance: thousands of rays down a cube's face diagonals
     /// and the seams between touching cubes, counted) and the same distance bit for bit, for
-    /// coherent
-    /// packets (neighbouring rays from a surface, as a bake's waves form them), incoherent
-    /// ones and partial ones, with the AVX and the portable slab tests alike.
+    /// coherent packets (neighbouring rays from a surface, as a bake's waves form them),
+    /// incoherent ones and partial ones, with the AVX and the portable slab tests alike.
     #[test]
     fn packets_find_what_single_rays_find() {
         use crate::reference::sampling::Pcg;
