@@ -485,6 +485,17 @@ mod tests {
     use super::*;
     use crate::scene::{MapSource, parse_scene, resolve};
 
+    /// A random unit vector (a point of the unit ball's shell, normalised).
+    fn random_unit(rng: &mut crate::reference::sampling::Pcg) -> Vec3 {
+        loop {
+            let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+
     fn world() -> World {
         let json = r#"{
             "camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
@@ -674,16 +685,9 @@ mod tests {
             let wide = a.wide.as_ref().expect("a wide tree");
             let (lo, hi) = world.bounds();
             let mut rng = Pcg::new(11, 5);
-            let unit = |rng: &mut Pcg| loop {
-                let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
-                let l = v.length();
-                if l > 0.1 && l <= 1.0 {
-                    break v / l;
-                }
-            };
             let (mut hits, mut ties, mut blocked) = (0, 0, 0);
             for k in 0..60_000 {
-                let mut d = unit(&mut rng);
+                let mut d = random_unit(&mut rng);
                 let o = match k % 3 {
                     // From outside the bounds, towards a point inside them.
                     0 => {
@@ -695,7 +699,7 @@ mod tests {
                         let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
                         match a.intersect(p - d * 10.0, d, f32::INFINITY) {
                             Some(h) => {
-                                d = unit(&mut rng);
+                                d = random_unit(&mut rng);
                                 h.spawn(d)
                             }
                             None => p,
@@ -823,13 +827,6 @@ mod tests {
             let (lo, hi) = world.bounds();
             let size = (hi - lo).length();
             let mut rng = Pcg::new(5, 9);
-            let unit = |rng: &mut Pcg| loop {
-                let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
-                let l = v.length();
-                if l > 0.1 && l <= 1.0 {
-                    break v / l;
-                }
-            };
             let (mut hits, mut rays, mut ties) = (0, 0, 0);
             for k in 0..6000 {
                 let n = if k % 5 == 0 { 1 + k % 8 } else { 8 };
@@ -874,22 +871,22 @@ mod tests {
                     1 => {
                         for _ in 0..n {
                             let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
-                            let d = unit(&mut rng);
+                            let d = random_unit(&mut rng);
                             packet.push((p - d * size, d));
                         }
                     }
                     // Coherent: neighbours leaving a surface the same way, as a wave's.
                     _ => {
                         let p = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
-                        let d0 = unit(&mut rng);
+                        let d0 = random_unit(&mut rng);
                         let Some(h) = a.intersect(p - d0 * size, d0, f32::INFINITY) else {
                             continue;
                         };
-                        let d1 = unit(&mut rng);
+                        let d1 = random_unit(&mut rng);
                         for r in 0..n {
                             let jitter = 1e-3 * r as f32;
-                            let d = (d1 + jitter * unit(&mut rng)).normalize();
-                            let o = h.point + (hi - lo) * jitter * unit(&mut rng);
+                            let d = (d1 + jitter * random_unit(&mut rng)).normalize();
+                            let o = h.point + (hi - lo) * jitter * random_unit(&mut rng);
                             let Some(h) = a.intersect(o - d0 * size, d0, f32::INFINITY) else {
                                 continue;
                             };
