@@ -1,4 +1,4 @@
-//! Bake time: a static CSL bake (seed 000 §3) of one light direction at the paper's settings
+//! Bake time: a static CSL bake (Liu et al. 2008 §3) of one light direction at the paper's settings
 //! (1280² rays) on the canonical glass sphere (a 256-segment UV sphere, 65k triangles), all
 //! cores. The stage times of one bake are printed before timing.
 
@@ -34,7 +34,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("csl_static_1280_glass_sphere_65k", |b| {
         b.iter(|| black_box(bake_csl(&w, "glass", light, &params, &|_| true).expect("bake")))
     });
-    // Light transport table (seed 001 §4) of a 6.4k-vertex glass sphere (112 segments: 6441
+    // Light transport table (Iwasaki et al. 2005 §4) of a 6.4k-vertex glass sphere (112 segments: 6441
     // vertices) at the paper's 129 directions.
     let json = r#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
             "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
@@ -58,7 +58,7 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-/// Dynamic lighting (seed 000 §4): the per-frame interpolation of a set for a light direction
+/// Dynamic lighting (Liu et al. 2008 §4): the per-frame interpolation of a set for a light direction
 /// inside an icosahedron face, from a dynamic bake of the glass sphere (once subdivided: 42
 /// directions, 256² rays a direction, 64² a tracking step, 10 steps; its time is printed, not
 /// sampled: it is minutes).

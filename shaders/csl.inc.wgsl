@@ -1,4 +1,4 @@
-// Caustic spot light evaluation (seed 000 §2, Eqs. 2-4), shared by the CSL passes. Mirrors
+// Caustic spot light evaluation (Liu et al. 2008 §2, Eqs. 2-4), shared by the CSL passes. Mirrors
 // src/bake/csl/eval.rs line for line so that the GPU and CPU agree number for number: with
 // 1/f(r) = kappa + gamma*r a ray from light-plane radius r is at h(r) = r*(B - A*r) from the
 // axis at height z (A = z*gamma, B = 1 - z*kappa); the rays through a point solve

@@ -7,7 +7,7 @@
 // the reflected and (first-interface) refracted directions, or, under method transport, the
 // reflected environment plus what the vertices' refracted viewing rays see (the `view`
 // attribute, interpolated). Specular objects are 0 in `direct`,
-// receivers 0 in `specular`. `caustics`: the caustic spot lights of seed 000 evaluated per
+// receivers 0 in `specular`. `caustics`: the caustic spot lights of Liu et al. 2008 evaluated per
 // pixel on receivers (Eqs. 2-4 in csl.inc.wgsl), each arriving ray shaded with the receiver's
 // BRDF for its known direction and dropped when an occluder (occlusion.inc.wgsl: everything but
 // the caustic objects) lies between the receiver and the CSL's light plane. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
@@ -141,7 +141,7 @@ fn fs_main(in: VsOut) -> FsOut {
             let f = fresnel_schlick_ior(cos_o, m.ior);
             let t = refract(-v, ns, 1.0 / m.ior);
             // Through the glass: the transport tables' refracted viewing rays where they were
-            // followed (seed 001 §5.3; the transmittance is in `view`), else the environment
+            // followed (Iwasaki et al. 2005 §5.3; the transmittance is in `view`), else the environment
             // in the first-interface refracted direction.
             let through = in.view.rgb + (1.0 - clamp(in.view.w, 0.0, 1.0)) * (1.0 - f) * env_radiance(t);
             out.specular = vec4<f32>(f * env_radiance(r) + through, 1.0);

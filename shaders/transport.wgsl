@@ -1,4 +1,4 @@
-// Transport-table caustics (seed 001 §5.2) over arbitrary receivers: one instance per
+// Transport-table caustics (Iwasaki et al. 2005 §5.2) over arbitrary receivers: one instance per
 // illumination volume (bake/transport/eval.rs builds them per frame on the CPU), drawn as the
 // screen rectangle its six corners project to; every covered pixel reads its receiver point and
 // normal from the G-buffer (gbuffer.wgsl), intersects the volume's three exit rays with the

@@ -38,11 +38,11 @@ enum Method {
     Direct,
     /// CPU ground truth: photon tracing + camera paths.
     Reference,
-    /// Caustic spot lights (seed 000): direct lighting and the caustics component (Eqs. 2-4 per
+    /// Caustic spot lights (Liu et al. 2008): direct lighting and the caustics component (Eqs. 2-4 per
     /// pixel and CSL) on the GPU, from baked CSL sets: a static set for the scene's light, or
     /// the set a dynamic bake interpolates for it (`--bake`).
     Csl,
-    /// Light transport tables (seed 001): direct lighting on the GPU, the caustics component
+    /// Light transport tables (Iwasaki et al. 2005): direct lighting on the GPU, the caustics component
     /// from illumination volumes of per-vertex tables, for directional, point, spot and line
     /// lights. Needs a Vulkan (float-blendable) adapter.
     Transport,
@@ -163,7 +163,7 @@ enum BakeCmd {
         /// Rays per side of the ray grid (default 1280, the paper's).
         #[arg(long)]
         grid: Option<u32>,
-        /// Dynamic lighting (seed 000 §4): a set for every direction of a subdivided
+        /// Dynamic lighting (Liu et al. 2008 §4): a set for every direction of a subdivided
         /// icosahedron, matched into triples, from which a render interpolates the set for any
         /// directional light.
         #[arg(long)]
@@ -181,7 +181,7 @@ enum BakeCmd {
         #[arg(long, requires = "dynamic")]
         match_threshold: Option<f32>,
     },
-    /// Light transport table (seed 001 §4) of one refractive object: per vertex and sampling
+    /// Light transport table (Iwasaki et al. 2005 §4) of one refractive object: per vertex and sampling
     /// direction, where the light finally leaves the object. No light needed: one table
     /// serves every light.
     Transport {

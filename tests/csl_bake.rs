@@ -1,4 +1,4 @@
-//! CSL bakes (seed 000 §3.1): determinism, the artifact format, energy coverage, and a glass
+//! CSL bakes (Liu et al. 2008 §3.1): determinism, the artifact format, energy coverage, and a glass
 //! sphere whose rays focus where paraxial optics says.
 
 use caustica::bake::csl::{ArtifactError, CslParams, CslSet, bake_csl};

@@ -1,4 +1,4 @@
-//! Dynamic CSL lighting (seed 000 §4) on the canonical glass sphere: one dynamic bake (the
+//! Dynamic CSL lighting (Liu et al. 2008 §4) on the canonical glass sphere: one dynamic bake (the
 //! icosahedron subdivided once, 42 directions about 32° apart, with small ray grids to keep CI
 //! short), then the caustics at light directions that are no bake direction against the stored
 //! reference, exactness at a bake direction, continuity across a face boundary, determinism and

@@ -6,7 +6,7 @@
 //! render is 1.2 % L1).
 //!
 //! The caustics component is L S+ D, light from the light through the glass onto the floor, the
-//! light a CSL set stands for (seed 000: "the light leaving a caustic object under the
+//! light a CSL set stands for (Liu et al. 2008: "the light leaving a caustic object under the
 //! illumination of a single directional light source"). The reference used to count light the
 //! lit floor sends back through the sphere (L D S+ D) as caustics too: 6 % of the floor's
 //! caustic flux, spread thinly far from the focus, which no CSL can carry; against that

@@ -1,4 +1,4 @@
-//! Light transport tables (seed 001 §4, §6): exits through a glass sphere against Snell and
+//! Light transport tables (Iwasaki et al. 2005 §4, §6): exits through a glass sphere against Snell and
 //! Fresnel in closed form, self-occlusion, trapped rays, determinism, quantisation and the
 //! artifact format.
 

@@ -1,4 +1,4 @@
-//! The render side of the light transport tables (seed 001 §5.1–5.2): lookup and interpolation
+//! The render side of the light transport tables (Iwasaki et al. 2005 §5.1–5.2): lookup and interpolation
 //! against the sphere in closed form, flux conservation of the illumination volumes, the GPU
 //! pass against the CPU evaluation (diffuse and glossy receivers, an occluder), rigid motion
 //! with no new bake, and the caustics against the reference for the directional, spot and

@@ -22,7 +22,7 @@ pub struct CslBakeParams {
     /// Rays per side of the ray grid over the silhouette, 16..=4096 (the paper: 1280).
     #[serde(default)]
     pub grid: Option<u32>,
-    /// Dynamic lighting (seed 000 §4): a set per direction of a subdivided icosahedron,
+    /// Dynamic lighting (Liu et al. 2008 §4): a set per direction of a subdivided icosahedron,
     /// matched into triples; serves every directional light. Omitted when false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub dynamic: bool,

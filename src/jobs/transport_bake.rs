@@ -1,4 +1,4 @@
-//! The `transport` bake: the light transport table of one glass object (seed 001 §4, §6), the
+//! The `transport` bake: the light transport table of one glass object (Iwasaki et al. 2005 §4, §6), the
 //! same checksummed bytes as `caustica bake transport`. Deterministic, so re-running it after
 //! a restart is safe. Renders with method `transport` bake what they need themselves (cached by
 //! content hash under the data directory, [`table_for_render`]).

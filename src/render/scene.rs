@@ -13,7 +13,7 @@ pub struct Vertex {
     pub normal: [f32; 3],
     pub material: u32,
     /// Glass vertices under method `transport`: the radiance seen through the object along
-    /// the viewing ray the vertex's table refracts (rgb), w = 1 where set (§5.3 of seed 001);
+    /// the viewing ray the vertex's table refracts (rgb), w = 1 where set (Iwasaki et al. 2005 §5.3);
     /// zero elsewhere.
     pub view: [f32; 4],
 }

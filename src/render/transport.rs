@@ -1,4 +1,4 @@
-//! The transport-table caustics pass (seed 001 §5.2, method `transport`): the illumination
+//! The transport-table caustics pass (Iwasaki et al. 2005 §5.2, method `transport`): the illumination
 //! volumes of the frame ([`crate::bake::transport::eval::build_volumes`], built on the CPU
 //! from the tables) are uploaded as one storage buffer and drawn over a G-buffer of the
 //! receivers, so caustics land on any scene geometry, not only a plane. See

@@ -57,7 +57,7 @@ impl CslStore for DirStore {
 }
 
 impl DirStore {
-    /// Where a dynamic bake (seed 000 §4) of source hash `key` is kept.
+    /// Where a dynamic bake (Liu et al. 2008 §4) of source hash `key` is kept.
     pub fn dynamic_path(&self, key: u64) -> PathBuf {
         self.0.join(format!("csl-dynamic-{key:016x}.bin"))
     }
@@ -167,7 +167,7 @@ pub fn sets_for_render(
     Ok(RenderSets { sets, light })
 }
 
-/// As [`sets_for_render`] from dynamic bakes (seed 000 §4): for every caustic object its dynamic
+/// As [`sets_for_render`] from dynamic bakes (Liu et al. 2008 §4): for every caustic object its dynamic
 /// set from `store` when kept, else baked (with `params`) and saved, then the set for the
 /// scene's directional light interpolated from it. `progress(object name, p)` sees each bake's
 /// progress; returning false cancels.

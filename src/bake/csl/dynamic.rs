@@ -1,4 +1,4 @@
-//! Caustic spot lights under dynamic lighting (seed 000 §4): static CSL sets baked for the light
+//! Caustic spot lights under dynamic lighting (Liu et al. 2008 §4): static CSL sets baked for the light
 //! directions at the vertices of a subdivided icosahedron, CSLs of neighbouring directions
 //! matched by tracking their axes while the light moves along each icosahedron edge (§4.2),
 //! matches turned into CSL triples on every face (§4.3, [`Triple`]), and per frame a set for any

@@ -1,4 +1,4 @@
-//! Caustic spot lights, static lighting (seed 000 §2–3). For one caustic object and one light
+//! Caustic spot lights, static lighting (Liu et al. 2008 §2–3). For one caustic object and one light
 //! direction fixed relative to it, [`bake_csl`] turns the light the object reflects and
 //! refracts into a small set of CSLs:
 //!
@@ -43,7 +43,7 @@ pub const ALGORITHM: u32 = 9;
 
 /// The texel of an intensity image is about this many grid-ray spacings wide (about 256
 /// rays' cross-sections a texel where the rays keep their spacing), which sets each image's
-/// size from its extent (seed 000 §5: "N chosen as 128, 256, or 512 depending on the actual
+/// size from its extent (Liu et al. 2008 §5: "N chosen as 128, 256, or 512 depending on the actual
 /// size of the rectangle covered by the intensity image in the light plane"). On the 1280²
 /// glass sphere this gives the brightest CSL 256² (its texel is 4.6 splat sizes δ wide;
 /// 512² changed the caustic's L1 against the reference by 0.0006) and the CSLs of small

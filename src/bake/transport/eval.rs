@@ -1,4 +1,4 @@
-//! The render side of the light transport tables on the CPU (seed 001 §5.1–5.2): per frame,
+//! The render side of the light transport tables on the CPU (Iwasaki et al. 2005 §5.1–5.2): per frame,
 //! the exit ray of every lit vertex is looked up in its table, and every lit triangle sweeps its
 //! three exit rays into an illumination volume; the irradiance at a receiver point inside a
 //! volume follows Eq. 2 with the flux ratio of the warped volume at that point.

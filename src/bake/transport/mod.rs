@@ -1,4 +1,4 @@
-//! Light transport tables (seed 001, Iwasaki et al. 2005, §4 and §6): for every vertex of a
+//! Light transport tables (Iwasaki et al. 2005, §4 and §6): for every vertex of a
 //! refractive object and every sampling direction over the hemisphere above it, where light
 //! arriving at the vertex from that direction finally leaves the object, in which direction and
 //! with how much of its energy.

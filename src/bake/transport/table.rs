@@ -1,4 +1,4 @@
-//! The light transport table: quantised storage (seed 001 §6) and its artifact.
+//! The light transport table: quantised storage (Iwasaki et al. 2005 §6) and its artifact.
 //!
 //! Per sample, as the paper: the exit position as 3 × 16 bits within the object's bounding box,
 //! the exit direction as two 16-bit angles (polar φ ∈ [0, π] from +z, azimuth θ ∈ [0, 2π)), the

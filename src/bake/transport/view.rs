@@ -1,4 +1,4 @@
-//! Refracting viewing rays through the tables (seed 001 §5.3): what the camera sees through a
+//! Refracting viewing rays through the tables (Iwasaki et al. 2005 §5.3): what the camera sees through a
 //! glass object, per table vertex, for the renderer to interpolate across its triangles.
 
 use super::eval::{EvalError, Source, Use, Volume, lookup_with};
