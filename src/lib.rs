@@ -40,9 +40,11 @@
 
 pub mod bake;
 pub mod encode;
+pub mod frame;
 pub mod gpu;
 pub mod http;
 pub mod jobs;
+pub mod methods;
 pub mod reference;
 pub mod render;
 pub mod scene;

@@ -48,7 +48,17 @@ impl Frame {
 }
 
 /// Tone mapping applied before the sRGB transfer in PNG output.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum ToneMap {
     /// Clamp to [0, 1].

@@ -3,7 +3,8 @@
 
 use crate::jobs::scenes::IngestError;
 use crate::jobs::store::StoreError;
-use crate::jobs::{JobError, SubmitError};
+use crate::jobs::{ErrorCode, JobError, SubmitError};
+use crate::methods::ParamError;
 use crate::scene::SceneError;
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -203,10 +204,7 @@ impl From<JobError> for AppError {
                 "object",
                 format!("object: no object named '{o}' in the scene"),
             ),
-            JobError::Params(m) => {
-                let field = m.split(':').next().unwrap_or("params").to_string();
-                AppError::invalid(&field, m)
-            }
+            JobError::Params(p) => p.into(),
             JobError::NoGpu(m) => AppError::new(
                 StatusCode::SERVICE_UNAVAILABLE,
                 "no-gpu",
@@ -216,6 +214,38 @@ impl From<JobError> for AppError {
             JobError::Store(s) => s.into(),
             other => AppError::internal(other.to_string()),
         }
+    }
+}
+
+impl From<ParamError> for AppError {
+    fn from(p: ParamError) -> Self {
+        AppError::invalid(&p.field, p.to_string())
+    }
+}
+
+impl AppError {
+    /// The answer to a render that failed while running (the record keeps why, as `code`).
+    pub fn failed_render(id: &str, code: Option<ErrorCode>, error: &str) -> Self {
+        let (status, kind, title) = match code {
+            Some(ErrorCode::NoGpu) => (StatusCode::SERVICE_UNAVAILABLE, "no-gpu", "No GPU"),
+            Some(ErrorCode::Timeout) => {
+                (StatusCode::GATEWAY_TIMEOUT, "job-timeout", "Job time limit")
+            }
+            Some(ErrorCode::Canceled) => (StatusCode::CONFLICT, "canceled", "Canceled"),
+            // Input that only the work itself finds unworkable (e.g. more illumination volumes
+            // than a frame may hold).
+            Some(ErrorCode::InvalidParams | ErrorCode::InvalidInput) => (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "invalid-render",
+                "Render input cannot be rendered",
+            ),
+            _ => (
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "render-failed",
+                "Render failed",
+            ),
+        };
+        AppError::new(status, kind, title, format!("render {id} failed: {error}"))
     }
 }
 

@@ -6,6 +6,8 @@
 //! names a half-written file. One connection behind a mutex: every statement is short, and
 //! SQLite serialises writers anyway.
 
+use super::job::{ErrorCode, JobKind, JobSpec, JobState};
+use crate::methods::Method;
 use rusqlite::{Connection, OptionalExtension, params};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -77,13 +79,12 @@ pub struct StoredScene {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct JobRecord {
     pub id: String,
-    /// "bake" or "render".
-    pub kind: String,
-    pub method: String,
+    pub kind: JobKind,
+    pub method: Method,
     pub scene_id: String,
     pub object: Option<String>,
     pub params: serde_json::Value,
-    pub state: String,
+    pub state: JobState,
     pub progress: f32,
     pub stage: String,
     /// Stage name and milliseconds, in order.
@@ -96,6 +97,47 @@ pub struct JobRecord {
     pub created_at: i64,
     pub started_at: Option<i64>,
     pub finished_at: Option<i64>,
+}
+
+impl JobRecord {
+    /// A new, queued job's record.
+    pub fn new(id: &str, spec: &JobSpec) -> JobRecord {
+        JobRecord {
+            id: id.into(),
+            kind: spec.kind,
+            method: spec.method,
+            scene_id: spec.scene_id.clone(),
+            object: spec.object.clone(),
+            params: spec.params.clone(),
+            state: JobState::Queued,
+            progress: 0.0,
+            stage: String::new(),
+            timings: vec![],
+            info: serde_json::json!({}),
+            error: None,
+            artifact_type: None,
+            artifact_path: None,
+            created_at: now_ms(),
+            started_at: None,
+            finished_at: None,
+        }
+    }
+
+    /// The spec the job was submitted with (to rebuild it after a restart).
+    pub fn spec(&self) -> JobSpec {
+        JobSpec {
+            kind: self.kind,
+            method: self.method,
+            scene_id: self.scene_id.clone(),
+            object: self.object.clone(),
+            params: self.params.clone(),
+        }
+    }
+
+    /// The kind of failure of a failed job, as its worker recorded it.
+    pub fn error_code(&self) -> Option<ErrorCode> {
+        serde_json::from_value(self.info.get("error_code")?.clone()).ok()
+    }
 }
 
 /// Milliseconds since the Unix epoch.
@@ -198,12 +240,12 @@ impl Store {
                      (SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs))",
             params![
                 r.id,
-                r.kind,
-                r.method,
+                r.kind.as_str(),
+                r.method.name(),
                 r.scene_id,
                 r.object,
                 r.params.to_string(),
-                r.state,
+                r.state.as_str(),
                 r.created_at
             ],
         )?;
@@ -272,7 +314,7 @@ impl Store {
     pub fn finish(
         &self,
         id: &str,
-        state: &str,
+        state: JobState,
         progress: f32,
         timings: &[(String, f64)],
         info: &serde_json::Value,
@@ -286,7 +328,7 @@ impl Store {
              WHERE id = ?1",
             params![
                 id,
-                state,
+                state.as_str(),
                 progress,
                 timings,
                 info.to_string(),
@@ -294,7 +336,11 @@ impl Store {
                 artifact.map(|a| a.0),
                 artifact.map(|a| a.1),
                 now_ms(),
-                if state == "succeeded" { "done" } else { state },
+                if state == JobState::Succeeded {
+                    "done"
+                } else {
+                    state.as_str()
+                },
             ],
         )?;
         Ok(())
@@ -368,15 +414,20 @@ fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
     let parse = |what: &str, s: &str| -> Result<serde_json::Value, StoreError> {
         serde_json::from_str(s).map_err(|e| StoreError::Corrupt(format!("{what}: {e}")))
     };
+    let kind: String = r.get(1)?;
+    let method: String = r.get(2)?;
+    let state: String = r.get(6)?;
     let rec = (|| -> RowResult {
         Ok(JobRecord {
             id: r.get(0)?,
-            kind: r.get(1)?,
-            method: r.get(2)?,
+            kind: JobKind::parse(&kind)
+                .ok_or_else(|| StoreError::Corrupt(format!("kind '{kind}'")))?,
+            method: Method::parse(&method).map_err(|e| StoreError::Corrupt(e.to_string()))?,
             scene_id: r.get(3)?,
             object: r.get(4)?,
             params: parse("params", &params)?,
-            state: r.get(6)?,
+            state: JobState::parse(&state)
+                .ok_or_else(|| StoreError::Corrupt(format!("state '{state}'")))?,
             progress: r.get::<_, f64>(7)? as f32,
             stage: r.get(8)?,
             timings: serde_json::from_str(&timings)

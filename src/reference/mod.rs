@@ -87,16 +87,16 @@ impl Components {
             .add(&self.specular)
     }
 
-    /// A component by name: direct, caustics, indirect, specular or total.
-    pub fn get(&self, name: &str) -> Option<Frame> {
-        Some(match name {
-            "direct" => self.direct.clone(),
-            "caustics" => self.caustics.clone(),
-            "indirect" => self.indirect.clone(),
-            "specular" => self.specular.clone(),
-            "total" => self.total(),
-            _ => return None,
-        })
+    /// One component of the frame.
+    pub fn get(&self, c: crate::frame::Component) -> Frame {
+        use crate::frame::Component as C;
+        match c {
+            C::Direct => self.direct.clone(),
+            C::Caustics => self.caustics.clone(),
+            C::Indirect => self.indirect.clone(),
+            C::Specular => self.specular.clone(),
+            C::Total => self.total(),
+        }
     }
 }
 

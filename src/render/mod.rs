@@ -23,6 +23,7 @@ pub mod transport;
 pub use transport::TransportLayer;
 
 use crate::encode::Frame;
+use crate::frame::Component;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::World;
 use glam::Vec3;
@@ -42,19 +43,23 @@ pub struct CslLayer {
 }
 
 impl CslLayer {
-    /// The layer of a render: every set placed where its object is now.
-    pub fn from_sets(world: &World, r: &crate::bake::csl::cache::RenderSets) -> CslLayer {
+    /// The layer of a render: every (object index, its set) placed where the object is now, lit
+    /// by a directional light of `irradiance` (W/m²).
+    pub fn new(
+        world: &World,
+        sets: &[(usize, &crate::bake::csl::CslSet)],
+        irradiance: Vec3,
+    ) -> CslLayer {
         use crate::bake::csl::CslSet;
         let mut csls = Vec::new();
         let mut caustic_objects = Vec::new();
-        for s in &r.sets {
-            let o = &world.objects[s.object];
-            csls.extend(s.set.to_world(CslSet::rigid_transform(o)));
-            caustic_objects.push(s.object);
+        for &(oi, set) in sets {
+            csls.extend(set.to_world(CslSet::rigid_transform(&world.objects[oi])));
+            caustic_objects.push(oi);
         }
         CslLayer {
             csls,
-            irradiance: r.light.1,
+            irradiance,
             caustic_objects,
         }
     }
@@ -126,20 +131,23 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
-    /// Every component by name, as the CLI and the service write them (`indirect`, which no
-    /// GPU pass computes, and `caustics` when no caustics method ran, are black).
-    pub fn components(&self) -> Vec<(&'static str, Frame)> {
-        let black = Frame::new(self.direct.width, self.direct.height);
-        vec![
-            ("total", self.total()),
-            ("direct", self.direct.clone()),
-            (
-                "caustics",
-                self.caustics.clone().unwrap_or_else(|| black.clone()),
-            ),
-            ("specular", self.specular.clone()),
-            ("indirect", black),
-        ]
+    /// Every component, in [`Component::ALL`]'s order (`indirect`, which no GPU pass
+    /// computes, and `caustics` when no caustics method ran, are black).
+    pub fn components(&self) -> Vec<(Component, Frame)> {
+        let black = || Frame::new(self.direct.width, self.direct.height);
+        Component::ALL
+            .into_iter()
+            .map(|c| {
+                let f = match c {
+                    Component::Total => self.total(),
+                    Component::Direct => self.direct.clone(),
+                    Component::Caustics => self.caustics.clone().unwrap_or_else(black),
+                    Component::Specular => self.specular.clone(),
+                    Component::Indirect => black(),
+                };
+                (c, f)
+            })
+            .collect()
     }
 
     /// direct + caustics + specular.

@@ -20,7 +20,6 @@
 
 pub mod artifact;
 pub mod bundle;
-pub mod cache;
 pub mod dynamic;
 pub mod eval;
 pub mod fit;

@@ -1,0 +1,51 @@
+//! What a frame is made of. Every method returns the same components, in linear radiance
+//! W/(m²·sr), so that any of them can be compared pixel for pixel with the reference.
+
+use serde::{Deserialize, Serialize};
+
+/// One component of a frame (Jensen's path notation: L light, S specular, D diffuse, E eye).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum, Default,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Component {
+    /// The sum of the others.
+    #[default]
+    Total,
+    /// Light → receiver → camera (L D E); specular objects cast shadows.
+    Direct,
+    /// Light through glass or off mirrors onto the first diffuse receiver (L S+ D E).
+    Caustics,
+    /// What the camera sees in glass and mirrors (… S+ E).
+    Specular,
+    /// Every other path of two or more bounces: diffuse interreflection, and light a diffuse
+    /// surface sends through glass (L D S+ D E).
+    Indirect,
+}
+
+impl Component {
+    /// Every component, `total` first: the order of a frame's layers.
+    pub const ALL: [Component; 5] = [
+        Component::Total,
+        Component::Direct,
+        Component::Caustics,
+        Component::Specular,
+        Component::Indirect,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Component::Total => "total",
+            Component::Direct => "direct",
+            Component::Caustics => "caustics",
+            Component::Specular => "specular",
+            Component::Indirect => "indirect",
+        }
+    }
+}
+
+impl std::fmt::Display for Component {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}

@@ -1,0 +1,134 @@
+//! `POST /v1/bakes`, `GET`/`DELETE /v1/bakes/{id}`, `GET /v1/bakes/{id}/artifact`.
+
+use super::jobs::{JobView, artifact_response, job_view, load_job, not_finished, wait_terminal};
+use super::scenes::scene_ref;
+use super::{blocking, json_body};
+use crate::http::{AppError, AppState};
+use crate::jobs::scenes::sha256_hex;
+use crate::jobs::{JobKind, JobSpec, JobState};
+use crate::methods::Method;
+use axum::Json;
+use axum::extract::{Path, Request, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use std::time::Duration;
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BakeRequest {
+    #[serde(default)]
+    scene: Option<serde_json::Value>,
+    #[serde(default)]
+    scene_id: Option<String>,
+    object: String,
+    method: String,
+    #[serde(default)]
+    params: Option<serde_json::Value>,
+}
+
+pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
+    let key = req
+        .headers()
+        .get("idempotency-key")
+        .map(|v| v.to_str().map(str::to_string))
+        .transpose()
+        .map_err(|_| AppError::bad_request("Idempotency-Key must be visible ASCII"))?;
+    if key.as_ref().is_some_and(|k| k.is_empty() || k.len() > 255) {
+        return Err(AppError::bad_request(
+            "Idempotency-Key must be 1..=255 characters",
+        ));
+    }
+    let b: BakeRequest = json_body(&st, req).await?;
+    let scene_id = match (&b.scene, &b.scene_id) {
+        (Some(s), None) => scene_ref(&st, s, "scene").await?,
+        (None, Some(id)) => {
+            scene_ref(&st, &serde_json::Value::String(id.clone()), "scene_id").await?
+        }
+        _ => {
+            return Err(AppError::invalid(
+                "scene",
+                "scene: give exactly one of `scene` (object or id) and `scene_id`",
+            ));
+        }
+    };
+    let method = Method::parse(&b.method)?;
+    let params = b.params.unwrap_or_else(|| serde_json::json!({}));
+    let params = method.imp().bake_params(&params, "params")?;
+    let spec = JobSpec {
+        kind: JobKind::Bake,
+        method,
+        scene_id,
+        object: Some(b.object),
+        params,
+    };
+    let spec_json = serde_json::to_vec(&spec).expect("spec serialises");
+    let hash = sha256_hex(&spec_json);
+    let mut id = format!("bk_{}", &hash[..32]);
+    if let Some(k) = &key {
+        match st.jobs.store.idempotency(k)? {
+            Some((h, job)) if h == hash => id = job,
+            Some(_) => {
+                return Err(AppError::new(
+                    StatusCode::UNPROCESSABLE_ENTITY,
+                    "idempotency-key-reused",
+                    "Idempotency key reused",
+                    "Idempotency-Key was already used for a different request",
+                )
+                .field("Idempotency-Key"));
+            }
+            None => {}
+        }
+    }
+    if *st.shutdown.borrow() {
+        return Err(crate::jobs::SubmitError::ShuttingDown.into());
+    }
+    let jobs = st.jobs.clone();
+    let (id2, spec2) = (id.clone(), spec.clone());
+    blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    if let Some(k) = &key {
+        st.jobs.store.put_idempotency(k, &hash, &id)?;
+    }
+    let v = job_view(&st, &id, JobKind::Bake)?;
+    let loc = format!("/v1/bakes/{id}");
+    Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response())
+}
+
+pub async fn get_bake(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<JobView>, AppError> {
+    Ok(Json(job_view(&st, &id, JobKind::Bake)?))
+}
+
+pub async fn delete_bake(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<JobView>, AppError> {
+    let r = load_job(&st, &id, JobKind::Bake)?;
+    if r.state == JobState::Succeeded {
+        return Err(AppError::new(
+            StatusCode::CONFLICT,
+            "already-finished",
+            "Already finished",
+            format!("bake {id} already succeeded; there is nothing to cancel"),
+        ));
+    }
+    if let Some(h) = st.jobs.handle(&id) {
+        st.jobs.cancel(&id)?;
+        // The worker stops at its next progress check; wait for it (bounded) so the answer
+        // tells the final state.
+        wait_terminal(&st, &h, Duration::from_secs(30)).await;
+    }
+    Ok(Json(job_view(&st, &id, JobKind::Bake)?))
+}
+
+pub async fn get_bake_artifact(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, AppError> {
+    let r = load_job(&st, &id, JobKind::Bake)?;
+    if r.state != JobState::Succeeded {
+        return Err(not_finished(JobKind::Bake, &id, r.state));
+    }
+    artifact_response(&st, &r)
+}

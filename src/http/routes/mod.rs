@@ -1,0 +1,108 @@
+//! Handlers and DTOs of API v1, one file per resource: [`scenes`], [`bakes`], [`renders`],
+//! the job views both bakes and renders answer with ([`jobs`]), and the operational
+//! endpoints ([`ops`]). The request helpers shared by the handlers are here.
+
+pub mod bakes;
+pub mod jobs;
+pub mod ops;
+pub mod renders;
+pub mod scenes;
+
+pub use bakes::{delete_bake, get_bake, get_bake_artifact, post_bake};
+pub use jobs::{JobView, Timing, server_timing};
+pub use ops::{healthz, method_not_allowed, metrics, not_found, openapi_json, readyz};
+pub use renders::{get_render, get_render_image, post_render};
+pub use scenes::{get_scene, post_scene};
+
+use super::{AppError, AppState};
+use axum::body::Bytes;
+use axum::extract::{FromRequest, Request};
+use axum::http::{HeaderMap, StatusCode, header};
+use serde::de::DeserializeOwned;
+
+/// The media type of the request, lowercased, without parameters.
+pub(super) fn media_type(headers: &HeaderMap) -> String {
+    headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .map(|v| {
+            v.split(';')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_ascii_lowercase()
+        })
+        .unwrap_or_default()
+}
+
+/// Refuses a declared body over the limit before reading any of it.
+pub(super) fn check_length(headers: &HeaderMap, limit: usize) -> Result<(), AppError> {
+    let len = headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    match len {
+        Some(n) if n > limit as u64 => Err(AppError::too_large(limit)),
+        _ => Ok(()),
+    }
+}
+
+pub(super) async fn body_bytes(st: &AppState, req: Request) -> Result<Bytes, AppError> {
+    check_length(req.headers(), st.cfg.max_body)?;
+    Bytes::from_request(req, st).await.map_err(|r| {
+        if r.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            AppError::too_large(st.cfg.max_body)
+        } else {
+            AppError::bad_request(r.body_text())
+        }
+    })
+}
+
+/// Parses a JSON body; the detail names the field at fault.
+pub(super) fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, AppError> {
+    let de = &mut serde_json::Deserializer::from_slice(bytes);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = e.into_inner();
+        match inner.classify() {
+            serde_json::error::Category::Data => {
+                let field = if path == "." { "body".into() } else { path };
+                AppError::invalid(&field, format!("{field}: {inner}"))
+            }
+            _ => AppError::bad_request(format!("body is not valid JSON: {inner}")),
+        }
+    })
+}
+
+pub(super) async fn json_body<T: DeserializeOwned>(
+    st: &AppState,
+    req: Request,
+) -> Result<T, AppError> {
+    let mt = media_type(req.headers());
+    if mt != "application/json" {
+        return Err(AppError::unsupported_media(format!(
+            "Content-Type must be application/json, not '{mt}'"
+        )));
+    }
+    let b = body_bytes(st, req).await?;
+    parse_json(&b)
+}
+
+/// Runs blocking work (scene import, store reads) off the async threads.
+pub(super) async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T, AppError> + Send + 'static,
+) -> Result<T, AppError> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| AppError::internal(format!("worker task failed: {e}")))?
+}
+
+pub(super) fn valid_id(id: &str, prefix: &str) -> bool {
+    id.len() == prefix.len() + 32
+        && id.starts_with(prefix)
+        && id[prefix.len()..].bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+pub(super) fn valid_scene_id(id: &str) -> bool {
+    id.len() == 64 && id.bytes().all(|b| b.is_ascii_hexdigit())
+}

@@ -1,0 +1,69 @@
+//! Operations: `/healthz`, `/readyz`, `/metrics`, `/openapi.json`, and the answers to unknown
+//! routes and methods.
+
+use crate::http::{AppError, AppState};
+use crate::jobs::Readiness;
+use axum::Json;
+use axum::extract::{Request, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+
+pub async fn healthz() -> Json<serde_json::Value> {
+    Json(serde_json::json!({"status": "ok"}))
+}
+
+pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value>, AppError> {
+    match st.jobs.readiness() {
+        Readiness::Ready { adapter } => Ok(Json(serde_json::json!({
+            "status": "ready",
+            "adapter": adapter,
+        }))),
+        Readiness::Starting => Err(AppError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "not-ready",
+            "Not ready",
+            "the GPU worker is still probing the adapter",
+        )
+        .retry_after(1)),
+        Readiness::NoGpu { error } => Err(AppError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "no-gpu",
+            "No GPU",
+            format!("no GPU adapter renders: {error}"),
+        )),
+    }
+}
+
+pub async fn metrics(State(st): State<AppState>) -> Response {
+    let body = st.jobs.metrics.render(st.jobs.queue_depth());
+    (
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        body,
+    )
+        .into_response()
+}
+
+pub async fn openapi_json() -> Json<serde_json::Value> {
+    Json(crate::http::openapi().clone())
+}
+
+pub async fn not_found(req: Request) -> AppError {
+    AppError::new(
+        StatusCode::NOT_FOUND,
+        "not-found",
+        "Not found",
+        format!("no route {} {}", req.method(), req.uri().path()),
+    )
+}
+
+pub async fn method_not_allowed(req: Request) -> AppError {
+    AppError::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "method-not-allowed",
+        "Method not allowed",
+        format!("{} is not allowed on {}", req.method(), req.uri().path()),
+    )
+}

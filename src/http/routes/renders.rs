@@ -1,0 +1,125 @@
+//! `POST /v1/renders` (the image, or 202 with the job past the wait), `GET /v1/renders/{id}`,
+//! `GET /v1/renders/{id}/image`.
+
+use super::jobs::{
+    JobView, artifact_response, job_view, load_job, not_finished, server_timing, view,
+    wait_terminal,
+};
+use super::scenes::scene_ref;
+use super::{blocking, json_body};
+use crate::http::{AppError, AppState};
+use crate::jobs::scenes::sha256_hex;
+use crate::jobs::{JobKind, JobSpec, JobState};
+use crate::methods::Method;
+use axum::Json;
+use axum::extract::{Path, Request, State};
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+static RENDER_SEQ: AtomicU64 = AtomicU64::new(0);
+
+fn render_id() -> String {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(RENDER_SEQ.fetch_add(1, Ordering::Relaxed));
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    let seed = format!(
+        "{}-{}-{}-{}",
+        h.finish(),
+        nanos,
+        std::process::id(),
+        RENDER_SEQ.load(Ordering::Relaxed)
+    );
+    format!("rn_{}", &sha256_hex(seed.as_bytes())[..32])
+}
+
+pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
+    let t0 = Instant::now();
+    let body: serde_json::Value = json_body(&st, req).await?;
+    let serde_json::Value::Object(mut o) = body else {
+        return Err(AppError::invalid("body", "body: a JSON object"));
+    };
+    let scene = o
+        .remove("scene")
+        .ok_or_else(|| AppError::invalid("scene", "scene: required (a scene object or id)"))?;
+    // The API's default stays `direct`, the cheapest frame; `auto` is asked for by name.
+    let method = match o.remove("method") {
+        None => Method::Direct,
+        Some(serde_json::Value::String(m)) => Method::parse(&m)?,
+        Some(_) => return Err(AppError::invalid("method", "method: a string")),
+    };
+    let wait = match o.remove("wait") {
+        None => true,
+        Some(serde_json::Value::Bool(b)) => b,
+        Some(_) => return Err(AppError::invalid("wait", "wait: true or false")),
+    };
+    let scene_id = scene_ref(&st, &scene, "scene").await?;
+    let spec = JobSpec {
+        kind: JobKind::Render,
+        method,
+        scene_id,
+        object: None,
+        params: serde_json::Value::Object(o),
+    };
+    if *st.shutdown.borrow() {
+        return Err(crate::jobs::SubmitError::ShuttingDown.into());
+    }
+    let id = render_id();
+    let jobs = st.jobs.clone();
+    let (id2, spec2) = (id.clone(), spec.clone());
+    let (h, _) = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    let loc = format!("/v1/renders/{id}");
+    let done = match (&h, wait) {
+        (Some(h), true) => wait_terminal(&st, h, st.cfg.render_wait).await,
+        _ => false,
+    };
+    let r = load_job(&st, &id, JobKind::Render)?;
+    if !done && !matches!(r.state, JobState::Succeeded | JobState::Failed) {
+        let v = view(r, h.as_deref());
+        return Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response());
+    }
+    if r.state != JobState::Succeeded {
+        let code = match r.state {
+            JobState::Canceled => Some(crate::jobs::ErrorCode::Canceled),
+            _ => r.error_code(),
+        };
+        let err = r.error.as_deref().unwrap_or_default();
+        return Err(AppError::failed_render(&id, code, err).instance(loc));
+    }
+    let mut resp = artifact_response(&st, &r)?;
+    let v = server_timing(&r.timings, Some(t0.elapsed()));
+    if let Ok(v) = HeaderValue::from_str(&v) {
+        resp.headers_mut().insert("server-timing", v);
+    }
+    resp.headers_mut().insert(
+        header::LOCATION,
+        HeaderValue::from_str(&loc).expect("ascii id"),
+    );
+    st.jobs
+        .metrics
+        .render_latency(r.method.name(), t0.elapsed());
+    Ok(resp)
+}
+
+pub async fn get_render(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<JobView>, AppError> {
+    Ok(Json(job_view(&st, &id, JobKind::Render)?))
+}
+
+pub async fn get_render_image(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Response, AppError> {
+    let r = load_job(&st, &id, JobKind::Render)?;
+    if r.state != JobState::Succeeded {
+        return Err(not_finished(JobKind::Render, &id, r.state));
+    }
+    artifact_response(&st, &r)
+}

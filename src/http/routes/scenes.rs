@@ -1,0 +1,169 @@
+//! `POST /v1/scenes`, `GET /v1/scenes/{id}`, and scenes given inline in other requests.
+
+use super::{blocking, body_bytes, check_length, media_type, valid_scene_id};
+use crate::http::{AppError, AppState};
+use crate::jobs::scenes::{SceneInfo, SceneInput};
+use axum::Json;
+use axum::extract::{FromRequest, Multipart, Path, Request, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+
+const MAX_FILES: usize = 64;
+
+async fn read_multipart(st: &AppState, req: Request) -> Result<SceneInput, AppError> {
+    check_length(req.headers(), st.cfg.max_body)?;
+    let mut mp = Multipart::from_request(req, st)
+        .await
+        .map_err(|r| AppError::bad_request(r.body_text()))?;
+    let mut scene = None;
+    let mut files = Vec::new();
+    loop {
+        let field = match mp.next_field().await {
+            Ok(Some(f)) => f,
+            Ok(None) => break,
+            Err(e) if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
+                return Err(AppError::too_large(st.cfg.max_body));
+            }
+            Err(e) => {
+                return Err(AppError::bad_request(format!(
+                    "multipart: {}",
+                    e.body_text()
+                )));
+            }
+        };
+        let name = field.name().unwrap_or("").to_string();
+        if name.is_empty() || name.len() > 255 || name.contains('\0') {
+            return Err(AppError::invalid(
+                "multipart",
+                "multipart: every part needs a name (the file name the scene uses), at most 255 bytes",
+            ));
+        }
+        let data = field.bytes().await.map_err(|e| {
+            if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+                AppError::too_large(st.cfg.max_body)
+            } else {
+                AppError::bad_request(format!("multipart part '{name}': {}", e.body_text()))
+            }
+        })?;
+        if name == "scene" {
+            scene = Some(data.to_vec());
+        } else {
+            if files.len() >= MAX_FILES {
+                return Err(AppError::invalid(
+                    "multipart",
+                    format!("multipart: at most {MAX_FILES} files per scene"),
+                ));
+            }
+            if files.iter().any(|(n, _): &(String, Vec<u8>)| *n == name) {
+                return Err(AppError::invalid(
+                    "multipart",
+                    format!("multipart: two parts named '{name}'"),
+                ));
+            }
+            files.push((name, data.to_vec()));
+        }
+    }
+    let scene = scene.ok_or_else(|| {
+        AppError::invalid(
+            "scene",
+            "multipart: a part named 'scene' with the scene JSON is required",
+        )
+    })?;
+    Ok(SceneInput::Json { scene, files })
+}
+
+async fn ingest(st: &AppState, input: SceneInput) -> Result<SceneInfo, AppError> {
+    let jobs = st.jobs.clone();
+    blocking(move || Ok(jobs.scenes.ingest(input)?)).await
+}
+
+pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
+    let mt = media_type(req.headers());
+    let input = match mt.as_str() {
+        "application/json" => SceneInput::Json {
+            scene: body_bytes(&st, req).await?.to_vec(),
+            files: vec![],
+        },
+        "model/gltf-binary" => SceneInput::Gltf {
+            bytes: body_bytes(&st, req).await?.to_vec(),
+            binary: true,
+        },
+        "model/gltf+json" => SceneInput::Gltf {
+            bytes: body_bytes(&st, req).await?.to_vec(),
+            binary: false,
+        },
+        "multipart/form-data" => read_multipart(&st, req).await?,
+        "" => {
+            return Err(AppError::unsupported_media(
+                "Content-Type is required: application/json, model/gltf-binary, \
+                 model/gltf+json or multipart/form-data",
+            ));
+        }
+        other => {
+            return Err(AppError::unsupported_media(format!(
+                "Content-Type '{other}' is not accepted: use application/json, \
+                 model/gltf-binary, model/gltf+json or multipart/form-data"
+            )));
+        }
+    };
+    let info = ingest(&st, input).await?;
+    let loc = format!("/v1/scenes/{}", info.id);
+    Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())
+}
+
+pub async fn get_scene(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<SceneInfo>, AppError> {
+    if !valid_scene_id(&id) {
+        return Err(AppError::not_found("scene", &id));
+    }
+    let jobs = st.jobs.clone();
+    let id2 = id.clone();
+    let info = blocking(move || Ok(jobs.scenes.info(&id2)?)).await?;
+    info.map(Json)
+        .ok_or_else(|| AppError::not_found("scene", &id))
+}
+
+/// A scene given inline (object) or by id (string): the stored id.
+pub(super) async fn scene_ref(
+    st: &AppState,
+    v: &serde_json::Value,
+    field: &str,
+) -> Result<String, AppError> {
+    match v {
+        serde_json::Value::String(id) => {
+            if !valid_scene_id(id) || st.jobs.store.get_scene(id)?.is_none() {
+                return Err(AppError::invalid(
+                    field,
+                    format!("{field}: no stored scene with id '{id}'"),
+                ));
+            }
+            Ok(id.clone())
+        }
+        serde_json::Value::Object(_) => {
+            let bytes = serde_json::to_vec(v).expect("value serialises");
+            let info = ingest(
+                st,
+                SceneInput::Json {
+                    scene: bytes,
+                    files: vec![],
+                },
+            )
+            .await
+            .map_err(|mut e| {
+                // Name the field inside the request: scene.objects[1]...
+                if let Some(f) = e.field.clone() {
+                    e.detail = format!("{field}.{}", e.detail);
+                    e.field = Some(format!("{field}.{f}"));
+                }
+                e
+            })?;
+            Ok(info.id)
+        }
+        _ => Err(AppError::invalid(
+            field,
+            format!("{field}: a scene object or the id of a stored scene"),
+        )),
+    }
+}

@@ -1,0 +1,140 @@
+//! Tunables of the job system and their environment overrides.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Tunables of the job system.
+#[derive(Clone, Debug)]
+pub struct JobConfig {
+    pub data_dir: PathBuf,
+    /// Threads taking CPU jobs (each job may use rayon's pool inside). With more than one,
+    /// the first is kept for renders.
+    pub cpu_workers: usize,
+    /// Most jobs waiting in the queues together; past it submissions are refused.
+    pub max_queued: usize,
+    pub bake_timeout: Duration,
+    pub render_timeout: Duration,
+    /// Scene limits applied to uploads and renders.
+    pub limits: crate::scene::Limits,
+    /// Skip the GPU readiness probe at start (tests of the queue alone).
+    pub probe_gpu: bool,
+}
+
+impl JobConfig {
+    pub fn new(data_dir: impl Into<PathBuf>) -> JobConfig {
+        JobConfig {
+            data_dir: data_dir.into(),
+            cpu_workers: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(2),
+            max_queued: 256,
+            bake_timeout: Duration::from_secs(3600),
+            render_timeout: Duration::from_secs(300),
+            // Image side capped below the library's 8192: a reference frame holds several
+            // float layers (~100 bytes a pixel), so 4096² is already ~1.7 GB.
+            limits: crate::scene::Limits {
+                max_image_side: 4096,
+                ..Default::default()
+            },
+            probe_gpu: true,
+        }
+    }
+}
+
+impl JobConfig {
+    /// Overrides from the environment (`get` looks a variable up; `caustica serve` passes
+    /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
+    /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
+    /// `CAUSTICA_MAX_TRIANGLES`. An unparsable or out-of-range value is an error naming it.
+    pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
+        if let Some(v) = env_num(get, "CAUSTICA_CPU_WORKERS", 1.0, 1024.0, true)? {
+            self.cpu_workers = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_QUEUED", 1.0, 1e6, true)? {
+            self.max_queued = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_BAKE_TIMEOUT_S", 1e-3, 1e7, false)? {
+            self.bake_timeout = Duration::from_secs_f64(v);
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_RENDER_TIMEOUT_S", 1e-3, 1e7, false)? {
+            self.render_timeout = Duration::from_secs_f64(v);
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_IMAGE_SIDE", 1.0, 8192.0, true)? {
+            self.limits.max_image_side = v as u32;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_TRIANGLES", 1.0, 1e9, true)? {
+            self.limits.max_triangles = v as usize;
+        }
+        Ok(())
+    }
+}
+
+/// Variable `name` as a number in [lo, hi] (a whole one when `integer`), if set and not blank.
+pub fn env_num(
+    get: &dyn Fn(&str) -> Option<String>,
+    name: &str,
+    lo: f64,
+    hi: f64,
+    integer: bool,
+) -> Result<Option<f64>, String> {
+    let Some(raw) = get(name).filter(|v| !v.trim().is_empty()) else {
+        return Ok(None);
+    };
+    let v: f64 = raw
+        .trim()
+        .parse()
+        .map_err(|_| format!("{name}={raw:?}: not a number"))?;
+    if !(lo..=hi).contains(&v) || (integer && v.fract() != 0.0) {
+        let kind = if integer {
+            "a whole number"
+        } else {
+            "a number"
+        };
+        return Err(format!("{name}={raw:?}: must be {kind} in {lo}..={hi}"));
+    }
+    Ok(Some(v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn environment_overrides_limits_and_names_bad_values() {
+        let vars = |pairs: &'static [(&'static str, &'static str)]| {
+            move |k: &str| {
+                pairs
+                    .iter()
+                    .find(|(n, _)| *n == k)
+                    .map(|(_, v)| v.to_string())
+            }
+        };
+        let mut c = JobConfig::new("/tmp/unused");
+        c.apply_env(&vars(&[
+            ("CAUSTICA_CPU_WORKERS", "3"),
+            ("CAUSTICA_RENDER_TIMEOUT_S", "2.5"),
+            ("CAUSTICA_MAX_IMAGE_SIDE", " 1024 "),
+            ("CAUSTICA_MAX_QUEUED", ""),
+        ]))
+        .unwrap();
+        assert_eq!(c.cpu_workers, 3);
+        assert_eq!(c.render_timeout, Duration::from_millis(2500));
+        assert_eq!(c.limits.max_image_side, 1024);
+        assert_eq!(c.max_queued, 256, "blank keeps the default");
+        let e = c
+            .apply_env(&vars(&[("CAUSTICA_MAX_QUEUED", "lots")]))
+            .unwrap_err();
+        assert!(
+            e.contains("CAUSTICA_MAX_QUEUED") && e.contains("not a number"),
+            "{e}"
+        );
+        let e = c
+            .apply_env(&vars(&[("CAUSTICA_CPU_WORKERS", "1.5")]))
+            .unwrap_err();
+        assert!(e.contains("whole number"), "{e}");
+        let e = c
+            .apply_env(&vars(&[("CAUSTICA_MAX_IMAGE_SIDE", "100000")]))
+            .unwrap_err();
+        assert!(e.contains("1..=8192"), "{e}");
+    }
+}

@@ -1,0 +1,83 @@
+//! The bounded priority queues, one per [`Lane`]: renders before bakes, then oldest first.
+//! The [`super::JobSystem`] holds them behind a mutex and wakes workers with a condvar.
+
+use super::JobHandle;
+use super::job::{Job, Priority};
+use crate::methods::Lane;
+use std::collections::BinaryHeap;
+use std::sync::Arc;
+
+/// A queued job waiting for a worker.
+pub(crate) struct Queued {
+    pub priority: Priority,
+    /// Submission order.
+    pub seq: u64,
+    pub job: Box<dyn Job>,
+    pub handle: Arc<JobHandle>,
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, o: &Self) -> bool {
+        (self.priority, self.seq) == (o.priority, o.seq)
+    }
+}
+impl Eq for Queued {}
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Queued {
+    /// BinaryHeap pops the greatest: invert so the lowest (priority, seq) comes first.
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        (o.priority, o.seq).cmp(&(self.priority, self.seq))
+    }
+}
+
+#[derive(Default)]
+pub(crate) struct Queues {
+    cpu: BinaryHeap<Queued>,
+    gpu: BinaryHeap<Queued>,
+    /// No more jobs are taken; workers exit when they see it.
+    pub closed: bool,
+}
+
+impl Queues {
+    pub fn len(&self) -> usize {
+        self.cpu.len() + self.gpu.len()
+    }
+
+    /// Jobs waiting, per lane (cpu, gpu).
+    pub fn depth(&self) -> (usize, usize) {
+        (self.cpu.len(), self.gpu.len())
+    }
+
+    fn lane(&mut self, lane: Lane) -> &mut BinaryHeap<Queued> {
+        match lane {
+            Lane::Cpu => &mut self.cpu,
+            Lane::Gpu => &mut self.gpu,
+        }
+    }
+
+    pub fn push(&mut self, q: Queued) {
+        self.lane(q.job.lane()).push(q);
+    }
+
+    /// The next job of `lane` (highest priority, then oldest); with `renders_only`, only a
+    /// render.
+    pub fn pop(&mut self, lane: Lane, renders_only: bool) -> Option<Queued> {
+        let heap = self.lane(lane);
+        let take = heap
+            .peek()
+            .is_some_and(|q| !renders_only || q.priority == Priority::Render);
+        if take { heap.pop() } else { None }
+    }
+
+    /// Drops the job `id`; whether it was queued.
+    pub fn remove(&mut self, id: &str) -> bool {
+        let before = self.len();
+        self.cpu.retain(|q| q.handle.id != id);
+        self.gpu.retain(|q| q.handle.id != id);
+        before != self.len()
+    }
+}

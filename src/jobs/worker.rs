@@ -1,0 +1,314 @@
+//! The workers: threads that take jobs from a lane's queue and run them, what a running job
+//! sees ([`JobCtx`]: progress, cancellation, its deadline, the GPU, the artifact store), and
+//! how a job's end is recorded.
+
+use super::job::{Artifact, ErrorCode, JobError, JobKind, JobState};
+use super::queue::Queued;
+use super::{JobHandle, JobSystem, Readiness, panic_message, scenes};
+use crate::methods::{Env, Gpu, Lane, MethodError};
+use crate::render::Renderer;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The GPU worker's device: created on first use; its error is kept when there is none.
+#[derive(Default)]
+pub struct GpuSlot {
+    renderer: Option<Renderer>,
+    error: Option<String>,
+}
+
+impl GpuSlot {
+    /// The renderer, or why there is none.
+    fn get(&mut self) -> Result<&mut Renderer, String> {
+        if self.renderer.is_none() && self.error.is_none() {
+            let made = catch_unwind(|| -> Result<Renderer, String> {
+                let cfg = crate::gpu::GpuConfig::from_env();
+                let ctx = crate::gpu::GpuContext::new(&cfg).map_err(|e| e.to_string())?;
+                Renderer::new(Arc::new(ctx)).map_err(|e| e.to_string())
+            })
+            .unwrap_or_else(|p| Err(panic_message(p)));
+            match made {
+                Ok(r) => self.renderer = Some(r),
+                Err(e) => {
+                    tracing::error!(error = %e, "no GPU renderer: GPU renders will fail");
+                    self.error = Some(e);
+                }
+            }
+        }
+        match (&mut self.renderer, &self.error) {
+            (Some(r), _) => Ok(r),
+            (None, Some(e)) => Err(e.clone()),
+            (None, None) => unreachable!("set above"),
+        }
+    }
+}
+
+/// What a running job sees: progress reporting, cancellation, its deadline, the GPU.
+pub struct JobCtx<'a> {
+    handle: &'a JobHandle,
+    system: &'a JobSystem,
+    deadline: Instant,
+    timeout: Duration,
+    gpu: Option<&'a Mutex<GpuSlot>>,
+    last_store: Mutex<Instant>,
+}
+
+impl JobCtx<'_> {
+    /// Reports progress (0..1) and the current stage; persisted at most a few times a second.
+    pub fn progress(&self, fraction: f32, stage: &str) {
+        let f = fraction.clamp(0.0, 1.0);
+        {
+            let mut l = self.handle.live.lock().unwrap_or_else(|e| e.into_inner());
+            l.0 = l.0.max(f);
+            if l.1 != stage {
+                l.1 = stage.to_string();
+            }
+        }
+        let mut last = self.last_store.lock().unwrap_or_else(|e| e.into_inner());
+        if last.elapsed() > Duration::from_millis(250) {
+            *last = Instant::now();
+            let (p, s) = self.handle.progress();
+            if let Err(e) = self.system.store.set_progress(&self.handle.id, p, &s) {
+                tracing::warn!(error = %e, job = %self.handle.id, "progress not stored");
+            }
+        }
+    }
+
+    /// Ok while the job should go on; the reason to stop otherwise.
+    pub fn check(&self) -> Result<(), JobError> {
+        if self.handle.is_cancel_requested() {
+            Err(JobError::Canceled)
+        } else if self.system.abort.load(Ordering::SeqCst) {
+            Err(JobError::Interrupted)
+        } else if Instant::now() > self.deadline {
+            Err(JobError::Timeout(self.timeout))
+        } else {
+            Ok(())
+        }
+    }
+
+    pub fn keep_going(&self) -> bool {
+        self.check().is_ok()
+    }
+
+    /// The job error for a method's error: a cancelled method stopped for the reason
+    /// [`Self::check`] gives.
+    pub fn method_error(&self, e: MethodError) -> JobError {
+        match e {
+            MethodError::Canceled => self.check().err().unwrap_or(JobError::Canceled),
+            other => other.into(),
+        }
+    }
+
+    /// `f` with the [`Env`] a method runs in: this job's progress and cancellation, the GPU,
+    /// and the data directory's artifact store.
+    pub fn with_env<T>(&self, f: impl FnOnce(&Env) -> T) -> T {
+        let progress = |fraction: f32, stage: &str| self.progress(fraction, stage);
+        let keep_going = || self.keep_going();
+        f(&Env {
+            progress: &progress,
+            keep_going: &keep_going,
+            gpu: self,
+            store: &self.system.bakes,
+        })
+    }
+}
+
+impl Gpu for JobCtx<'_> {
+    /// The GPU renderer, created on first use; held for the duration of `f`.
+    fn with_renderer(
+        &self,
+        f: &mut dyn FnMut(&mut Renderer) -> Result<(), MethodError>,
+    ) -> Result<(), MethodError> {
+        let slot = self
+            .gpu
+            .ok_or_else(|| MethodError::NoGpu("this job is not on the GPU worker".into()))?;
+        let mut slot = slot.lock().unwrap_or_else(|e| e.into_inner());
+        f(slot.get().map_err(MethodError::NoGpu)?)
+    }
+}
+
+impl JobSystem {
+    /// Takes jobs of `lane` until the queues close.
+    pub(super) fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, renders_only: bool) {
+        while let Some(q) = self.next(lane, renders_only) {
+            self.run_one(q, gpu);
+        }
+    }
+
+    /// Renders a tiny frame to learn whether the GPU works (for `/readyz`).
+    pub(super) fn probe(&self, slot: &Mutex<GpuSlot>) {
+        let r = (|| -> Result<String, JobError> {
+            let world = scenes::probe_world()?;
+            let mut s = slot.lock().unwrap_or_else(|e| e.into_inner());
+            let renderer = s.get().map_err(JobError::NoGpu)?;
+            let out = renderer
+                .render(&world, &crate::render::RenderOptions::default())
+                .map_err(|e| JobError::Render(e.to_string()))?;
+            Ok(out.adapter)
+        })();
+        let state = match r {
+            Ok(adapter) => {
+                tracing::info!(%adapter, "GPU ready");
+                Readiness::Ready { adapter }
+            }
+            Err(e) => Readiness::NoGpu {
+                error: e.to_string(),
+            },
+        };
+        *self.readiness.lock().unwrap_or_else(|e| e.into_inner()) = state;
+    }
+
+    fn run_one(&self, q: Queued, gpu: Option<&Mutex<GpuSlot>>) {
+        let h = q.handle.clone();
+        let id = h.id.clone();
+        let kind = q.job.kind();
+        let queue_wait = h.enqueued.elapsed();
+        if let Err(e) = self.store.set_running(&id) {
+            tracing::error!(job = %id, error = %e, "cannot mark running");
+        }
+        h.state.send_replace(JobState::Running);
+        let timeout = match kind {
+            JobKind::Bake => self.cfg.bake_timeout,
+            JobKind::Render => self.cfg.render_timeout,
+        };
+        let ctx = JobCtx {
+            handle: &h,
+            system: self,
+            deadline: Instant::now() + timeout,
+            timeout,
+            gpu,
+            last_store: Mutex::new(Instant::now()),
+        };
+        let span = tracing::info_span!(
+            "job",
+            id = %id,
+            kind = kind.as_str(),
+            method = q.job.method().name()
+        );
+        let _g = span.enter();
+        tracing::info!(queue_ms = queue_wait.as_secs_f64() * 1e3, "job started");
+        let t = Instant::now();
+        let result = ctx.check().and_then(|()| {
+            catch_unwind(AssertUnwindSafe(|| q.job.run(&ctx)))
+                .unwrap_or_else(|p| Err(JobError::Panic(panic_message(p))))
+        });
+        let run_time = t.elapsed();
+        let (progress, _) = h.progress();
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let short = [
+            ("queue".to_string(), ms(queue_wait)),
+            ("run".to_string(), ms(run_time)),
+        ];
+        let (state, rec) = match result {
+            Ok(a) => self.record_success(&id, a, ms(queue_wait), progress),
+            Err(JobError::Interrupted) => {
+                tracing::info!("interrupted by shutdown; left queued for the next start");
+                let r = self.store.set_queued(&id);
+                if let Err(e) = r {
+                    tracing::error!(error = %e, "cannot re-queue");
+                }
+                // The handle goes away with the process; waiters see "queued".
+                self.live
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .remove(&id);
+                return;
+            }
+            Err(JobError::Canceled) => (
+                JobState::Canceled,
+                self.store.finish(
+                    &id,
+                    JobState::Canceled,
+                    progress,
+                    &short,
+                    &serde_json::json!({}),
+                    Some("canceled"),
+                    None,
+                ),
+            ),
+            Err(e) => {
+                tracing::warn!(error = %e, "job failed");
+                (
+                    JobState::Failed,
+                    self.store.finish(
+                        &id,
+                        JobState::Failed,
+                        progress,
+                        &short,
+                        &serde_json::json!({ "error_code": e.code() }),
+                        Some(&e.to_string()),
+                        None,
+                    ),
+                )
+            }
+        };
+        if let Err(e) = rec {
+            tracing::error!(error = %e, "cannot record the job's end");
+        }
+        tracing::info!(
+            state = state.as_str(),
+            run_ms = ms(run_time),
+            "job finished"
+        );
+        self.metrics
+            .job_finished(state.as_str(), kind.as_str(), run_time);
+        self.retire(&h, state);
+    }
+
+    /// Writes a succeeded job's artifact, then its record (so a record never names a missing
+    /// file); a failure to store is the job's failure.
+    fn record_success(
+        &self,
+        id: &str,
+        a: Artifact,
+        queue_ms: f64,
+        progress: f32,
+    ) -> (JobState, Result<(), super::store::StoreError>) {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let mut timings = vec![("queue".to_string(), queue_ms)];
+        timings.extend(a.timings.iter().map(|(n, d)| (n.clone(), ms(*d))));
+        let gpu_ms: f64 = a
+            .timings
+            .iter()
+            .filter(|(n, _)| n.starts_with("gpu:"))
+            .map(|(_, d)| ms(*d))
+            .sum();
+        self.metrics.gpu_time(gpu_ms / 1e3);
+        let r = self
+            .store
+            .write_artifact(id, a.ext, &a.bytes)
+            .and_then(|path| {
+                self.store.finish(
+                    id,
+                    JobState::Succeeded,
+                    1.0,
+                    &timings,
+                    &a.info,
+                    None,
+                    Some((a.content_type, &path)),
+                )
+            });
+        match r {
+            Ok(()) => (JobState::Succeeded, Ok(())),
+            Err(e) => {
+                let msg = format!("storing the artifact failed: {e}");
+                let info = serde_json::json!({ "error_code": ErrorCode::Store });
+                (
+                    JobState::Failed,
+                    self.store.finish(
+                        id,
+                        JobState::Failed,
+                        progress,
+                        &timings,
+                        &info,
+                        Some(&msg),
+                        None,
+                    ),
+                )
+            }
+        }
+    }
+}

@@ -1,0 +1,147 @@
+//! Method `auto`: one of the others, chosen from the scene by [`choose`]. The CLI's default.
+//!
+//! The rule, first match wins:
+//! 1. no object has a glass or mirror part → `direct` (nothing casts caustics);
+//! 2. every caustic part is glass (dielectric) and a directional, point, spot or line light
+//!    lights the scene → `transport` (every delta light type, the light may move freely);
+//! 3. a directional light → `csl` (mirrors too);
+//! 4. otherwise → `reference` (e.g. mirrors under a point light, or only environment light).
+
+use super::{
+    Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl, MethodInfo, ParamError,
+    RenderPlan, caustic_objects,
+};
+use crate::scene::{Light, Material, World};
+
+pub static INFO: MethodInfo = MethodInfo {
+    method: Method::Auto,
+    name: "auto",
+    summary: "picks direct, transport, csl or reference from the scene",
+    lights: "all",
+    // An auto render runs where the chosen method does.
+    lane: Lane::Cpu,
+    gpu: true,
+    bake: false,
+    // The chosen method checks the fields it takes.
+    args: &[],
+};
+
+pub struct Auto;
+
+/// The method `auto` renders `world` with, and why.
+pub fn choose(world: &World) -> (Method, &'static str) {
+    let caustic = caustic_objects(world);
+    if caustic.is_empty() {
+        return (
+            Method::Direct,
+            "no object has a glass or mirror part: nothing casts caustics",
+        );
+    }
+    let all_glass = caustic.iter().all(|&i| {
+        world.objects[i].parts.iter().all(|p| {
+            let m = &world.materials[p.material as usize];
+            !m.is_specular() || matches!(m, Material::Dielectric { .. })
+        })
+    });
+    let delta = world
+        .lights
+        .iter()
+        .any(|l| !matches!(l, Light::Environment { .. }));
+    let directional = world
+        .lights
+        .iter()
+        .any(|l| matches!(l, Light::Directional { .. }));
+    if all_glass && delta {
+        (
+            Method::Transport,
+            "every caustic object is glass, lit by a delta light",
+        )
+    } else if directional {
+        (
+            Method::Csl,
+            "mirrors among the caustic objects, lit by a directional light",
+        )
+    } else {
+        (
+            Method::Reference,
+            "caustic objects that no fast method handles under these lights",
+        )
+    }
+}
+
+impl MethodImpl for Auto {
+    fn info(&self) -> &'static MethodInfo {
+        &INFO
+    }
+
+    fn plan(&self, world: &World, args: &MethodArgs) -> Result<Box<dyn RenderPlan>, ParamError> {
+        let (method, reason) = choose(world);
+        Ok(Box::new(Chosen {
+            plan: method.imp().plan(world, args)?,
+            reason,
+        }))
+    }
+}
+
+/// The chosen method's plan, with the reason it was chosen.
+struct Chosen {
+    plan: Box<dyn RenderPlan>,
+    reason: &'static str,
+}
+
+impl RenderPlan for Chosen {
+    fn method(&self) -> Method {
+        self.plan.method()
+    }
+
+    fn reason(&self) -> Option<&str> {
+        Some(self.reason)
+    }
+
+    fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
+        self.plan.frames(world, env)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(json: &str) -> World {
+        crate::scene::load_scene_json(json.as_bytes()).unwrap()
+    }
+
+    fn with(material: &str, light: &str) -> World {
+        scene(&format!(
+            r#"{{"camera": {{"eye": [0, 2, 2], "target": [0, 0, 0]}},
+                "lights": [{light}],
+                "materials": {{"floor": {{"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+                               "m": {material}}},
+                "objects": [
+                  {{"name": "floor", "shape": {{"type": "plane", "size": [4, 4]}}, "material": "floor"}},
+                  {{"name": "thing", "shape": {{"type": "sphere", "radius": 0.5}}, "material": "m"}}]}}"#
+        ))
+    }
+
+    #[test]
+    fn the_documented_rule() {
+        let sun = r#"{"type": "directional", "direction": [0, -1, 0], "irradiance": 1}"#;
+        let bulb = r#"{"type": "point", "position": [0, 2, 0], "intensity": 1}"#;
+        let sky = r#"{"type": "environment", "radiance": 1}"#;
+        let glass = r#"{"type": "dielectric", "ior": 1.5}"#;
+        let mirror = r#"{"type": "mirror", "reflectance": 0.9}"#;
+        let paint = r#"{"type": "diffuse", "albedo": 0.5}"#;
+        assert_eq!(choose(&with(paint, sun)).0, Method::Direct);
+        assert_eq!(choose(&with(glass, sun)).0, Method::Transport);
+        assert_eq!(choose(&with(glass, bulb)).0, Method::Transport);
+        assert_eq!(choose(&with(mirror, sun)).0, Method::Csl);
+        assert_eq!(choose(&with(mirror, bulb)).0, Method::Reference);
+        assert_eq!(choose(&with(glass, sky)).0, Method::Reference);
+        // The plan is the chosen method's, and says why.
+        let plan = Auto
+            .plan(&with(mirror, sun), &MethodArgs::default())
+            .unwrap();
+        assert_eq!(plan.method(), Method::Csl);
+        assert!(plan.reason().unwrap().contains("mirror"));
+    }
+}

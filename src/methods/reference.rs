@@ -1,0 +1,231 @@
+//! Method `reference`: the CPU ground truth (light tracing for caustics and diffuse
+//! interreflection, a caustic photon map for caustics seen through glass, camera paths for
+//! direct light and specular chains; see [`crate::reference`]). Every component, deterministic
+//! for a seed. Its bake is the same render kept as a multi-layer EXR of every component.
+
+use super::{
+    BakePlan, Baked, Component, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
+    MethodInfo, ParamError, RenderPlan, from_value,
+};
+use crate::reference::{self, Components, ReferenceParams, ReferenceStats};
+use crate::scene::{Limits, World};
+use crate::trace::Accel;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+pub static INFO: MethodInfo = MethodInfo {
+    method: Method::Reference,
+    name: "reference",
+    summary: "the ground truth: every light path, any light and object; seconds to minutes",
+    lights: "all",
+    lane: Lane::Cpu,
+    gpu: false,
+    bake: true,
+    args: &["photons", "spp", "seed", "time_budget"],
+};
+
+pub struct Reference;
+
+impl MethodImpl for Reference {
+    fn info(&self) -> &'static MethodInfo {
+        &INFO
+    }
+
+    fn plan(&self, _: &World, args: &MethodArgs) -> Result<Box<dyn RenderPlan>, ParamError> {
+        args.check(&INFO)?;
+        let d = ReferenceParams::default();
+        Ok(Box::new(Plan(ReferenceParams {
+            seed: args.seed.unwrap_or(d.seed),
+            photons: args.photons.unwrap_or(d.photons),
+            spp: args.spp.unwrap_or(d.spp),
+            time_budget: args.time_budget.map(Duration::from_secs_f64),
+            ..d
+        })))
+    }
+
+    fn bake_params(
+        &self,
+        v: &serde_json::Value,
+        at: &str,
+    ) -> Result<serde_json::Value, ParamError> {
+        let p = BakeParams::parse(v, at)?;
+        Ok(serde_json::to_value(p).expect("params serialise"))
+    }
+
+    fn plan_bake(
+        &self,
+        world: Arc<World>,
+        object: Option<&str>,
+        params: &serde_json::Value,
+        limits: &Limits,
+    ) -> Result<Box<dyn BakePlan>, MethodError> {
+        let params = BakeParams::parse(params, "params")?;
+        let object = object.ok_or_else(|| ParamError::new("object", "required"))?;
+        if world.object(object).is_none() {
+            return Err(MethodError::UnknownObject(object.into()));
+        }
+        let mut world = (*world).clone();
+        for (name, v) in [
+            ("params.width", params.width),
+            ("params.height", params.height),
+        ] {
+            if let Some(v) = v {
+                ParamError::range(name, v, 1, limits.max_image_side)?;
+            }
+        }
+        world.camera.width = params.width.unwrap_or(world.camera.width);
+        world.camera.height = params.height.unwrap_or(world.camera.height);
+        Ok(Box::new(Bake {
+            world,
+            object: object.into(),
+            params,
+        }))
+    }
+}
+
+/// The reference's run: every component of the frame.
+fn run(
+    world: &World,
+    params: &ReferenceParams,
+    env: &Env,
+    timings: &mut Vec<(String, Duration)>,
+) -> Result<(Components, ReferenceStats), MethodError> {
+    let t = Instant::now();
+    let accel = Accel::build(world);
+    timings.push(("bvh".into(), t.elapsed()));
+    env.check()?;
+    let (c, stats) = reference::render(world, &accel, params, &|f| {
+        // The reference reports 0..0.8 while tracing photons, then 1.0 after the camera.
+        (env.progress)(f, if f < 0.8 { "photons" } else { "camera" });
+        (env.keep_going)()
+    })
+    .map_err(|_| MethodError::Canceled)?;
+    timings.extend(stats.stages.iter().cloned());
+    Ok((c, stats))
+}
+
+fn statistics(stats: &ReferenceStats) -> serde_json::Value {
+    serde_json::json!({
+        "photons_traced": stats.photons_traced,
+        "caustic_photons_stored": stats.caustic_photons_stored,
+        "camera_samples": stats.camera_samples,
+    })
+}
+
+fn note(stats: &ReferenceStats) -> String {
+    format!(
+        "photons traced: {}, caustic photons stored: {}, camera samples: {}",
+        stats.photons_traced, stats.caustic_photons_stored, stats.camera_samples
+    )
+}
+
+struct Plan(ReferenceParams);
+
+impl RenderPlan for Plan {
+    fn method(&self) -> Method {
+        Method::Reference
+    }
+
+    fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
+        let mut timings = Vec::new();
+        let (c, stats) = run(world, &self.0, env, &mut timings)?;
+        Ok(Frames {
+            layers: Component::ALL.map(|n| (n, c.get(n))).to_vec(),
+            timings,
+            adapter: "cpu".into(),
+            statistics: Some(statistics(&stats)),
+            notes: vec![note(&stats)],
+        })
+    }
+}
+
+/// Parameters of a reference bake; defaults filled in before the bake id is computed.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BakeParams {
+    /// Photons (light paths) to trace, 1..=1e9.
+    #[serde(default = "default_photons")]
+    pub photons: u64,
+    /// Camera samples per pixel, 1..=1024.
+    #[serde(default = "default_spp")]
+    pub spp: u32,
+    #[serde(default = "one")]
+    pub seed: u64,
+    /// Image size; the scene camera's when absent.
+    #[serde(default)]
+    pub width: Option<u32>,
+    #[serde(default)]
+    pub height: Option<u32>,
+}
+
+fn default_photons() -> u64 {
+    1_000_000
+}
+fn default_spp() -> u32 {
+    4
+}
+fn one() -> u64 {
+    1
+}
+
+impl BakeParams {
+    /// Parses and checks `v`, found at field `at` of a request.
+    pub fn parse(v: &serde_json::Value, at: &str) -> Result<Self, ParamError> {
+        let p: BakeParams = from_value(v, at)?;
+        if !(1..=1_000_000_000).contains(&p.photons) {
+            return Err(ParamError::new(
+                format!("{at}.photons"),
+                "must lie in 1..=1e9",
+            ));
+        }
+        ParamError::range(&format!("{at}.spp"), p.spp, 1, 1024)?;
+        Ok(p)
+    }
+}
+
+struct Bake {
+    world: World,
+    object: String,
+    params: BakeParams,
+}
+
+impl BakePlan for Bake {
+    fn object(&self) -> &str {
+        &self.object
+    }
+
+    fn run(&self, env: &Env) -> Result<Baked, MethodError> {
+        let mut timings = Vec::new();
+        (env.progress)(0.0, "bvh");
+        let params = ReferenceParams {
+            seed: self.params.seed,
+            photons: self.params.photons,
+            spp: self.params.spp,
+            ..Default::default()
+        };
+        let (c, stats) = run(&self.world, &params, env, &mut timings)?;
+        (env.progress)(1.0, "encode");
+        let t = Instant::now();
+        let layers = Component::ALL.map(|n| (n.name(), c.get(n)));
+        let refs: Vec<(&str, &crate::encode::Frame)> =
+            layers.iter().map(|(n, f)| (*n, f)).collect();
+        let bytes = crate::encode::encode_exr_layers(&refs)
+            .map_err(|e| MethodError::Render(format!("encoding the EXR: {e}")))?;
+        timings.push(("encode".into(), t.elapsed()));
+        Ok(Baked {
+            bytes,
+            ext: "exr",
+            content_type: "image/x-exr",
+            timings,
+            info: serde_json::json!({
+                "object": self.object,
+                "width": self.world.camera.width,
+                "height": self.world.camera.height,
+                "layers": Component::ALL.map(Component::name),
+                "statistics": statistics(&stats),
+            }),
+            notes: vec![note(&stats)],
+        })
+    }
+}

@@ -1,0 +1,388 @@
+//! Method `transport`: light transport tables (Iwasaki et al. 2005). The bake records, per
+//! vertex of a glass object and per sampling direction of its hemisphere, where light entering
+//! there leaves the glass ([`crate::bake::transport`]); no light is needed, so one table serves
+//! every light and every light position. Per frame the tables are interpolated for each
+//! directional, point, spot and line light, lit triangles sweep illumination volumes
+//! ([`crate::render::transport`]) and the GPU draws them over a G-buffer of the receivers.
+//!
+//! Tables are found or baked through the [`ArtifactStore`] by content hash, so the object may
+//! move or turn between frames.
+
+use super::{
+    ArtifactKind, BakePlan, Baked, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
+    MethodInfo, ParamError, RenderPlan, from_value, scaled_progress,
+};
+use crate::bake::Progress;
+use crate::bake::transport::eval::{DEFAULT_LINE_POINTS, EvalError};
+use crate::bake::transport::{
+    TransportParams, TransportTable, bake_transport, check_table_size, refractive_objects,
+    source_hash, table_vertices,
+};
+use crate::render::{RenderOptions, TransportLayer};
+use crate::scene::{Limits, World};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+pub static INFO: MethodInfo = MethodInfo {
+    method: Method::Transport,
+    name: "transport",
+    summary: "light transport tables: rigid glass objects under any delta light, light moved \
+              freely without a new bake",
+    lights: "directional, point, spot, line",
+    lane: Lane::Cpu,
+    gpu: true,
+    bake: true,
+    args: &["bake", "line_points"],
+};
+
+pub struct Transport;
+
+impl MethodImpl for Transport {
+    fn info(&self) -> &'static MethodInfo {
+        &INFO
+    }
+
+    fn plan(&self, world: &World, args: &MethodArgs) -> Result<Box<dyn RenderPlan>, ParamError> {
+        args.check(&INFO)?;
+        if refractive_objects(world).is_empty() {
+            return Err(ParamError::new(
+                "scene.objects",
+                "method transport needs a glass (dielectric) object; the scene has none",
+            ));
+        }
+        Ok(Box::new(Plan {
+            line_points: args.line_points.unwrap_or(DEFAULT_LINE_POINTS),
+            given: args.bake.clone(),
+        }))
+    }
+
+    fn bake_params(
+        &self,
+        v: &serde_json::Value,
+        at: &str,
+    ) -> Result<serde_json::Value, ParamError> {
+        Ok(serde_json::to_value(BakeParams::parse(v, at)?).expect("params serialise"))
+    }
+
+    fn plan_bake(
+        &self,
+        world: Arc<World>,
+        object: Option<&str>,
+        params: &serde_json::Value,
+        _: &Limits,
+    ) -> Result<Box<dyn BakePlan>, MethodError> {
+        let params = BakeParams::parse(params, "params")?;
+        let glass = refractive_objects(&world);
+        let oi = match object {
+            Some(name) => world
+                .objects
+                .iter()
+                .position(|o| o.name == name)
+                .ok_or_else(|| MethodError::UnknownObject(name.into()))?,
+            None => *glass.first().ok_or_else(|| {
+                ParamError::new("object", "the scene has no glass object to bake")
+            })?,
+        };
+        let object = world.objects[oi].name.clone();
+        if !glass.contains(&oi) {
+            return Err(ParamError::new(
+                "object",
+                format!(
+                    "'{object}' has no glass (dielectric) part; a transport table is for \
+                     refractive objects"
+                ),
+            )
+            .into());
+        }
+        let vertices = table_vertices(&world, &world.objects[oi]).len();
+        check_table_size(vertices, &params.params())
+            .map_err(|e| ParamError::new("params", e.to_string()))?;
+        Ok(Box::new(Bake {
+            world,
+            object,
+            params,
+        }))
+    }
+}
+
+/// Parameters of a transport bake; defaults filled in before the bake id is computed.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BakeParams {
+    /// Rings of sampling directions between the pole and the horizon, 1..=64 (default 8).
+    #[serde(default)]
+    pub rings: Option<u32>,
+    /// Directions per ring, 4..=256 (default 16; with 8 rings the paper's 129 directions).
+    #[serde(default)]
+    pub azimuths: Option<u32>,
+}
+
+impl BakeParams {
+    /// Parses and checks `v`, found at field `at` of a request, filling the defaults.
+    pub fn parse(v: &serde_json::Value, at: &str) -> Result<Self, ParamError> {
+        let mut p: BakeParams = from_value(v, at)?;
+        let d = TransportParams::paper();
+        p.rings = Some(p.rings.unwrap_or(d.rings));
+        p.azimuths = Some(p.azimuths.unwrap_or(d.azimuths));
+        p.params()
+            .validate()
+            .map_err(|e| ParamError::new(at, e.to_string()))?;
+        Ok(p)
+    }
+
+    pub fn params(&self) -> TransportParams {
+        let d = TransportParams::paper();
+        TransportParams {
+            rings: self.rings.unwrap_or(d.rings),
+            azimuths: self.azimuths.unwrap_or(d.azimuths),
+            ..d
+        }
+    }
+}
+
+/// A glass object's table as a render uses it.
+pub struct ObjectTable {
+    /// Index into `World::objects`.
+    pub object: usize,
+    pub table: TransportTable,
+    /// Whether it came from the store or was given (false: baked now).
+    pub cached: bool,
+}
+
+/// The table of every glass object of `world` for a render: `given` (a table made beforehand)
+/// for the glass object whose content hash it carries, every other one found in the store or
+/// baked at the paper's settings and kept. `progress(f)` sees the bakes' progress in 0..1;
+/// returning false cancels.
+pub fn tables_for_render(
+    world: &World,
+    given: Option<TransportTable>,
+    env: &Env,
+    progress: &(dyn Fn(f32) -> bool + Sync),
+) -> Result<Vec<ObjectTable>, MethodError> {
+    let objects = refractive_objects(world);
+    // The given table serves the glass object whose content hash it carries.
+    let mut given = match given {
+        Some(t) => {
+            let fits =
+                |&&i: &&usize| source_hash(world, &world.objects[i], &t.params) == t.source_hash;
+            let oi = *objects.iter().find(fits).ok_or_else(|| {
+                MethodError::GivenBake(
+                    "the table fits no glass object of this scene (baked for another mesh, \
+                     material or scale)"
+                        .into(),
+                )
+            })?;
+            Some((oi, t))
+        }
+        None => None,
+    };
+    let params = TransportParams::paper();
+    let n = objects.len().max(1) as f32;
+    let mut out = Vec::new();
+    for (k, &oi) in objects.iter().enumerate() {
+        if let Some((_, table)) = given.take_if(|g| g.0 == oi) {
+            out.push(ObjectTable {
+                object: oi,
+                table,
+                cached: true,
+            });
+            continue;
+        }
+        let object = &world.objects[oi];
+        let key = source_hash(world, object, &params);
+        let (table, cached) = env.store.find_or_bake(
+            ArtifactKind::Transport,
+            key,
+            |b| {
+                TransportTable::from_bytes(b)
+                    .ok()
+                    .filter(|t| t.source_hash == key)
+            },
+            || {
+                bake_transport(world, &object.name, &params, &|p: Progress| {
+                    progress((k as f32 + p.fraction) / n)
+                })
+            },
+            TransportTable::to_bytes,
+        )?;
+        out.push(ObjectTable {
+            object: oi,
+            table,
+            cached,
+        });
+    }
+    Ok(out)
+}
+
+impl From<EvalError> for MethodError {
+    fn from(e: EvalError) -> Self {
+        match e {
+            EvalError::Canceled => MethodError::Canceled,
+            EvalError::UnknownObject(o) => MethodError::UnknownObject(o),
+            EvalError::Mismatch { .. } => MethodError::GivenBake(e.to_string()),
+            EvalError::TooManyVolumes { .. } => {
+                ParamError::new("scene.lights", e.to_string()).into()
+            }
+        }
+    }
+}
+
+struct Plan {
+    line_points: u32,
+    given: Option<PathBuf>,
+}
+
+impl RenderPlan for Plan {
+    fn method(&self) -> Method {
+        Method::Transport
+    }
+
+    fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
+        let mut timings = Vec::new();
+        (env.progress)(0.0, "render");
+        // An adapter that cannot draw the volumes fails the render before any bake.
+        if let Some(why) = env.with_renderer(|r| Ok(r.transport_unsupported()))? {
+            return Err(MethodError::NoGpu(why));
+        }
+        let given = match &self.given {
+            Some(path) => {
+                let given = |m: String| MethodError::GivenBake(format!("{}: {m}", path.display()));
+                let bytes = std::fs::read(path).map_err(|e| given(e.to_string()))?;
+                Some(TransportTable::from_bytes(&bytes).map_err(|e| given(e.to_string()))?)
+            }
+            None => None,
+        };
+        let t = Instant::now();
+        let progress = scaled_progress(env, 0.0, 0.8, "bake");
+        let tables = tables_for_render(world, given, env, &progress).map_err(|e| {
+            match (e, &self.given) {
+                (MethodError::GivenBake(m), Some(p)) => {
+                    MethodError::GivenBake(format!("{}: {m}", p.display()))
+                }
+                (e, _) => e,
+            }
+        })?;
+        timings.push(("bake".into(), t.elapsed()));
+        env.check()?;
+        (env.progress)(0.8, "volumes");
+        let t = Instant::now();
+        let refs: Vec<(usize, &TransportTable)> =
+            tables.iter().map(|t| (t.object, &t.table)).collect();
+        let layer = TransportLayer::build_with(world, &refs, self.line_points, env.keep_going)?;
+        timings.push(("volumes".into(), t.elapsed()));
+        (env.progress)(0.9, "render");
+        let out = env.render(&mut timings, |r| {
+            r.render_transport(world, &RenderOptions::default(), &layer)
+        })?;
+        let s = &layer.stats;
+        let statistics = serde_json::json!({
+            "volumes": s.volumes,
+            "lit_vertices": s.lit_vertices,
+            "flux_leaving_w": s.flux.to_array(),
+            "reflection_volumes": s.reflection_volumes,
+            "flux_reflected_w": s.reflected_flux.to_array(),
+            "bakes": tables.iter().map(|t| serde_json::json!({
+                "object": world.objects[t.object].name,
+                "cached": t.cached,
+                "source_hash": format!("{:016x}", t.table.source_hash),
+                "vertices": t.table.vertex_count,
+                "directions": t.table.params.directions(),
+            })).collect::<Vec<_>>(),
+        });
+        let mut frames = Frames::from_output(out, timings);
+        frames.statistics = Some(statistics);
+        frames.notes.push(format!(
+            "{} illumination volumes ({} of reflected light) from {} lit vertices, {:.3} W \
+             leaving the glass, {:.3} W reflected",
+            s.volumes,
+            s.reflection_volumes,
+            s.lit_vertices,
+            s.flux.element_sum() / 3.0,
+            s.reflected_flux.element_sum() / 3.0
+        ));
+        Ok(frames)
+    }
+}
+
+struct Bake {
+    world: Arc<World>,
+    object: String,
+    params: BakeParams,
+}
+
+impl BakePlan for Bake {
+    fn object(&self) -> &str {
+        &self.object
+    }
+
+    fn run(&self, env: &Env) -> Result<Baked, MethodError> {
+        let params = self.params.params();
+        let table = bake_transport(&self.world, &self.object, &params, &|p: Progress| {
+            (env.progress)(p.fraction, p.stage);
+            (env.keep_going)()
+        })?;
+        let bytes = table.to_bytes();
+        // Renders find it when it was baked at their settings.
+        env.store
+            .save(ArtifactKind::Transport, table.source_hash, &bytes);
+        let (s, e) = (&table.stats, &table.errors);
+        let notes = vec![
+            format!(
+                "{}: {} vertices × {} directions = {} samples ({} self-occluded, {} trapped), \
+                 {} rays, trace {:.0} ms, total {:.0} ms",
+                self.object,
+                s.vertices,
+                params.directions(),
+                s.samples,
+                s.occluded,
+                s.trapped,
+                s.rays,
+                s.time_trace.as_secs_f64() * 1e3,
+                s.time_total.as_secs_f64() * 1e3,
+            ),
+            format!(
+                "size {:.2} MB ({} bytes a sample; {:.2} MB unquantised, {:.0} %); largest \
+                 quantisation errors: position {:.4} % of the box diagonal, direction {:.4} %, \
+                 transmittance {:.1e}",
+                bytes.len() as f64 / 1e6,
+                table.bytes_per_sample(),
+                table.uncompressed_bytes() as f64 / 1e6,
+                100.0 * bytes.len() as f64 / table.uncompressed_bytes() as f64,
+                100.0 * e.position,
+                100.0 * e.direction,
+                e.transmittance,
+            ),
+        ];
+        let info = serde_json::json!({
+            "object": self.object,
+            "source_hash": format!("{:016x}", table.source_hash),
+            "statistics": {
+                "vertices": s.vertices,
+                "directions": table.params.directions(),
+                "samples": s.samples,
+                "self_occluded": s.occluded,
+                "trapped": s.trapped,
+                "rays": s.rays,
+                "bytes": bytes.len(),
+                "bytes_per_sample": table.bytes_per_sample(),
+                "uncompressed_bytes": table.uncompressed_bytes(),
+                "max_error_position": e.position,
+                "max_error_direction": e.direction,
+                "max_error_transmittance": e.transmittance,
+            },
+        });
+        Ok(Baked {
+            bytes,
+            ext: ArtifactKind::Transport.ext(),
+            content_type: "application/octet-stream",
+            timings: vec![
+                ("trace".into(), s.time_trace),
+                ("quantise".into(), s.time_quantise),
+            ],
+            info,
+            notes,
+        })
+    }
+}
