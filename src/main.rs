@@ -72,7 +72,7 @@ enum Cmd {
         #[arg(long)]
         bake: Option<PathBuf>,
         /// Transport: point lights a line light is split into (Iwasaki et al. 2005 §5.1).
-        #[arg(long, default_value_t = caustica::bake::transport::eval::DEFAULT_LINE_POINTS)]
+        #[arg(long, default_value_t = caustica::render::transport::volumes::DEFAULT_LINE_POINTS)]
         line_points: u32,
     },
     /// Precompute a method's data for a scene.

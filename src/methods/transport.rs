@@ -13,11 +13,11 @@ use super::{
     MethodInfo, ParamError, RenderPlan, from_value, scaled_progress,
 };
 use crate::bake::Progress;
-use crate::bake::transport::eval::{DEFAULT_LINE_POINTS, EvalError};
 use crate::bake::transport::{
     TransportParams, TransportTable, bake_transport, check_table_size, refractive_objects,
     source_hash, table_vertices,
 };
+use crate::render::transport::volumes::{DEFAULT_LINE_POINTS, EvalError};
 use crate::render::{RenderOptions, TransportLayer};
 use crate::scene::{Limits, World};
 use serde::{Deserialize, Serialize};

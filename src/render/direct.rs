@@ -1,18 +1,20 @@
-//! The direct pass: shadow maps for every delta light, then one forward pass writing the
-//! `direct`, `specular` and `caustics` HDR layers (see `shaders/direct.wgsl` for what each
-//! holds; `caustics` is non-zero only when caustic spot lights are bound, method `csl`).
+//! The direct pass (`shaders/direct.wgsl`): one forward pass over the scene after the shadow
+//! pass, writing the `direct`, `specular` and `caustics` HDR layers (see the shader for what
+//! each holds; `caustics` is written here only when caustic spot lights are bound, method
+//! `csl`: [`super::csl`]), then the visible environment behind everything.
 
+use super::csl::CslBuffers;
 use super::lights::{GpuLight, LightPlan};
-use super::scene::{GpuMaterial, PackedScene, vertex_layout};
-use super::{RenderError, shaders};
+use super::scene::{BlockerBuffers, SceneBuffers, vertex_layout};
+use super::shaders;
+use super::shadow::ShadowAtlas;
+use super::timestamps::Timestamps;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// Stride of the per-layer shadow matrices in their dynamic uniform buffer.
-const LAYER_STRIDE: u64 = 256;
 
 /// `Globals` of `common.inc.wgsl`.
 #[repr(C)]
@@ -35,9 +37,7 @@ pub struct DirectPipelines {
     /// `main` with the caustics layer compiled in (`CSL_LAYER`).
     pub main_csl: wgpu::RenderPipeline,
     pub background: wgpu::RenderPipeline,
-    pub shadow: wgpu::RenderPipeline,
     pub main_layout: wgpu::BindGroupLayout,
-    pub shadow_layout: wgpu::BindGroupLayout,
     pub shadow_sampler: wgpu::Sampler,
 }
 
@@ -106,37 +106,13 @@ impl DirectPipelines {
                 storage(9),
             ],
         });
-        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shadow"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(64),
-                },
-                count: None,
-            }],
-        });
-        let direct_src = shaders::source("direct.wgsl");
-        let shadow_src = shaders::source("shadow.wgsl");
         let direct_mod = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("direct.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(direct_src.into()),
-        });
-        let shadow_mod = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("shadow.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shadow_src.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::source("direct.wgsl").into()),
         });
         let main_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("direct"),
             bind_group_layouts: &[Some(&main_layout)],
-            immediate_size: 0,
-        });
-        let shadow_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shadow"),
-            bind_group_layouts: &[Some(&shadow_layout)],
             immediate_size: 0,
         });
         let hdr_target = Some(wgpu::ColorTargetState {
@@ -218,38 +194,6 @@ impl DirectPipelines {
             multiview_mask: None,
             cache: None,
         });
-        let shadow_attr = [wgpu::VertexAttribute {
-            format: wgpu::VertexFormat::Float32x3,
-            offset: 0,
-            shader_location: 0,
-        }];
-        let shadow = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("shadow"),
-            layout: Some(&shadow_pl),
-            vertex: wgpu::VertexState {
-                module: &shadow_mod,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    attributes: &shadow_attr,
-                    ..vertex_layout()
-                })],
-            },
-            primitive,
-            depth_stencil: depth(
-                true,
-                wgpu::CompareFunction::LessEqual,
-                wgpu::DepthBiasState {
-                    constant: 0,
-                    slope_scale: 1.5,
-                    clamp: 0.0,
-                },
-            ),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: None,
-            multiview_mask: None,
-            cache: None,
-        });
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("shadow"),
             address_mode_u: wgpu::AddressMode::ClampToEdge,
@@ -263,9 +207,7 @@ impl DirectPipelines {
             main,
             main_csl,
             background,
-            shadow,
             main_layout,
-            shadow_layout,
             shadow_sampler,
         }
     }
@@ -312,50 +254,6 @@ impl Targets {
                 wgpu::TextureUsages::RENDER_ATTACHMENT,
             ),
         }
-    }
-}
-
-/// The shadow map array (`resolution`² × `layers`), grown as needed.
-pub struct ShadowAtlas {
-    pub resolution: u32,
-    pub layers: u32,
-    pub texture: wgpu::Texture,
-}
-
-impl ShadowAtlas {
-    pub fn new(device: &wgpu::Device, resolution: u32, layers: u32) -> ShadowAtlas {
-        // Without shadowed lights a 1×1 placeholder keeps the binding valid.
-        let (res, n) = if layers == 0 {
-            (1, 1)
-        } else {
-            (resolution, layers)
-        };
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow maps"),
-            size: wgpu::Extent3d {
-                width: res,
-                height: res,
-                depth_or_array_layers: n,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
-        ShadowAtlas {
-            resolution,
-            layers,
-            texture,
-        }
-    }
-
-    pub fn fits(&self, resolution: u32, layers: u32) -> bool {
-        if layers == 0 {
-            return true;
-        }
-        self.resolution == resolution && self.layers >= layers
     }
 }
 
@@ -419,27 +317,20 @@ pub fn camera_near_far(eye: Vec3, lo: Vec3, hi: Vec3) -> (f32, f32) {
     ((far * 1e-4).max(1e-4), far)
 }
 
-/// GPU buffers for one render.
+/// The uniforms and storage a frame's direct pass reads besides the scene: the camera, the
+/// lights, and the caustic spot lights (placeholders without them).
 pub struct FrameBuffers {
-    pub vertices: Option<wgpu::Buffer>,
-    pub indices: Option<wgpu::Buffer>,
-    pub index_count: u32,
     pub globals: wgpu::Buffer,
     pub lights: wgpu::Buffer,
-    pub materials: wgpu::Buffer,
-    pub layer_mats: Option<wgpu::Buffer>,
     pub csls: wgpu::Buffer,
     /// Caustic spot lights to evaluate (0: the direct-only pipeline draws).
     pub csl_count: u32,
     pub csl_texels: wgpu::Buffer,
-    pub blocker_nodes: wgpu::Buffer,
-    pub blocker_tris: wgpu::Buffer,
 }
 
 impl FrameBuffers {
     pub fn upload(
         device: &wgpu::Device,
-        scene: &PackedScene,
         globals: &Globals,
         plan: &LightPlan,
         csl: &CslBuffers,
@@ -451,42 +342,11 @@ impl FrameBuffers {
                 usage,
             })
         };
-        let (vertices, indices) = if scene.indices.is_empty() {
-            (None, None)
-        } else {
-            (
-                Some(init(
-                    "vertices",
-                    bytemuck::cast_slice(&scene.vertices),
-                    wgpu::BufferUsages::VERTEX,
-                )),
-                Some(init(
-                    "indices",
-                    bytemuck::cast_slice(&scene.indices),
-                    wgpu::BufferUsages::INDEX,
-                )),
-            )
-        };
         let mut lights = plan.lights.clone();
         if lights.is_empty() {
             lights.push(GpuLight::zeroed()); // storage bindings must not be empty
         }
-        let materials: &[GpuMaterial] = &scene.materials;
-        let layer_mats = if plan.layers.is_empty() {
-            None
-        } else {
-            let mut bytes = vec![0u8; plan.layers.len() * LAYER_STRIDE as usize];
-            for (i, l) in plan.layers.iter().enumerate() {
-                let at = i * LAYER_STRIDE as usize;
-                bytes[at..at + 64]
-                    .copy_from_slice(bytemuck::bytes_of(&l.view_proj.to_cols_array()));
-            }
-            Some(init("shadow layers", &bytes, wgpu::BufferUsages::UNIFORM))
-        };
         FrameBuffers {
-            vertices,
-            indices,
-            index_count: scene.indices.len() as u32,
             globals: init(
                 "globals",
                 bytemuck::bytes_of(globals),
@@ -497,12 +357,6 @@ impl FrameBuffers {
                 bytemuck::cast_slice(&lights),
                 wgpu::BufferUsages::STORAGE,
             ),
-            materials: init(
-                "materials",
-                bytemuck::cast_slice(materials),
-                wgpu::BufferUsages::STORAGE,
-            ),
-            layer_mats,
             csls: init(
                 "csls",
                 bytemuck::cast_slice(&csl.params),
@@ -514,38 +368,6 @@ impl FrameBuffers {
                 bytemuck::cast_slice(&csl.texels),
                 wgpu::BufferUsages::STORAGE,
             ),
-            blocker_nodes: init(
-                "occluder nodes",
-                bytemuck::cast_slice(&csl.blockers.nodes),
-                wgpu::BufferUsages::STORAGE,
-            ),
-            blocker_tris: init(
-                "occluder triangles",
-                bytemuck::cast_slice(&csl.blockers.triangles),
-                wgpu::BufferUsages::STORAGE,
-            ),
-        }
-    }
-}
-
-/// What the `caustics` layer evaluates, packed for upload: never-empty arrays (placeholders
-/// when no CSL is bound; `Globals::counts[3]` says how many are real).
-pub struct CslBuffers {
-    pub params: Vec<super::csl::GpuCsl>,
-    pub texels: Vec<u32>,
-    pub blockers: super::blockers::Blockers,
-}
-
-impl CslBuffers {
-    pub fn new(csls: &[crate::bake::csl::Csl], blockers: super::blockers::Blockers) -> Self {
-        let (mut params, texels) = super::csl::pack(csls);
-        if params.is_empty() {
-            params.push(super::csl::GpuCsl::zeroed());
-        }
-        CslBuffers {
-            params,
-            texels,
-            blockers,
         }
     }
 }
@@ -576,126 +398,37 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
     }
 }
 
-/// Encodes the shadow passes and the main pass. `timestamps`: query set with 4 slots
-/// (shadow begin/end, main begin/end) when the device has timestamp queries.
+/// Encodes the direct pass (after the shadow pass filled `atlas`).
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
     enc: &mut wgpu::CommandEncoder,
     p: &DirectPipelines,
-    bufs: &FrameBuffers,
-    plan: &LightPlan,
+    scene: &SceneBuffers,
+    frame: &FrameBuffers,
+    blockers: &BlockerBuffers,
     targets: &Targets,
     atlas: &ShadowAtlas,
     env: &EnvTexture,
-    timestamps: Option<&wgpu::QuerySet>,
-) -> Result<(), RenderError> {
-    let n_layers = plan.layers.len();
-    if let Some(layer_mats) = &bufs.layer_mats {
-        let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shadow"),
-            layout: &p.shadow_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: layer_mats,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(64),
-                }),
-            }],
-        });
-        for (i, layer) in plan.layers.iter().enumerate() {
-            let view = atlas.texture.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("shadow layer"),
-                dimension: Some(wgpu::TextureViewDimension::D2),
-                base_array_layer: i as u32,
-                array_layer_count: Some(1),
-                ..Default::default()
-            });
-            let (first, last) = (i == 0, i + 1 == n_layers);
-            let ts =
-                timestamps
-                    .filter(|_| first || last)
-                    .map(|q| wgpu::RenderPassTimestampWrites {
-                        query_set: q,
-                        beginning_of_pass_write_index: first.then_some(0),
-                        end_of_pass_write_index: last.then_some(1),
-                    });
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("shadow"),
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: ts,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            if let (true, Some(vb), Some(ib)) = (layer.visible, &bufs.vertices, &bufs.indices) {
-                pass.set_pipeline(&p.shadow);
-                pass.set_bind_group(0, &bg, &[(i as u64 * LAYER_STRIDE) as u32]);
-                pass.set_vertex_buffer(0, vb.slice(..));
-                pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..bufs.index_count, 0, 0..1);
-            }
-        }
-    }
-
-    let shadow_view = atlas.texture.create_view(&wgpu::TextureViewDescriptor {
-        label: Some("shadow maps"),
-        dimension: Some(wgpu::TextureViewDimension::D2Array),
-        ..Default::default()
-    });
+    timestamps: Option<&mut Timestamps>,
+) {
+    let shadow_view = atlas.view();
     let env_view = env.texture.create_view(&Default::default());
+    let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
     let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("direct"),
         layout: &p.main_layout,
         entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: bufs.globals.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: bufs.lights.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: bufs.materials.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::TextureView(&shadow_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::Sampler(&p.shadow_sampler),
-            },
-            wgpu::BindGroupEntry {
-                binding: 5,
-                resource: wgpu::BindingResource::TextureView(&env_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 6,
-                resource: bufs.csls.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 7,
-                resource: bufs.csl_texels.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 8,
-                resource: bufs.blocker_nodes.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 9,
-                resource: bufs.blocker_tris.as_entire_binding(),
-            },
+            entry(0, frame.globals.as_entire_binding()),
+            entry(1, frame.lights.as_entire_binding()),
+            entry(2, scene.materials.as_entire_binding()),
+            entry(3, wgpu::BindingResource::TextureView(&shadow_view)),
+            entry(4, wgpu::BindingResource::Sampler(&p.shadow_sampler)),
+            entry(5, wgpu::BindingResource::TextureView(&env_view)),
+            entry(6, frame.csls.as_entire_binding()),
+            entry(7, frame.csl_texels.as_entire_binding()),
+            entry(8, blockers.nodes.as_entire_binding()),
+            entry(9, blockers.triangles.as_entire_binding()),
         ],
     });
     let dv = targets.direct.create_view(&Default::default());
@@ -703,6 +436,15 @@ pub fn encode(
     let cv = targets.caustics.create_view(&Default::default());
     let depth = targets.depth.create_view(&Default::default());
     let clear = super::cleared_attachment;
+    let name = if frame.csl_count > 0 {
+        "direct+csl"
+    } else {
+        "direct"
+    };
+    let ts = timestamps.map(|t| {
+        let k = t.pass(name);
+        (&*t, k)
+    });
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("direct"),
         color_attachments: &[clear(&dv), clear(&sv), clear(&cv)],
@@ -714,26 +456,21 @@ pub fn encode(
             }),
             stencil_ops: None,
         }),
-        timestamp_writes: timestamps.map(|q| wgpu::RenderPassTimestampWrites {
-            query_set: q,
-            beginning_of_pass_write_index: Some(2),
-            end_of_pass_write_index: Some(3),
-        }),
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
         occlusion_query_set: None,
         multiview_mask: None,
     });
     pass.set_bind_group(0, &bg, &[]);
-    if let (Some(vb), Some(ib)) = (&bufs.vertices, &bufs.indices) {
-        pass.set_pipeline(if bufs.csl_count > 0 {
+    if let Some((vb, ib)) = scene.geometry() {
+        pass.set_pipeline(if frame.csl_count > 0 {
             &p.main_csl
         } else {
             &p.main
         });
         pass.set_vertex_buffer(0, vb.slice(..));
         pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..bufs.index_count, 0, 0..1);
+        pass.draw_indexed(0..scene.index_count, 0, 0..1);
     }
     pass.set_pipeline(&p.background);
     pass.draw(0..3, 0..1);
-    Ok(())
 }

@@ -1,9 +1,14 @@
 //! The world flattened for the GPU: one vertex buffer in world space (position, smooth normal,
-//! material index), one index buffer, the material table. Rebuilt per render; later passes
-//! (caustics) draw the same buffers.
+//! material index), one index buffer, the material table. Every pass draws the same buffers.
+//! They are kept per scene ([`SceneCache`]): a frame of the same objects and materials (camera
+//! and lights may differ) uploads nothing.
 
-use crate::scene::{Material, World};
+use super::blockers::Blockers;
+use crate::scene::{Material, Mesh, World};
 use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+use std::sync::Arc;
+use wgpu::util::DeviceExt;
 
 /// One vertex as the passes read it (44 bytes, locations 0..=3).
 #[repr(C)]
@@ -148,5 +153,218 @@ impl PackedScene {
             v.material = v.material.min(max);
         }
         s
+    }
+}
+
+/// The scene's buffers on the device.
+pub struct SceneBuffers {
+    /// None when the world has no triangle (nothing is drawn).
+    vertices: Option<wgpu::Buffer>,
+    indices: Option<wgpu::Buffer>,
+    pub index_count: u32,
+    pub materials: wgpu::Buffer,
+}
+
+impl SceneBuffers {
+    fn upload(device: &wgpu::Device, s: &PackedScene) -> SceneBuffers {
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let copy = wgpu::BufferUsages::COPY_DST;
+        let (vertices, indices) = if s.indices.is_empty() {
+            (None, None)
+        } else {
+            (
+                Some(init(
+                    "vertices",
+                    bytemuck::cast_slice(&s.vertices),
+                    wgpu::BufferUsages::VERTEX | copy,
+                )),
+                Some(init(
+                    "indices",
+                    bytemuck::cast_slice(&s.indices),
+                    wgpu::BufferUsages::INDEX,
+                )),
+            )
+        };
+        SceneBuffers {
+            vertices,
+            indices,
+            index_count: s.indices.len() as u32,
+            materials: init(
+                "materials",
+                bytemuck::cast_slice(&s.materials),
+                wgpu::BufferUsages::STORAGE,
+            ),
+        }
+    }
+
+    /// The vertex and index buffers, when there is anything to draw.
+    pub fn geometry(&self) -> Option<(&wgpu::Buffer, &wgpu::Buffer)> {
+        self.vertices.as_ref().zip(self.indices.as_ref())
+    }
+}
+
+/// The occluders of caustic light on the device ([`Blockers`]).
+pub struct BlockerBuffers {
+    pub nodes: wgpu::Buffer,
+    pub triangles: wgpu::Buffer,
+}
+
+impl BlockerBuffers {
+    fn upload(device: &wgpu::Device, b: &Blockers) -> BlockerBuffers {
+        let init = |label, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        BlockerBuffers {
+            nodes: init("occluder nodes", bytemuck::cast_slice(&b.nodes)),
+            triangles: init("occluder triangles", bytemuck::cast_slice(&b.triangles)),
+        }
+    }
+}
+
+type ObjectKey = (Mat4, Vec<(Arc<Mesh>, u32)>);
+
+/// What a scene's buffers are made of: every object's transform and parts (meshes are shared,
+/// immutable `Arc`s, so the same mesh is recognised by its pointer before its content) and
+/// the materials.
+#[derive(Clone, Debug, Default)]
+struct SceneKey {
+    /// Per object: its transform and (mesh, material index) per part.
+    objects: Vec<ObjectKey>,
+    materials: Vec<Material>,
+}
+
+impl SceneKey {
+    fn of(world: &World) -> SceneKey {
+        SceneKey {
+            objects: world
+                .objects
+                .iter()
+                .map(|o| {
+                    let parts = o
+                        .parts
+                        .iter()
+                        .map(|p| (p.mesh.clone(), p.material))
+                        .collect();
+                    (o.transform, parts)
+                })
+                .collect(),
+            materials: world.materials.clone(),
+        }
+    }
+
+    fn matches(&self, world: &World) -> bool {
+        self.materials == world.materials
+            && self.objects.len() == world.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&world.objects)
+                .all(|((t, parts), o)| {
+                    *t == o.transform
+                        && parts.len() == o.parts.len()
+                        && parts.iter().zip(&o.parts).all(|((m, mat), p)| {
+                            *mat == p.material && (Arc::ptr_eq(m, &p.mesh) || **m == *p.mesh)
+                        })
+                })
+    }
+}
+
+/// The buffers of the last scene rendered.
+#[derive(Default)]
+pub struct SceneCache {
+    key: Option<SceneKey>,
+    packed: PackedScene,
+    buffers: Option<SceneBuffers>,
+    /// Counts uploads: what is derived from the scene ([`OccluderCache`]) is keyed by it.
+    generation: u64,
+    /// Whether the vertex buffer holds a transport frame's view radiance (else zero).
+    view_written: bool,
+}
+
+impl SceneCache {
+    /// The buffers of `world`, uploaded when its objects or materials changed, and their
+    /// generation; with `view` (method transport), its glass vertices carry the radiance seen
+    /// through them.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        world: &World,
+        view: Option<&super::transport::TransportLayer>,
+    ) -> (&SceneBuffers, u64) {
+        if self.buffers.is_none() || !self.key.as_ref().is_some_and(|k| k.matches(world)) {
+            self.packed = PackedScene::pack(world);
+            self.buffers = Some(SceneBuffers::upload(device, &self.packed));
+            self.key = Some(SceneKey::of(world));
+            self.generation += 1;
+            self.view_written = false;
+        }
+        let buffers = self.buffers.as_ref().expect("uploaded above");
+        if let Some(vb) = &buffers.vertices
+            && (view.is_some() || self.view_written)
+        {
+            match view {
+                Some(l) => {
+                    let mut s = PackedScene {
+                        vertices: self.packed.vertices.clone(),
+                        ..Default::default()
+                    };
+                    l.apply_view(world, &mut s);
+                    queue.write_buffer(vb, 0, bytemuck::cast_slice(&s.vertices));
+                }
+                None => queue.write_buffer(vb, 0, bytemuck::cast_slice(&self.packed.vertices)),
+            }
+            self.view_written = view.is_some();
+        }
+        (buffers, self.generation)
+    }
+}
+
+impl SceneCache {
+    /// The buffers of the last [`SceneCache::prepare`].
+    pub fn buffers(&self) -> Option<&SceneBuffers> {
+        self.buffers.as_ref()
+    }
+}
+
+/// The occluders of the caustic light of the last frame with caustics.
+#[derive(Default)]
+pub struct OccluderCache {
+    /// The scene generation and caustic objects they were built for (None: the placeholder of
+    /// a frame without caustics).
+    key: Option<(u64, Option<Vec<usize>>)>,
+    buffers: Option<BlockerBuffers>,
+}
+
+impl OccluderCache {
+    /// The occluders of the caustic light of `caustic_objects`: every other object's triangles
+    /// (a placeholder without caustics), built when the scene or the set changed.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        world: &World,
+        generation: u64,
+        caustic_objects: Option<&[usize]>,
+    ) -> &BlockerBuffers {
+        let key = (generation, caustic_objects.map(<[usize]>::to_vec));
+        if self.buffers.is_none() || self.key.as_ref() != Some(&key) {
+            let b = match caustic_objects {
+                Some(c) => Blockers::build(world, |i| !c.contains(&i)),
+                None => Blockers::from_triangles(&[]),
+            };
+            self.buffers = Some(BlockerBuffers::upload(device, &b));
+            self.key = Some(key);
+        }
+        self.buffers.as_ref().expect("built above")
     }
 }

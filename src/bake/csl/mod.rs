@@ -21,7 +21,6 @@
 pub mod artifact;
 pub mod bundle;
 pub mod dynamic;
-pub mod eval;
 pub mod fit;
 pub mod image;
 pub mod optimize;
@@ -236,6 +235,38 @@ pub struct Csl {
 }
 
 impl Csl {
+    /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
+    /// None outside the image.
+    pub fn intensity(&self, x: f32, y: f32) -> Option<Vec3> {
+        let h = self.half_extent;
+        if x.abs() > h || y.abs() > h {
+            return None;
+        }
+        let n = self.size as i64;
+        let pix = 2.0 * h / self.size as f32;
+        let fx = (x + h) / pix - 0.5;
+        let fy = (y + h) / pix - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let texel = |i: i64, j: i64| {
+            let (i, j) = (i.clamp(0, n - 1), j.clamp(0, n - 1));
+            let t = self.texels[(j * n + i) as usize];
+            Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32)
+        };
+        let (i, j) = (x0 as i64, y0 as i64);
+        let v = texel(i, j) * ((1.0 - tx) * (1.0 - ty))
+            + texel(i + 1, j) * (tx * (1.0 - ty))
+            + texel(i, j + 1) * ((1.0 - tx) * ty)
+            + texel(i + 1, j + 1) * (tx * ty);
+        Some(v * (self.scale / 65535.0))
+    }
+
+    /// Half a texel of the intensity image (m): the radial half-width of the light-plane patch
+    /// over which Eq. 4 is evaluated.
+    pub fn patch(&self) -> f32 {
+        self.half_extent / self.size as f32
+    }
+
     /// The paper's α (m), infinite for a collimated CSL.
     pub fn alpha(&self) -> f32 {
         1.0 / self.kappa

@@ -25,9 +25,7 @@
 //! so the table serves the object wherever it is moved or turned and wherever the light is.
 //! Quantised storage (§6) and the artifact format are in [`table`].
 
-pub mod eval;
 pub mod table;
-pub mod view;
 
 use super::{BakeError, Fnv64, Progress};
 use crate::scene::{Material, Object, World};

@@ -1,60 +1,12 @@
-//! The CSL pass's GPU evaluation (shaders/csl.inc.wgsl): CSL sets uploaded as a storage buffer
-//! of parameters plus one of 16-bit texels, and a compute entry that evaluates all CSLs at a
-//! list of receiver points. `tests/csl_gpu.rs` checks it against the CPU evaluation
-//! (`bake::csl::eval`). The per-pixel caustics layer of [`super::RenderOutput`] runs the same
-//! functions inside the direct pass (`shaders/direct.wgsl`, [`super::CslLayer`]).
+//! A compute entry (shaders/csl.wgsl) that evaluates CSL sets at a list of receiver points
+//! with the functions of the CSL pass (shaders/csl.inc.wgsl).
 
+use super::{GpuCsl, pack};
 use crate::bake::csl::Csl;
 use crate::gpu::{GpuContext, GpuError};
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
-
-/// `struct Csl` of csl.inc.wgsl (std430, 80 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuCsl {
-    pub origin: [f32; 3],
-    pub kappa: f32,
-    pub axis: [f32; 3],
-    pub gamma: f32,
-    pub x_axis: [f32; 3],
-    pub half_extent: f32,
-    pub y_axis: [f32; 3],
-    pub scale: f32,
-    pub size: u32,
-    pub texel_offset: u32,
-    pub pad: [u32; 2],
-}
-
-/// CSL parameters and packed texels (two u32 words per RGB texel) for upload.
-pub fn pack(csls: &[Csl]) -> (Vec<GpuCsl>, Vec<u32>) {
-    let mut params = Vec::with_capacity(csls.len());
-    let mut words = Vec::new();
-    for c in csls {
-        params.push(GpuCsl {
-            origin: c.origin.to_array(),
-            kappa: c.kappa,
-            axis: c.axis.to_array(),
-            gamma: c.gamma,
-            x_axis: c.x_axis.to_array(),
-            half_extent: c.half_extent,
-            y_axis: c.y_axis().to_array(),
-            scale: c.scale / 65535.0,
-            size: c.size,
-            texel_offset: words.len() as u32,
-            pad: [0; 2],
-        });
-        for t in &c.texels {
-            words.push(t[0] as u32 | (t[1] as u32) << 16);
-            words.push(t[2] as u32);
-        }
-    }
-    if words.is_empty() {
-        words.push(0);
-    }
-    (params, words)
-}
 
 /// Compute pipeline evaluating CSL sets at points.
 pub struct CslEvaluator {
@@ -98,7 +50,7 @@ impl CslEvaluator {
             });
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("csl.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(super::shaders::source("csl.wgsl").into()),
+                source: wgpu::ShaderSource::Wgsl(crate::render::shaders::source("csl.wgsl").into()),
             });
             let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("csl eval"),

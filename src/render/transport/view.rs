@@ -1,9 +1,9 @@
 //! Refracting viewing rays through the tables (Iwasaki et al. 2005 §5.3): what the camera sees through a
 //! glass object, per table vertex, for the renderer to interpolate across its triangles.
 
-use super::eval::{EvalError, Source, Use, Volume, lookup_with};
-use super::{TransportTable, table_vertices};
+use super::volumes::{EvalError, Source, Use, Volume, lookup_with};
 use crate::bake::csl::CslSet;
+use crate::bake::transport::{TransportTable, table_vertices};
 use crate::scene::{Light, World};
 use crate::trace::Accel;
 use glam::Vec3;
@@ -42,7 +42,7 @@ pub fn view_refraction(
         return Err(EvalError::Mismatch {
             object: object_name.to_string(),
             table: table.source_hash,
-            object_hash: super::source_hash(world, object, &table.params),
+            object_hash: crate::bake::transport::source_hash(world, object, &table.params),
         });
     }
     let m = CslSet::rigid_transform(object);

@@ -51,8 +51,8 @@
 //! `render::transport` draws the same volumes on the GPU (shaders/transport.wgsl); this module
 //! is its reference and the test oracle.
 
-use super::{TransportTable, Vertex, local_angles, table_vertices, tangent_frame};
 use crate::bake::csl::CslSet;
+use crate::bake::transport::{TransportTable, Vertex, local_angles, table_vertices, tangent_frame};
 use crate::scene::{Light, Material, World};
 use crate::trace::Accel;
 use crate::trace::optics::{fresnel_dielectric, reflect};
@@ -643,7 +643,7 @@ pub fn build_volumes(
     let object = world
         .object(object_name)
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
-    let expect = super::source_hash(world, object, &table.params);
+    let expect = crate::bake::transport::source_hash(world, object, &table.params);
     let glass = Glass::new(world, object);
     if expect != table.source_hash || table.vertex_count as usize != glass.vertices.len() {
         return Err(EvalError::Mismatch {

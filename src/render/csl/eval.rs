@@ -1,5 +1,5 @@
-//! CPU evaluation of CSLs at a receiver point (§2.2–2.4), the reference the GPU pass is
-//! checked against.
+//! CPU evaluation of CSLs at a receiver point (Liu et al. 2008 §2.2–2.4), the reference the
+//! GPU pass is checked against.
 //!
 //! With 1/f(r) = κ + γr, a CSL ray from light-plane radius r is at distance
 //! h(r) = r·(1 − z/f(r)) = r·(B − A·r), A = zγ, B = 1 − zκ, from the axis at height z above the
@@ -18,7 +18,7 @@
 //! included). This equals Eq. 4 wherever h is smooth on the scale of a texel, stays finite at
 //! foci, and needs no epsilon.
 
-use super::Csl;
+use crate::bake::csl::Csl;
 use glam::Vec3;
 
 /// A CSL ray arriving at a point.
@@ -269,38 +269,6 @@ pub fn branch_band(
 }
 
 impl Csl {
-    /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
-    /// None outside the image.
-    pub fn intensity(&self, x: f32, y: f32) -> Option<Vec3> {
-        let h = self.half_extent;
-        if x.abs() > h || y.abs() > h {
-            return None;
-        }
-        let n = self.size as i64;
-        let pix = 2.0 * h / self.size as f32;
-        let fx = (x + h) / pix - 0.5;
-        let fy = (y + h) / pix - 0.5;
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let texel = |i: i64, j: i64| {
-            let (i, j) = (i.clamp(0, n - 1), j.clamp(0, n - 1));
-            let t = self.texels[(j * n + i) as usize];
-            Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32)
-        };
-        let (i, j) = (x0 as i64, y0 as i64);
-        let v = texel(i, j) * ((1.0 - tx) * (1.0 - ty))
-            + texel(i + 1, j) * (tx * (1.0 - ty))
-            + texel(i, j + 1) * ((1.0 - tx) * ty)
-            + texel(i + 1, j + 1) * (tx * ty);
-        Some(v * (self.scale / 65535.0))
-    }
-
-    /// Half a texel of the intensity image (m): the radial half-width of the light-plane patch
-    /// over which Eq. 4 is evaluated.
-    pub fn patch(&self) -> f32 {
-        self.half_extent / self.size as f32
-    }
-
     /// The ray from light-plane point (px, py) at radius r, with image value `i` and Eq. 4's
     /// area ratio `sigma`.
     fn arrival(&self, r: f32, px: f32, py: f32, i: Vec3, sigma: f32) -> Arrival {

@@ -1,20 +1,25 @@
-//! The transport-table caustics pass (Iwasaki et al. 2005 §5.2, method `transport`): the illumination
-//! volumes of the frame ([`crate::bake::transport::eval::build_volumes`], built on the CPU
-//! from the tables) are uploaded as one storage buffer and drawn over a G-buffer of the
-//! receivers, so caustics land on any scene geometry, not only a plane. See
-//! `shaders/transport.wgsl` for the evaluation and `shaders/gbuffer.wgsl` for the G-buffer.
+//! The transport pass (Iwasaki et al. 2005 §5.2, method `transport`): the illumination volumes
+//! of the frame ([`volumes::build_volumes`], built on the CPU from the tables every frame) are
+//! uploaded as one storage buffer and drawn over a G-buffer of the receivers, so caustics land
+//! on any scene geometry, not only a plane. See `shaders/transport.wgsl` for the evaluation
+//! and `shaders/gbuffer.wgsl` for the G-buffer. What the camera sees through the glass
+//! (§5.3) is gathered on the CPU too ([`view`]) and drawn by the direct pass.
 //!
 //! The pass blends additively into the 32-bit float caustics layer, which needs
 //! `FLOAT32_BLENDABLE` (Vulkan adapters, lavapipe included, have it; the GL backend does not:
 //! the render then fails with a message saying so).
 
-use super::direct::{FrameBuffers, HDR_FORMAT, Targets};
-use super::scene::vertex_layout;
+pub mod view;
+pub mod volumes;
+
+use super::direct::{HDR_FORMAT, Targets};
+use super::scene::{BlockerBuffers, SceneBuffers, vertex_layout};
 use super::shaders;
+use super::timestamps::Timestamps;
 use crate::bake::transport::TransportTable;
-use crate::bake::transport::eval::{self, EvalError, Source, Volume, VolumeStats};
 use crate::scene::World;
 use bytemuck::{Pod, Zeroable};
+use volumes::{EvalError, Source, Volume, VolumeStats};
 use wgpu::util::DeviceExt;
 
 /// `Volume` of transport.wgsl (144 bytes).
@@ -47,8 +52,7 @@ pub struct TransportLayer {
     pub caustic_objects: Vec<usize>,
     pub stats: VolumeStats,
     /// Per caustic object, per table vertex: the radiance seen through it
-    /// ([`crate::bake::transport::view::view_refraction`]); the direct pass draws the glass with
-    /// it.
+    /// ([`view::view_refraction`]); the direct pass draws the glass with it.
     pub view: Vec<(usize, Vec<[f32; 4]>)>,
 }
 
@@ -79,7 +83,7 @@ impl TransportLayer {
                 Err(EvalError::Canceled)
             }
         };
-        let sources: Vec<Source> = eval::sources(&world.lights, line_points);
+        let sources: Vec<Source> = volumes::sources(&world.lights, line_points);
         let caustic_objects: Vec<usize> = tables.iter().map(|t| t.0).collect();
         let blockers = crate::trace::Accel::build_with(
             world,
@@ -93,9 +97,10 @@ impl TransportLayer {
         for &(oi, table) in tables {
             go()?;
             let name = &world.objects[oi].name;
-            let (v, s) = eval::build_volumes(world, name, table, &sources, Some(&blockers))?;
+            let (v, s) = volumes::build_volumes(world, name, table, &sources, Some(&blockers))?;
             go()?;
-            let (r, rs) = eval::build_reflection_volumes(world, name, &sources, Some(&blockers))?;
+            let (r, rs) =
+                volumes::build_reflection_volumes(world, name, &sources, Some(&blockers))?;
             layer.volumes.extend(v);
             layer.volumes.extend(r);
             layer.stats.vertices += s.vertices;
@@ -104,13 +109,13 @@ impl TransportLayer {
             layer.stats.flux += s.flux;
             layer.stats.reflection_volumes += rs.reflection_volumes;
             layer.stats.reflected_flux += rs.reflected_flux;
-            eval::check_volume_count(layer.volumes.len(), &sources)?;
+            volumes::check_volume_count(layer.volumes.len(), &sources)?;
         }
         // Viewing rays through each object see the others' caustics too.
         let scene =
             crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         for &(oi, table) in tables {
-            let view = crate::bake::transport::view::view_refraction(
+            let view = view::view_refraction(
                 world,
                 &world.objects[oi].name,
                 table,
@@ -360,18 +365,20 @@ pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> wgpu::Buffer
 }
 
 /// Encodes the G-buffer pass and the volume pass (after the direct pass, which cleared the
-/// caustics layer). `timestamps`: (query set, begin slot) for the volume pass.
+/// caustics layer); `globals` is the frame's camera uniform.
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
     enc: &mut wgpu::CommandEncoder,
     p: &TransportPipelines,
     gbuf: &GBuffer,
-    bufs: &FrameBuffers,
+    scene: &SceneBuffers,
+    globals: &wgpu::Buffer,
+    blockers: &BlockerBuffers,
     volumes: &wgpu::Buffer,
     count: u32,
     targets: &Targets,
-    timestamps: Option<(&wgpu::QuerySet, u32)>,
+    timestamps: Option<&mut Timestamps>,
 ) {
     let gbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("gbuffer"),
@@ -379,11 +386,11 @@ pub fn encode(
         entries: &[
             wgpu::BindGroupEntry {
                 binding: 0,
-                resource: bufs.globals.as_entire_binding(),
+                resource: globals.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 2,
-                resource: bufs.materials.as_entire_binding(),
+                resource: scene.materials.as_entire_binding(),
             },
         ],
     });
@@ -407,12 +414,12 @@ pub fn encode(
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        if let (Some(vb), Some(ib)) = (&bufs.vertices, &bufs.indices) {
+        if let Some((vb, ib)) = scene.geometry() {
             pass.set_pipeline(&p.gbuffer);
             pass.set_bind_group(0, &gbg, &[]);
             pass.set_vertex_buffer(0, vb.slice(..));
             pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..bufs.index_count, 0, 0..1);
+            pass.draw_indexed(0..scene.index_count, 0, 0..1);
         }
     }
     let vbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -421,19 +428,19 @@ pub fn encode(
         entries: &[
             wgpu::BindGroupEntry {
                 binding: 0,
-                resource: bufs.globals.as_entire_binding(),
+                resource: globals.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 2,
-                resource: bufs.materials.as_entire_binding(),
+                resource: scene.materials.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 8,
-                resource: bufs.blocker_nodes.as_entire_binding(),
+                resource: blockers.nodes.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 9,
-                resource: bufs.blocker_tris.as_entire_binding(),
+                resource: blockers.triangles.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 10,
@@ -450,6 +457,10 @@ pub fn encode(
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
+    let ts = timestamps.map(|t| {
+        let k = t.pass("transport");
+        (&*t, k)
+    });
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("transport volumes"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -462,11 +473,7 @@ pub fn encode(
             },
         })],
         depth_stencil_attachment: None,
-        timestamp_writes: timestamps.map(|(q, first)| wgpu::RenderPassTimestampWrites {
-            query_set: q,
-            beginning_of_pass_write_index: Some(first),
-            end_of_pass_write_index: Some(first + 1),
-        }),
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
         occlusion_query_set: None,
         multiview_mask: None,
     });

@@ -1,0 +1,217 @@
+//! The shadow pass (`shaders/shadow.wgsl`): the depth of every object, as each delta light
+//! sees it, into one layer of the shadow map array per light view ([`super::lights`] plans
+//! them). The direct pass samples the array with a comparison sampler.
+
+use super::direct::DEPTH_FORMAT;
+use super::lights::LightPlan;
+use super::scene::{SceneBuffers, vertex_layout};
+use super::shaders;
+use super::timestamps::Timestamps;
+use wgpu::util::DeviceExt;
+
+/// Stride of the per-layer shadow matrices in their dynamic uniform buffer.
+const LAYER_STRIDE: u64 = 256;
+
+/// The depth-only pipeline, created once per device.
+pub struct ShadowPipeline {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+impl ShadowPipeline {
+    pub fn new(device: &wgpu::Device) -> ShadowPipeline {
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: wgpu::BufferSize::new(64),
+                },
+                count: None,
+            }],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("shadow.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::source("shadow.wgsl").into()),
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadow"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let attributes = [wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x3,
+            offset: 0,
+            shader_location: 0,
+        }];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadow"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    attributes: &attributes,
+                    ..vertex_layout()
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                front_face: wgpu::FrontFace::Ccw,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState {
+                    constant: 0,
+                    slope_scale: 1.5,
+                    clamp: 0.0,
+                },
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: None,
+            multiview_mask: None,
+            cache: None,
+        });
+        ShadowPipeline { pipeline, layout }
+    }
+}
+
+/// The shadow map array (`resolution`² × `layers`), kept between frames and grown as needed.
+pub struct ShadowAtlas {
+    pub resolution: u32,
+    pub layers: u32,
+    pub texture: wgpu::Texture,
+}
+
+impl ShadowAtlas {
+    pub fn new(device: &wgpu::Device, resolution: u32, layers: u32) -> ShadowAtlas {
+        // Without shadowed lights a 1×1 placeholder keeps the binding valid.
+        let (res, n) = if layers == 0 {
+            (1, 1)
+        } else {
+            (resolution, layers)
+        };
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow maps"),
+            size: wgpu::Extent3d {
+                width: res,
+                height: res,
+                depth_or_array_layers: n,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        ShadowAtlas {
+            resolution,
+            layers,
+            texture,
+        }
+    }
+
+    pub fn fits(&self, resolution: u32, layers: u32) -> bool {
+        if layers == 0 {
+            return true;
+        }
+        self.resolution == resolution && self.layers >= layers
+    }
+
+    /// The whole array, as the direct pass samples it.
+    pub fn view(&self) -> wgpu::TextureView {
+        self.texture.create_view(&wgpu::TextureViewDescriptor {
+            label: Some("shadow maps"),
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        })
+    }
+}
+
+/// Encodes one depth pass per layer of `lights` (none without shadowed lights); the first
+/// begins and the last ends the `shadow_maps` timing.
+pub fn encode(
+    device: &wgpu::Device,
+    enc: &mut wgpu::CommandEncoder,
+    p: &ShadowPipeline,
+    scene: &SceneBuffers,
+    lights: &LightPlan,
+    atlas: &ShadowAtlas,
+    timestamps: Option<&mut Timestamps>,
+) {
+    let n_layers = lights.layers.len();
+    if n_layers == 0 {
+        return;
+    }
+    let mut bytes = vec![0u8; n_layers * LAYER_STRIDE as usize];
+    for (i, l) in lights.layers.iter().enumerate() {
+        let at = i * LAYER_STRIDE as usize;
+        bytes[at..at + 64].copy_from_slice(bytemuck::bytes_of(&l.view_proj.to_cols_array()));
+    }
+    let layer_mats = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("shadow layers"),
+        contents: &bytes,
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("shadow"),
+        layout: &p.layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &layer_mats,
+                offset: 0,
+                size: wgpu::BufferSize::new(64),
+            }),
+        }],
+    });
+    let ts = timestamps.map(|t| {
+        let k = t.pass("shadow_maps");
+        (&*t, k)
+    });
+    for (i, layer) in lights.layers.iter().enumerate() {
+        let view = atlas.texture.create_view(&wgpu::TextureViewDescriptor {
+            label: Some("shadow layer"),
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            base_array_layer: i as u32,
+            array_layer_count: Some(1),
+            ..Default::default()
+        });
+        let (first, last) = (i == 0, i + 1 == n_layers);
+        let writes = ts
+            .filter(|_| first || last)
+            .map(|(t, k)| t.writes(k, first, last));
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("shadow"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: writes,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if let (true, Some((vb, ib))) = (layer.visible, scene.geometry()) {
+            pass.set_pipeline(&p.pipeline);
+            pass.set_bind_group(0, &bg, &[(i as u64 * LAYER_STRIDE) as u32]);
+            pass.set_vertex_buffer(0, vb.slice(..));
+            pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..scene.index_count, 0, 0..1);
+        }
+    }
+}
