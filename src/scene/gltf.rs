@@ -1142,7 +1142,7 @@ fn image_mean(doc: &Doc, st: &State, i: usize) -> Result<Vec3, String> {
     };
     let max_side = st.limits.max_texture_side;
     let decoded = catch_unwind(AssertUnwindSafe(|| {
-        crate::encode::decode_image_limited(&bytes, max_side)
+        super::image::decode_image_limited(&bytes, max_side)
     }))
     .map_err(|p| format!("image decoder panicked: {}", panic_message(p)))?
     .map_err(|e| format!("image {i}: {e}"))?;
