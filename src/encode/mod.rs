@@ -1,5 +1,5 @@
 //! Output encoding: PNG (exposure, tone map, sRGB 8-bit) and EXR (linear float RGB, optionally
-//! one layer per component); also bounded image decoding for inputs.
+//! one layer per component); also reading those outputs back into a [`Frame`].
 
 use glam::Vec3;
 use std::io::Cursor;
@@ -179,22 +179,9 @@ pub fn encode_exr_layers(layers: &[(&str, &Frame)]) -> Result<Vec<u8>, EncodeErr
     Ok(out.into_inner())
 }
 
-/// Decode PNG/EXR/HDR bytes with explicit limits on size and allocation.
-pub fn decode_image_limited(bytes: &[u8], max_side: u32) -> Result<image::DynamicImage, String> {
-    let mut reader = image::ImageReader::new(Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?;
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(max_side);
-    limits.max_image_height = Some(max_side);
-    limits.max_alloc = Some(u64::from(max_side) * u64::from(max_side) * 16 + (1 << 20));
-    reader.limits(limits);
-    reader.decode().map_err(|e| e.to_string())
-}
-
 /// Read a float image (EXR or PNG) back into a [`Frame`]; PNG is taken as sRGB.
 pub fn decode_frame(bytes: &[u8]) -> Result<Frame, String> {
-    let img = decode_image_limited(bytes, 16384)?;
+    let img = crate::scene::image::decode_image_limited(bytes, 16384)?;
     let srgb = !matches!(
         img,
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)

@@ -357,7 +357,7 @@ fn load_env_map(
             file: file.into(),
             message,
         })?;
-    let img = crate::encode::decode_image_limited(&bytes, limits.gltf.max_texture_side).map_err(
+    let img = super::image::decode_image_limited(&bytes, limits.gltf.max_texture_side).map_err(
         |message| SceneError::Asset {
             path: path.into(),
             file: file.into(),

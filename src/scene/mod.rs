@@ -1,7 +1,9 @@
 //! Scene model: the JSON description users write ([`types`]), its validation and resolution
-//! into a [`World`] ([`load`]), procedural shapes and glTF import. No GPU, no HTTP.
+//! into a [`World`] ([`load`]), procedural shapes, glTF import and the bounded decoding of input
+//! images ([`image`]). No GPU, no HTTP.
 
 pub mod gltf;
+pub mod image;
 pub mod load;
 pub mod shapes;
 pub mod types;
