@@ -1,7 +1,52 @@
-//! What a frame is made of. Every method returns the same components, in linear radiance
-//! W/(m²·sr), so that any of them can be compared pixel for pixel with the reference.
+//! What a frame is made of: [`Frame`] images, one per [`Component`]. Every method returns the
+//! same components, in linear radiance W/(m²·sr), so that any of them can be compared pixel
+//! for pixel with the reference.
 
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
+
+/// A linear-RGB float image, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+impl Frame {
+    pub fn new(width: u32, height: u32) -> Self {
+        Frame {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; (width * height) as usize],
+        }
+    }
+
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Sum of two frames of the same size.
+    pub fn add(&self, o: &Frame) -> Frame {
+        assert_eq!((self.width, self.height), (o.width, o.height));
+        Frame {
+            width: self.width,
+            height: self.height,
+            pixels: self
+                .pixels
+                .iter()
+                .zip(&o.pixels)
+                .map(|(a, b)| *a + *b)
+                .collect(),
+        }
+    }
+
+    pub fn scale(&mut self, s: f32) {
+        for p in &mut self.pixels {
+            *p *= s;
+        }
+    }
+}
 
 /// One component of a frame (Jensen's path notation: L light, S specular, D diffuse, E eye).
 #[derive(

@@ -2,8 +2,9 @@
 //! work goes through [`caustica::methods`], as the service's does.
 
 use anyhow::{Context, Result, bail};
-use caustica::encode::{self, Frame, PngSettings, ToneMap};
+use caustica::encode::{self, PngSettings, ToneMap};
 use caustica::frame::Component;
+use caustica::frame::Frame;
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::methods::{ArtifactStore, Env, Gpu, Method, MethodArgs, MethodError, ParamError};
 use caustica::reference::compare;

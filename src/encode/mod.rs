@@ -1,51 +1,9 @@
 //! Output encoding: PNG (exposure, tone map, sRGB 8-bit) and EXR (linear float RGB, optionally
 //! one layer per component); also reading those outputs back into a [`Frame`].
 
+use crate::frame::Frame;
 use glam::Vec3;
 use std::io::Cursor;
-
-/// A linear-RGB float image, row 0 at the top.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Frame {
-    pub width: u32,
-    pub height: u32,
-    pub pixels: Vec<Vec3>,
-}
-
-impl Frame {
-    pub fn new(width: u32, height: u32) -> Self {
-        Frame {
-            width,
-            height,
-            pixels: vec![Vec3::ZERO; (width * height) as usize],
-        }
-    }
-
-    pub fn at(&self, x: u32, y: u32) -> Vec3 {
-        self.pixels[(y * self.width + x) as usize]
-    }
-
-    /// Sum of two frames of the same size.
-    pub fn add(&self, o: &Frame) -> Frame {
-        assert_eq!((self.width, self.height), (o.width, o.height));
-        Frame {
-            width: self.width,
-            height: self.height,
-            pixels: self
-                .pixels
-                .iter()
-                .zip(&o.pixels)
-                .map(|(a, b)| *a + *b)
-                .collect(),
-        }
-    }
-
-    pub fn scale(&mut self, s: f32) {
-        for p in &mut self.pixels {
-            *p *= s;
-        }
-    }
-}
 
 /// Tone mapping applied before the sRGB transfer in PNG output.
 #[derive(

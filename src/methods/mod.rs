@@ -26,7 +26,7 @@ pub mod transport;
 pub use crate::bake::store::{ArtifactKind, ArtifactStore};
 pub use crate::frame::Component;
 
-use crate::encode::Frame;
+use crate::frame::Frame;
 use crate::render::{RenderError, RenderOutput, Renderer};
 use crate::scene::{Limits, World};
 use serde::de::DeserializeOwned;

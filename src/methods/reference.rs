@@ -208,8 +208,7 @@ impl BakePlan for Bake {
         (env.progress)(1.0, "encode");
         let t = Instant::now();
         let layers = Component::ALL.map(|n| (n.name(), c.get(n)));
-        let refs: Vec<(&str, &crate::encode::Frame)> =
-            layers.iter().map(|(n, f)| (*n, f)).collect();
+        let refs: Vec<(&str, &crate::frame::Frame)> = layers.iter().map(|(n, f)| (*n, f)).collect();
         let bytes = crate::encode::encode_exr_layers(&refs)
             .map_err(|e| MethodError::Render(format!("encoding the EXR: {e}")))?;
         timings.push(("encode".into(), t.elapsed()));

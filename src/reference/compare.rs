@@ -1,7 +1,7 @@
 //! Image comparison as the quality figures are stated: a 3×3 box blur, then relative L1 and
 //! total flux over a mask of pixels (e.g. the receiver seen directly by the camera).
 
-use crate::encode::Frame;
+use crate::frame::Frame;
 use crate::scene::World;
 use crate::trace::Accel;
 use glam::Vec3;

@@ -32,7 +32,7 @@
 pub mod compare;
 pub mod sampling;
 
-use crate::encode::Frame;
+use crate::frame::Frame;
 use crate::scene::{Light, Material, World};
 use crate::trace::optics::{brdf, sample_specular, segment_transmittance};
 use crate::trace::{Accel, Hit};

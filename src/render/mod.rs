@@ -30,8 +30,8 @@ pub use csl::CslLayer;
 pub use plan::{DeviceLimits, FramePlan, SHADOW_BUDGET_BYTES};
 pub use transport::TransportLayer;
 
-use crate::encode::Frame;
 use crate::frame::Component;
+use crate::frame::Frame;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::World;
 use glam::Vec3;

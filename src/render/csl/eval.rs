@@ -520,7 +520,7 @@ pub fn render_caustics(
     csls: &[Csl],
     irradiance: Vec3,
     spp: u32,
-) -> crate::encode::Frame {
+) -> crate::frame::Frame {
     use rayon::prelude::*;
     let cam = &world.camera;
     let rays = cam.rays();
@@ -560,7 +560,7 @@ pub fn render_caustics(
             sum / (spp * spp) as f32
         })
         .collect();
-    crate::encode::Frame {
+    crate::frame::Frame {
         width: w,
         height: h,
         pixels,

@@ -884,7 +884,7 @@ pub fn render_caustics(
     accel: &Accel,
     blockers: Option<&Accel>,
     volumes: &[Volume],
-) -> crate::encode::Frame {
+) -> crate::frame::Frame {
     use rayon::prelude::*;
     let cam = &world.camera;
     let (w, h) = (cam.width, cam.height);
@@ -930,7 +930,7 @@ pub fn render_caustics(
             row
         })
         .collect();
-    crate::encode::Frame {
+    crate::frame::Frame {
         width: w,
         height: h,
         pixels,
