@@ -18,7 +18,7 @@ use glam::Vec3;
 /// Most triangles in a leaf.
 pub const LEAF_SIZE: usize = 4;
 
-/// `BvhNode` of occlusion.inc.wgsl (32 bytes). `count == 0`: inner node whose children are
+/// `BvhNode` of occlusion.inc.wgsl (layout checked in `render::shaders`). `count == 0`: inner node whose children are
 /// `first` and `first + 1`; otherwise a leaf of `count` triangles from index `first`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
@@ -29,7 +29,8 @@ pub struct GpuBvhNode {
     pub count: u32,
 }
 
-/// `BlockerTri` of occlusion.inc.wgsl: v0 and the two edges (48 bytes).
+/// `BlockerTri` of occlusion.inc.wgsl: v0 and the two edges (layout checked in
+/// `render::shaders`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuTriangle {

@@ -21,7 +21,7 @@ pub const KIND_DIRECTIONAL: u32 = 0;
 pub const KIND_POINT: u32 = 1;
 pub const KIND_SPOT: u32 = 2;
 
-/// `Light` of `common.inc.wgsl` (464 bytes).
+/// `Light` of `common.inc.wgsl` (its layout is checked against naga's in `render::shaders`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuLight {

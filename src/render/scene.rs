@@ -40,7 +40,7 @@ pub const MAT_GLOSSY: u32 = 1;
 pub const MAT_DIELECTRIC: u32 = 2;
 pub const MAT_MIRROR: u32 = 3;
 
-/// `Material` of `common.inc.wgsl` (48 bytes).
+/// `Material` of `common.inc.wgsl` (layout checked against naga's in `render::shaders`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuMaterial {

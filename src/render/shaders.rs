@@ -1,6 +1,7 @@
 //! WGSL sources, embedded at build time, and the textual `#include "file"` expansion the
-//! passes use for shared code (`shaders/*.inc.wgsl`). `tests/shaders_naga.rs` runs the same
-//! expansion on the files on disk before validating them with naga.
+//! passes use for shared code (`shaders/*.inc.wgsl`). A test runs the same expansion on the
+//! files on disk before validating them with naga; [`wgsl_layout`] gives naga's layout of a
+//! WGSL struct, against which every Rust struct mirrored in WGSL is checked (the tests below).
 
 /// Every file under `shaders/`, by file name.
 pub const FILES: &[(&str, &str)] = &[
@@ -67,4 +68,172 @@ pub fn source(name: &str) -> String {
     };
     let src = lookup(name).unwrap_or_else(|| panic!("no embedded shader {name}"));
     expand_includes(&src, &lookup).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// naga's layout of WGSL struct `name` as shader `file` declares it (includes expanded): its
+/// size and each member's (name, offset), in bytes.
+pub fn wgsl_layout(file: &str, name: &str) -> Result<(u32, Vec<(String, u32)>), String> {
+    let src = source(file);
+    let module = naga::front::wgsl::parse_str(&src).map_err(|e| e.emit_to_string(&src))?;
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .map_err(|e| format!("{file}: {e}"))?;
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .ok_or_else(|| format!("{file} declares no struct {name}"))?;
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        return Err(format!("{name} of {file} is not a struct"));
+    };
+    let members = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+        .collect();
+    Ok((layouter[handle].size, members))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::wgsl_layout;
+    use std::mem::{offset_of, size_of};
+
+    /// The Rust mirror of WGSL struct `name` (`size` bytes, `offsets` of the WGSL members in
+    /// declaration order) has naga's layout.
+    fn mirror(file: &str, name: &str, size: usize, offsets: &[(&str, usize)]) {
+        let (wsize, members) = wgsl_layout(file, name).unwrap();
+        let wgsl: Vec<(&str, usize)> = members
+            .iter()
+            .map(|(n, o)| (n.as_str(), *o as usize))
+            .collect();
+        assert_eq!(wgsl, offsets, "{name} of {file}: member offsets");
+        assert_eq!(wsize as usize, size, "{name} of {file}: size");
+    }
+
+    #[test]
+    fn structs_mirrored_in_rust_have_the_wgsl_layout() {
+        use crate::render::blockers::{GpuBvhNode, GpuTriangle};
+        use crate::render::csl::GpuCsl;
+        use crate::render::direct::Globals as G;
+        use crate::render::lights::GpuLight as L;
+        use crate::render::scene::GpuMaterial as M;
+        use crate::render::transport::GpuVolume as V;
+        mirror(
+            "direct.wgsl",
+            "Globals",
+            size_of::<G>(),
+            &[
+                ("view_proj", offset_of!(G, view_proj)),
+                ("inv_view_proj", offset_of!(G, inv_view_proj)),
+                ("eye", offset_of!(G, eye)),
+                ("env_radiance", offset_of!(G, env_radiance)),
+                ("env_map_scale", offset_of!(G, env_map_scale)),
+                ("counts", offset_of!(G, counts)),
+                ("viewport", offset_of!(G, viewport)),
+                ("sh", offset_of!(G, sh)),
+                ("csl_irradiance", offset_of!(G, csl_irradiance)),
+            ],
+        );
+        mirror(
+            "direct.wgsl",
+            "Light",
+            size_of::<L>(),
+            &[
+                ("kind", offset_of!(L, kind)),
+                ("first_layer", offset_of!(L, first_layer)),
+                ("n_layers", offset_of!(L, n_layers)),
+                ("ortho", offset_of!(L, ortho)),
+                ("position", offset_of!(L, position)),
+                ("direction", offset_of!(L, direction)),
+                ("intensity", offset_of!(L, intensity)),
+                ("params", offset_of!(L, params)),
+                ("mats", offset_of!(L, mats)),
+            ],
+        );
+        mirror(
+            "direct.wgsl",
+            "Material",
+            size_of::<M>(),
+            &[
+                ("kind", offset_of!(M, kind)),
+                ("roughness", offset_of!(M, roughness)),
+                ("ior", offset_of!(M, ior)),
+                ("_pad", offset_of!(M, _pad)),
+                ("albedo", offset_of!(M, albedo)),
+                ("specular", offset_of!(M, specular)),
+            ],
+        );
+        mirror(
+            "direct.wgsl",
+            "Csl",
+            size_of::<GpuCsl>(),
+            &[
+                ("origin", offset_of!(GpuCsl, origin)),
+                ("kappa", offset_of!(GpuCsl, kappa)),
+                ("axis", offset_of!(GpuCsl, axis)),
+                ("gamma", offset_of!(GpuCsl, gamma)),
+                ("x_axis", offset_of!(GpuCsl, x_axis)),
+                ("half_extent", offset_of!(GpuCsl, half_extent)),
+                ("y_axis", offset_of!(GpuCsl, y_axis)),
+                ("scale", offset_of!(GpuCsl, scale)),
+                ("size", offset_of!(GpuCsl, size)),
+                ("texel_offset", offset_of!(GpuCsl, texel_offset)),
+                ("pad0", offset_of!(GpuCsl, pad)),
+                ("pad1", offset_of!(GpuCsl, pad) + 4),
+            ],
+        );
+        mirror(
+            "direct.wgsl",
+            "BvhNode",
+            size_of::<GpuBvhNode>(),
+            &[
+                ("lo", offset_of!(GpuBvhNode, lo)),
+                ("first", offset_of!(GpuBvhNode, first)),
+                ("hi", offset_of!(GpuBvhNode, hi)),
+                ("count", offset_of!(GpuBvhNode, count)),
+            ],
+        );
+        mirror(
+            "direct.wgsl",
+            "BlockerTri",
+            size_of::<GpuTriangle>(),
+            &[
+                ("v0", offset_of!(GpuTriangle, v0)),
+                ("e1", offset_of!(GpuTriangle, e1)),
+                ("e2", offset_of!(GpuTriangle, e2)),
+            ],
+        );
+        let (e, d, f) = (offset_of!(V, e), offset_of!(V, d), offset_of!(V, f));
+        mirror(
+            "transport.wgsl",
+            "Volume",
+            size_of::<V>(),
+            &[
+                ("e0", e),
+                ("e1", e + 16),
+                ("e2", e + 32),
+                ("d0", d),
+                ("d1", d + 16),
+                ("d2", d + 32),
+                ("f0", f),
+                ("f1", f + 16),
+                ("f2", f + 32),
+            ],
+        );
+    }
+
+    #[test]
+    fn a_layout_that_differs_is_caught() {
+        // A mirror with its albedo one vec4 late, and one a vec4 short, are refused.
+        let m = [("kind", 0), ("roughness", 4), ("ior", 8), ("_pad", 12)];
+        let late = [&m[..], &[("albedo", 32), ("specular", 48)]].concat();
+        assert!(std::panic::catch_unwind(|| mirror("direct.wgsl", "Material", 64, &late)).is_err());
+        let right = [&m[..], &[("albedo", 16), ("specular", 32)]].concat();
+        assert!(
+            std::panic::catch_unwind(|| mirror("direct.wgsl", "Material", 32, &right)).is_err()
+        );
+        mirror("direct.wgsl", "Material", 48, &right);
+        assert!(wgsl_layout("direct.wgsl", "NoSuchStruct").is_err());
+    }
 }

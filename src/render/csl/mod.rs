@@ -47,7 +47,7 @@ impl CslLayer {
     }
 }
 
-/// `struct Csl` of csl.inc.wgsl (std430, 80 bytes).
+/// `struct Csl` of csl.inc.wgsl (layout checked against naga's in `render::shaders`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuCsl {

@@ -22,7 +22,8 @@ use bytemuck::{Pod, Zeroable};
 use volumes::{EvalError, Source, Volume, VolumeStats};
 use wgpu::util::DeviceExt;
 
-/// `Volume` of transport.wgsl (144 bytes).
+/// `Volume` of transport.wgsl: `e`, `d`, `f` are its members `e0..e2`, `d0..d2`, `f0..f2`
+/// (layout checked against naga's in `render::shaders`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuVolume {
