@@ -76,14 +76,18 @@ fn bench_direct(c: &mut Criterion) {
     g.bench_function("direct_frame_800x600_glass_sphere", |b| {
         b.iter(|| renderer.render(&world, &opts).expect("render"))
     });
-    let sets = caustica::bake::csl::cache::sets_for_render(
+    let (dir, irradiance) =
+        caustica::bake::csl::scene_directional_light(&world).expect("a directional light");
+    let sets = caustica::methods::csl::sets_for_render(
         &world,
-        &caustica::bake::csl::CslParams::paper(),
-        &caustica::bake::csl::cache::NoStore,
-        &|_, _| true,
+        &Default::default(),
+        dir,
+        &caustica::methods::ArtifactStore::none(),
+        &|_| true,
     )
     .expect("csl bake");
-    let layer = caustica::render::CslLayer::from_sets(&world, &sets);
+    let placed: Vec<_> = sets.iter().map(|s| (s.object, &s.set)).collect();
+    let layer = caustica::render::CslLayer::new(&world, &placed, irradiance);
     println!("CSLs in the frame: {}", layer.csls.len());
     let first = renderer
         .render_csl(&world, &opts, Some(&layer))
@@ -100,8 +104,9 @@ fn bench_direct(c: &mut Criterion) {
 }
 
 fn bench_transport(c: &mut Criterion) {
-    use caustica::bake::transport::{TransportParams, bake_transport, eval};
+    use caustica::bake::transport::{TransportParams, bake_transport};
     use caustica::render::TransportLayer;
+    use caustica::render::transport::volumes;
     let ctx = Arc::new(GpuContext::new(&GpuConfig::default()).expect("no GPU adapter"));
     println!("adapter: {}", ctx.adapter_info());
     let mut renderer = Renderer::new(ctx).expect("renderer");
@@ -112,7 +117,7 @@ fn bench_transport(c: &mut Criterion) {
     let table =
         bake_transport(&world, "sphere", &TransportParams::paper(), &|_| true).expect("bake");
     let build = |w: &World| {
-        TransportLayer::build(w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).expect("volumes")
+        TransportLayer::build(w, &[(1, &table)], volumes::DEFAULT_LINE_POINTS).expect("volumes")
     };
     let layer = build(&world);
     println!(

@@ -146,6 +146,13 @@ fn default_preset() -> String {
     "paper".into()
 }
 
+impl Default for BakeParams {
+    /// The paper's static bake.
+    fn default() -> Self {
+        BakeParams::parse(&serde_json::json!({}), "params").expect("the defaults are valid")
+    }
+}
+
 impl BakeParams {
     /// Parses and checks `v`, found at field `at` of a request, filling the preset's grid and,
     /// for a dynamic bake, the paper's subdivisions, tracking grid and steps.
