@@ -1,14 +1,21 @@
 //! Caustica: a caustics rendering service.
 //!
-//! Data flows one way: `http` → `jobs` → (`bake` | `render`) → `encode` → `http`.
+//! Data flows one way: `http` → `jobs` → `methods` → (`bake` | `reference` | `render`) →
+//! `encode` → `http`; the CLI (`main.rs`) calls `methods` as the jobs do.
 //!
 //! - [`scene`]: the scene model, JSON schema, glTF import, validation. No GPU, no HTTP.
-//! - [`trace`]: CPU ray tracing (an obvhs-built BVH walked eight children at a time, closest
-//!   hit, occlusion, Fresnel/Snell paths).
-//! - [`bake`]: deterministic CPU precomputation per method (CSL sets), cached by content hash.
-//! - [`reference`](mod@reference): photon tracing + camera paths, the ground truth other methods are judged by.
+//! - [`frame`]: frames and their components (`total`, `direct`, `caustics`, ...).
+//! - [`trace`]: CPU ray tracing (an obvhs-built BVH walked eight children at a time, packets,
+//!   closest hit, occlusion, Fresnel/Snell paths, SIMD dispatch).
+//! - [`reference`](mod@reference): photon tracing + camera paths, the ground truth other
+//!   methods are judged by; `compare`.
+//! - [`bake`]: deterministic CPU precomputation per method (CSL sets, transport tables) and the
+//!   artifact store that keeps them by content hash. Nothing here runs per frame.
 //! - [`gpu`]: headless wgpu device, adapter choice, error scopes, device-loss recovery, readback.
-//! - [`render`]: the GPU renderer: pipelines, passes per method, composition, tone mapping.
+//! - [`render`]: the GPU renderer: a frame plan, one module per pass (shadow, direct, csl,
+//!   transport) with its shader, and beside each pass the per-frame CPU work of its method.
+//! - [`methods`]: one module per method and the registry every caller uses: parameters, lane,
+//!   bake-or-find, frames; `auto`.
 //! - [`encode`]: PNG and EXR.
 //! - [`jobs`]: queue, workers, progress, cancellation, persistence (SQLite + artifact files).
 //! - [`http`]: the axum API v1; errors as RFC 9457 problem+json.

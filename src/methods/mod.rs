@@ -2,7 +2,7 @@
 //! system, the HTTP API).
 //!
 //! A method is a way of making the frames of a scene: [`direct`] (GPU direct lighting, no
-//! caustics), [`reference`] (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
+//! caustics), [`reference`](mod@reference) (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
 //! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), and [`auto`], which picks
 //! one of them from the scene. Each module implements [`MethodImpl`]:
 //!

@@ -5,7 +5,7 @@
 //! directional, point, spot and line light, lit triangles sweep illumination volumes
 //! ([`crate::render::transport`]) and the GPU draws them over a G-buffer of the receivers.
 //!
-//! Tables are found or baked through the [`ArtifactStore`] by content hash, so the object may
+//! Tables are found or baked through the [`super::ArtifactStore`] by content hash, so the object may
 //! move or turn between frames.
 
 use super::{
