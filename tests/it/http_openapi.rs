@@ -2,9 +2,8 @@
 //! spec (and the other way round), every such route answers (not 404/405), `/openapi.json`
 //! is the YAML converted, and the spec's request examples are accepted.
 
-mod common;
+use crate::support::server::*;
 use caustica::http::ROUTES;
-use common::*;
 use std::collections::BTreeSet;
 
 fn spec() -> serde_json::Value {

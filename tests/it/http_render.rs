@@ -3,12 +3,11 @@
 //! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
 //! `Server-Timing` say what happened.
 
-mod common;
+use crate::support::server::*;
 use caustica::encode::{self, PngSettings};
 use caustica::reference::{self, ReferenceParams};
 use caustica::scene::{Limits, MapSource, parse_scene, resolve};
 use caustica::trace::Accel;
-use common::*;
 use std::time::Duration;
 
 const PHOTONS: u64 = 50_000;

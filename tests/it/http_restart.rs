@@ -2,8 +2,7 @@
 //! again on the same data directory, and the bake completes under the same id; a finished
 //! render from before the kill is still served.
 
-mod common;
-use common::*;
+use crate::support::server::*;
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-pub const SCENE: &str = include_str!("../../scenes/glass-sphere-directional.json");
+pub const SCENE: &str = include_str!("../../../scenes/glass-sphere-directional.json");
 
 /// A fresh, empty directory under the system temp dir.
 pub fn temp_dir(name: &str) -> PathBuf {

@@ -3,8 +3,7 @@
 //! bogus content type 415, a scene with a bad field 422 naming it; hostile uploads beyond
 //! the corpus (external URIs, huge declared sizes, deep JSON, bad multipart) too.
 
-mod common;
-use common::*;
+use crate::support::server::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};

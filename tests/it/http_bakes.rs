@@ -2,8 +2,7 @@
 //! DELETE (the worker really stops); idempotency by content and by `Idempotency-Key`; a small
 //! bake succeeds and its artifact is a multi-layer EXR.
 
-mod common;
-use common::*;
+use crate::support::server::*;
 use std::time::Duration;
 
 fn bake(scene: &serde_json::Value, photons: u64) -> serde_json::Value {

@@ -1,8 +1,7 @@
 //! Without a usable adapter the service still starts and serves CPU methods; `/readyz` says
 //! why it is not ready and GPU renders are a 503 problem naming the cause.
 
-mod common;
-use common::*;
+use crate::support::server::*;
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::Duration;
