@@ -9,11 +9,12 @@
 //! about its centre, so the stored reference of the scene holds for every direction, and any
 //! change between frames is the interpolation's.
 
+use crate::support::gpu;
 use caustica::bake::csl::dynamic::{DynamicParams, DynamicSet, Icosphere, bake_dynamic};
 use caustica::bake::csl::{CslParams, CslSet, cache, eval};
 use caustica::encode::{Frame, decode_frame};
 use caustica::reference::compare;
-use caustica::render::{CslLayer, RenderOptions, Renderer};
+use caustica::render::{CslLayer, RenderOptions};
 use caustica::scene::{self, Light, World};
 use caustica::trace::Accel;
 use glam::{Mat4, Quat, Vec3};
@@ -117,8 +118,7 @@ fn off_the_bake_directions_the_caustics_match_the_reference() {
             (v(0) * 0.6 + v(1) * 0.3 + v(2) * 0.1).normalize(),
         ),
     ];
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut renderer = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut renderer = gpu::renderer();
     for (name, dir) in cases {
         let world = turned(w0, dir);
         let oi = world

@@ -28,10 +28,11 @@
 //! and the CSL model's fit of the far, thin light (1.6 m and more from the focus the set has
 //! about half of the reference's light).
 
+use crate::support::gpu;
 use caustica::bake::csl::{CslParams, CslSet, bake_csl, cache, eval};
 use caustica::encode::decode_frame;
 use caustica::reference::compare;
-use caustica::render::{CslLayer, RenderOptions, Renderer};
+use caustica::render::{CslLayer, RenderOptions};
 use caustica::scene::{self, Light, World};
 use caustica::trace::Accel;
 use std::path::Path;
@@ -77,8 +78,7 @@ fn glass_sphere_caustics_match_the_reference() {
     // The CSL model over the whole pixel (6×6 stratified samples: converged to 1 % in flux),
     // and the product path, the GPU pass at one sample per pixel.
     let cpu = eval::render_caustics(&world, &accel, &blockers, &csls, irradiance, 6);
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut renderer = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut renderer = gpu::renderer();
     let sets = cache::RenderSets {
         sets: vec![cache::ObjectSet {
             object: oi,

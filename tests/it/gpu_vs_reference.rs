@@ -1,20 +1,17 @@
 //! The GPU `direct` method against the CPU reference's direct component and against Mitsuba's
 //! path tracer (which has no caustics from delta lights), on the canonical scenes' floor pixels.
 
+use crate::support::gpu;
 use caustica::encode::decode_frame;
-use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::reference::{self, ReferenceParams, compare};
-use caustica::render::{RenderOptions, Renderer};
+use caustica::render::RenderOptions;
 use caustica::scene;
 use caustica::trace::Accel;
 use std::path::Path;
-use std::sync::Arc;
 
 #[test]
 fn gpu_direct_agrees_with_reference_and_mitsuba_on_all_canonical_scenes() {
-    let ctx =
-        Arc::new(GpuContext::new(&GpuConfig::from_env()).expect("an adapter (lavapipe in CI)"));
-    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let mut renderer = gpu::renderer();
     for light in ["directional", "spot", "point"] {
         let world = scene::load_scene_file(
             Path::new(&format!("scenes/glass-sphere-{light}.json")),

@@ -3,6 +3,7 @@
 //! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
 //! `Server-Timing` say what happened.
 
+use crate::support::gpu;
 use crate::support::server::*;
 use caustica::encode::{self, PngSettings};
 use caustica::reference::{self, ReferenceParams};
@@ -253,7 +254,7 @@ async fn a_render_past_its_job_time_limit_is_a_504_problem() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn csl_render_bakes_first_then_reuses_the_bake() {
     use caustica::bake::csl::{CslParams, cache};
-    use caustica::render::{CslLayer, RenderOptions, Renderer};
+    use caustica::render::{CslLayer, RenderOptions};
     let srv = Server::start("render-csl", |_, _| {}).await;
     let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     let req = serde_json::json!({
@@ -288,8 +289,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
             ..CslParams::fast()
         };
         let sets = cache::sets_for_render(&w, &params, &cache::NoStore, &|_, _| true).unwrap();
-        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
-        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        let mut r = gpu::renderer();
         let layer = CslLayer::from_sets(&w, &sets);
         r.render_csl(&w, &RenderOptions::default(), Some(&layer))
             .unwrap()
@@ -344,7 +344,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn transport_render_bakes_first_then_reuses_the_table() {
     use caustica::bake::transport::{TransportParams, bake_transport, eval};
-    use caustica::render::{Renderer, TransportLayer};
+    use caustica::render::TransportLayer;
     let srv = Server::start("render-transport", |_, _| {}).await;
     let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     scene["objects"][1]["shape"]["segments"] = 32.into();
@@ -375,8 +375,7 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
         w.camera.height = 64;
         let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
         let layer = TransportLayer::build(&w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).unwrap();
-        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
-        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        let mut r = gpu::renderer();
         r.render_transport(&w, &Default::default(), &layer)
             .unwrap()
             .caustics

@@ -8,12 +8,13 @@
 //! 33 k: the same shape with smooth normals, and a bake a test can afford); the stored
 //! references were rendered with 256.
 
+use crate::support::gpu;
 use caustica::bake::transport::{
     TransportParams, TransportTable, bake_transport, eval, table_vertices,
 };
 use caustica::encode::{Frame, decode_frame};
 use caustica::reference::compare;
-use caustica::render::{Renderer, TransportLayer};
+use caustica::render::TransportLayer;
 use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use caustica::trace::optics::{fresnel_dielectric, refract};
@@ -53,8 +54,7 @@ fn cpu_caustics(world: &World, table: &TransportTable) -> (Frame, TransportLayer
 }
 
 fn gpu_caustics(world: &World, layer: &TransportLayer) -> Frame {
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut r = gpu::renderer();
     let out = r
         .render_transport(world, &Default::default(), layer)
         .unwrap();
@@ -463,8 +463,7 @@ fn glass_seen_through_the_tables_matches_the_reference() {
     let world = sphere_scene("scenes/glass-sphere-directional.json", 96, |s| s);
     let table = bake(&world, 8, 16);
     let layer = TransportLayer::build(&world, &[(glass_index(&world), &table)], 16).unwrap();
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut r = gpu::renderer();
     let out = r
         .render_transport(&world, &Default::default(), &layer)
         .unwrap();

@@ -56,6 +56,8 @@ impl Server {
         dir: PathBuf,
         tune: impl FnOnce(&mut JobConfig, &mut HttpConfig),
     ) -> Server {
+        // Its GPU worker makes a context of its own.
+        super::gpu::ensure_runtime_dir();
         let mut jc = JobConfig::new(&dir);
         let mut hc = HttpConfig::default();
         tune(&mut jc, &mut hc);
