@@ -1,6 +1,7 @@
 //! 32 clients × 3 small renders at once (GPU direct and CPU reference mixed): every request
 //! answers an image (or a job that then succeeds), no error, no job lost.
 
+use crate::support::scenes::scene_sized;
 use crate::support::server::*;
 use std::collections::HashSet;
 use std::time::Duration;

@@ -3,11 +3,11 @@
 //! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
 //! `Server-Timing` say what happened.
 
-use crate::support::gpu;
+use crate::support::scenes::{self, SCENE, scene_sized};
 use crate::support::server::*;
+use crate::support::{gpu, images};
 use caustica::encode::{self, PngSettings};
 use caustica::reference::{self, ReferenceParams};
-use caustica::scene::{Limits, MapSource, parse_scene, resolve};
 use caustica::trace::Accel;
 use std::time::Duration;
 
@@ -15,8 +15,7 @@ const PHOTONS: u64 = 50_000;
 
 /// The same render through the library: components of the canonical scene at 64×64.
 fn library_components() -> reference::Components {
-    let desc = parse_scene(SCENE.as_bytes()).unwrap();
-    let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+    let mut w = scenes::parse(SCENE);
     w.camera.width = 64;
     w.camera.height = 64;
     let accel = Accel::build(&w);
@@ -280,8 +279,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
 
     // The library path: same bake parameters, same renderer pass.
     let want = tokio::task::spawn_blocking(|| {
-        let desc = parse_scene(SCENE.as_bytes()).unwrap();
-        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        let mut w = scenes::parse(SCENE);
         w.camera.width = 64;
         w.camera.height = 64;
         let params = CslParams {
@@ -298,7 +296,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
     })
     .await
     .unwrap();
-    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let peak = images::peak(&want);
     assert!(peak > 1.0, "a caustic: {peak}");
     let worst = got
         .pixels
@@ -369,8 +367,7 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
 
     let text = scene.to_string();
     let want = tokio::task::spawn_blocking(move || {
-        let desc = parse_scene(text.as_bytes()).unwrap();
-        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        let mut w = scenes::parse(&text);
         w.camera.width = 64;
         w.camera.height = 64;
         let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
@@ -383,7 +380,7 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
     })
     .await
     .unwrap();
-    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let peak = images::peak(&want);
     assert!(peak > 1.0, "a caustic: {peak}");
     let worst = got
         .pixels
