@@ -1,7 +1,7 @@
 //! The GPU CSL evaluation (shaders/csl.inc.wgsl) against the CPU one (bake::csl::eval) on a
 //! baked glass sphere, point for point. Needs an adapter (lavapipe in CI).
 
-use crate::support::gpu;
+use crate::support::{gpu, scenes};
 use caustica::bake::csl::{CslParams, bake_csl};
 use caustica::render::csl::CslEvaluator;
 use caustica::scene;
@@ -9,18 +9,12 @@ use glam::Vec3;
 
 #[test]
 fn gpu_csl_evaluation_matches_the_cpu() {
-    let world = scene::resolve(
-        &scene::parse_scene(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
-                             "segments": 128}, "material": "glass"}]}"#,
-        )
-        .unwrap(),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .unwrap();
+    let world = scenes::parse(
+        r#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+            "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+            "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                         "segments": 128}, "material": "glass"}]}"#,
+    );
     let params = CslParams {
         grid: 128,
         ..CslParams::fast()
@@ -102,12 +96,7 @@ fn sphere_scene(wall: bool) -> scene::World {
               {{"name": "glass", "shape": {{"type": "sphere", "radius": 0.5, "segments": 128}},
                "material": "glass", "transform": {{"translation": [0, 0.58, 0]}}}}{wall}]}}"#
     );
-    scene::resolve(
-        &scene::parse_scene(json.as_bytes()).unwrap(),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .unwrap()
+    scenes::parse(&json)
 }
 
 /// The per-pixel caustics layer of the renderer (direct.wgsl with csl.inc.wgsl and
@@ -137,13 +126,8 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
             .unwrap();
         let gpu = out.caustics.expect("caustics layer");
         let accel = Accel::build(&world);
-        let glass = world
-            .objects
-            .iter()
-            .position(|o| o.name == "glass")
-            .unwrap();
-        let blockers =
-            Accel::build_with(&world, |i| i != glass, obvhs::BvhBuildParams::fast_build());
+        let glass = scenes::object_index(&world, "glass");
+        let blockers = scenes::blockers(&world, glass);
         let csls = sets.sets[0]
             .set
             .to_world(CslSet::rigid_transform(&world.objects[glass]));
