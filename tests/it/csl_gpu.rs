@@ -1,44 +1,20 @@
 //! The GPU CSL evaluation (shaders/csl.inc.wgsl) against the CPU one (bake::csl::eval) on a
 //! baked glass sphere, point for point. Needs an adapter (lavapipe in CI).
 
+use crate::support::{gpu, scenes};
 use caustica::bake::csl::{CslParams, bake_csl};
-use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::render::csl::CslEvaluator;
 use caustica::scene;
 use glam::Vec3;
 
-fn context() -> GpuContext {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        let dir = std::env::temp_dir().join(format!("caustica-xdg-{}", std::process::id()));
-        let _ = std::fs::create_dir_all(&dir);
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
-        }
-        // SAFETY: set before any GPU thread of this test reads the environment.
-        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
-    }
-    let ctx = GpuContext::new(&GpuConfig::default())
-        .expect("a GPU adapter is required (CI installs lavapipe: mesa-vulkan-drivers)");
-    eprintln!("adapter: {}", ctx.adapter_info());
-    ctx
-}
-
 #[test]
 fn gpu_csl_evaluation_matches_the_cpu() {
-    let world = scene::resolve(
-        &scene::parse_scene(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
-                             "segments": 128}, "material": "glass"}]}"#,
-        )
-        .unwrap(),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .unwrap();
+    let world = scenes::parse(
+        r#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+            "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+            "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                         "segments": 128}, "material": "glass"}]}"#,
+    );
     let params = CslParams {
         grid: 128,
         ..CslParams::fast()
@@ -68,7 +44,7 @@ fn gpu_csl_evaluation_matches_the_cpu() {
         .iter()
         .map(|&(p, n)| set.csls.iter().map(|c| c.irradiance(p, n)).sum())
         .collect();
-    let ctx = context();
+    let ctx = gpu::context();
     let eval = CslEvaluator::new(&ctx).unwrap();
     let gpu = eval.irradiance(&ctx, &set.csls, &pts).unwrap();
     let peak = cpu.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
@@ -120,12 +96,7 @@ fn sphere_scene(wall: bool) -> scene::World {
               {{"name": "glass", "shape": {{"type": "sphere", "radius": 0.5, "segments": 128}},
                "material": "glass", "transform": {{"translation": [0, 0.58, 0]}}}}{wall}]}}"#
     );
-    scene::resolve(
-        &scene::parse_scene(json.as_bytes()).unwrap(),
-        &scene::MapSource::default(),
-        &Default::default(),
-    )
-    .unwrap()
+    scenes::parse(&json)
 }
 
 /// The per-pixel caustics layer of the renderer (direct.wgsl with csl.inc.wgsl and
@@ -137,10 +108,9 @@ fn sphere_scene(wall: bool) -> scene::World {
 fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
     use caustica::bake::csl::{CslSet, cache, eval};
     use caustica::reference::compare;
-    use caustica::render::{CslLayer, RenderOptions, Renderer};
+    use caustica::render::{CslLayer, RenderOptions};
     use caustica::trace::Accel;
-    let ctx = std::sync::Arc::new(context());
-    let mut renderer = Renderer::new(ctx).unwrap();
+    let mut renderer = gpu::renderer();
     let params = CslParams {
         grid: 256,
         ..CslParams::fast()
@@ -156,13 +126,8 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
             .unwrap();
         let gpu = out.caustics.expect("caustics layer");
         let accel = Accel::build(&world);
-        let glass = world
-            .objects
-            .iter()
-            .position(|o| o.name == "glass")
-            .unwrap();
-        let blockers =
-            Accel::build_with(&world, |i| i != glass, obvhs::BvhBuildParams::fast_build());
+        let glass = scenes::object_index(&world, "glass");
+        let blockers = scenes::blockers(&world, glass);
         let csls = sets.sets[0]
             .set
             .to_world(CslSet::rigid_transform(&world.objects[glass]));

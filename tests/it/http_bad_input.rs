@@ -3,22 +3,11 @@
 //! bogus content type 415, a scene with a bad field 422 naming it; hostile uploads beyond
 //! the corpus (external URIs, huge declared sizes, deep JSON, bad multipart) too.
 
-mod common;
-use common::*;
-use std::path::{Path, PathBuf};
+use crate::support::scenes::{SCENE, scene_sized};
+use crate::support::server::*;
+use crate::support::{files_under, repo_path};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-
-fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            files_under(&p, out);
-        } else {
-            out.push(p);
-        }
-    }
-}
 
 async fn healthy(srv: &Server) {
     let (s, v) = srv.get_json("/healthz").await;
@@ -28,9 +17,8 @@ async fn healthy(srv: &Server) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_malformed_corpus_gets_problems_and_the_server_keeps_serving() {
     let srv = Server::start("corpus", |_, _| {}).await;
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/gltf-bad");
-    let mut files = Vec::new();
-    files_under(&root, &mut files);
+    let root = repo_path("tests/data/gltf-bad");
+    let mut files = files_under(&root);
     files.sort();
     assert!(files.len() >= 50);
     let mut accepted = Vec::new();
@@ -308,9 +296,7 @@ async fn limits_media_types_and_fields() {
     let p = problem(r, 422).await;
     assert_eq!(p["field"], "objects[1].shape.path", "{p}");
     assert!(p["detail"].as_str().unwrap().contains("box.glb"), "{p}");
-    let glb =
-        std::fs::read(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/assets/Box.glb"))
-            .unwrap();
+    let glb = std::fs::read(repo_path("scenes/assets/Box.glb")).unwrap();
     let form = reqwest::multipart::Form::new()
         .text("scene", with_gltf.to_string())
         .part(

@@ -1,24 +1,18 @@
 //! The command line contract: `caustica render SCENE --method M --out FILE` writes an image of
 //! the asked size in the format of the extension, with the right numbers in it.
 
-use caustica::encode::decode_frame;
-use std::process::Command;
-
-fn caustica(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_caustica"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
+use crate::support::images::read_frame;
+use crate::support::{Cleanup, caustica, scenes, temp_dir};
 
 #[test]
 fn render_writes_exr_and_png_of_the_asked_size() {
-    let dir = std::env::temp_dir().join(format!("caustica-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("cli");
+    let _cleanup = Cleanup(dir.clone());
     let exr = dir.join("sphere.exr");
+    let scene = scenes::path("glass-sphere-directional");
     let out = caustica(&[
         "render",
-        "scenes/glass-sphere-directional.json",
+        scene.to_str().unwrap(),
         "--method",
         "reference",
         "--width",
@@ -44,7 +38,7 @@ fn render_writes_exr_and_png_of_the_asked_size() {
         stderr.contains("photons") && stderr.contains("camera"),
         "timings: {stderr}"
     );
-    let f = decode_frame(&std::fs::read(&exr).unwrap()).unwrap();
+    let f = read_frame(&exr);
     assert_eq!((f.width, f.height), (64, 48));
     // Lit floor far from the sphere: ρ/π·E·cosθ = 0.6/π·3·1.2/√2.44.
     let expect = 0.6 / std::f32::consts::PI * 3.0 * 1.2 / 2.44f32.sqrt();
@@ -54,7 +48,7 @@ fn render_writes_exr_and_png_of_the_asked_size() {
     let png = dir.join("sphere.png");
     let out = caustica(&[
         "render",
-        "scenes/glass-sphere-directional.json",
+        scene.to_str().unwrap(),
         "--method",
         "direct",
         "--width",
@@ -74,7 +68,6 @@ fn render_writes_exr_and_png_of_the_asked_size() {
     // sRGB of 0.44 (clamp tone map) is 176.
     let p = img.get_pixel(1, 15).0[0];
     assert!((174..=178).contains(&p), "{p}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -82,8 +75,8 @@ fn bad_inputs_fail_with_a_message_naming_the_problem() {
     let out = caustica(&["render", "no-such.json", "--out", "x.png"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such.json"));
-    let dir = std::env::temp_dir().join(format!("caustica-cli-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("cli-bad");
+    let _cleanup = Cleanup(dir.clone());
     let scene = dir.join("bad.json");
     std::fs::write(
         &scene,
@@ -101,10 +94,9 @@ fn bad_inputs_fail_with_a_message_naming_the_problem() {
     );
     let out = caustica(&[
         "render",
-        "scenes/glass-sphere-point.json",
+        scenes::path("glass-sphere-point").to_str().unwrap(),
         "--out",
         dir.join("x.tiff").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains(".png or .exr"));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,36 +1,13 @@
 //! Shared by the HTTP tests: a real server on an ephemeral port (in this process, or the
 //! `caustica` binary as a child), a real HTTP client and bounded polling helpers.
-#![allow(dead_code)]
 
+use super::{Cleanup, temp_dir};
 use caustica::http::{AppState, HttpConfig};
 use caustica::jobs::JobConfig;
+use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::process::{Child, Command};
 use std::time::{Duration, Instant};
-
-pub const SCENE: &str = include_str!("../../scenes/glass-sphere-directional.json");
-
-/// A fresh, empty directory under the system temp dir.
-pub fn temp_dir(name: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "caustica-{name}-{}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::SeqCst)
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Removes its directory when dropped (also when the test fails).
-pub struct Cleanup(pub PathBuf);
-
-impl Drop for Cleanup {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 pub struct Server {
     pub base: String,
@@ -56,6 +33,8 @@ impl Server {
         dir: PathBuf,
         tune: impl FnOnce(&mut JobConfig, &mut HttpConfig),
     ) -> Server {
+        // Its GPU worker makes a context of its own.
+        super::gpu::ensure_runtime_dir();
         let mut jc = JobConfig::new(&dir);
         let mut hc = HttpConfig::default();
         tune(&mut jc, &mut hc);
@@ -175,14 +154,6 @@ where
     }
 }
 
-/// The canonical scene with another image size.
-pub fn scene_sized(w: u32, h: u32) -> serde_json::Value {
-    let mut v: serde_json::Value = serde_json::from_str(SCENE).unwrap();
-    v["camera"]["width"] = w.into();
-    v["camera"]["height"] = h.into();
-    v
-}
-
 /// Asserts a problem+json answer and returns its body.
 pub async fn problem(r: reqwest::Response, status: u16) -> serde_json::Value {
     let s = r.status().as_u16();
@@ -200,4 +171,25 @@ pub async fn problem(r: reqwest::Response, status: u16) -> serde_json::Value {
     }
     assert_eq!(v["status"], status);
     v
+}
+
+/// The base URL of a `caustica serve` child started with its stdout piped, from the first line
+/// it prints ("caustica listening on URL"); its stdout is closed afterwards.
+pub fn listening_on(child: &mut Child) -> String {
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout piped"))
+        .read_line(&mut line)
+        .unwrap();
+    line.trim()
+        .strip_prefix("caustica listening on ")
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
+        .to_string()
+}
+
+/// Sends SIGTERM to a child (a graceful shutdown of `caustica serve`).
+pub fn sigterm(child: &Child) {
+    Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
 }

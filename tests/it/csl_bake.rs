@@ -1,14 +1,12 @@
 //! CSL bakes (Liu et al. 2008 §3.1): determinism, the artifact format, energy coverage, and a glass
 //! sphere whose rays focus where paraxial optics says.
 
+use crate::support::quiet;
+use crate::support::scenes::parse;
 use caustica::bake::csl::{ArtifactError, CslParams, CslSet, bake_csl};
 use caustica::bake::{BakeError, Progress};
-use caustica::scene::{self, World};
+use caustica::scene::World;
 use glam::Vec3;
-
-fn parse(json: &str) -> World {
-    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
-}
 
 fn sphere_world(material: &str) -> World {
     parse(&format!(
@@ -23,10 +21,6 @@ fn sphere_world(material: &str) -> World {
              "material": "{material}", "transform": {{"translation": [0.2, 0.6, -0.1]}}}}
         ]}}"#
     ))
-}
-
-fn quiet(_: Progress) -> bool {
-    true
 }
 
 fn bake(world: &World, params: &CslParams) -> CslSet {

@@ -1,32 +1,13 @@
 //! The direct renderer on a real adapter (lavapipe in CI): readback, and radiance compared
 //! number for number with analytic CPU evaluations of the same scenes. No adapter = failure.
 
-use caustica::gpu::{GpuConfig, GpuContext};
+use crate::support::gpu;
 use caustica::render::{Components, RenderOptions, Renderer};
 use caustica::scene::shapes;
 use caustica::scene::{Camera, Light, Material, Object, Part, World};
 use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
-
-fn context() -> Arc<GpuContext> {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        let dir = std::env::temp_dir().join(format!("caustica-xdg-{}", std::process::id()));
-        let _ = std::fs::create_dir_all(&dir);
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
-        }
-        // SAFETY: set before any GPU thread of this test reads the environment; a race with
-        // another test setting the same value is benign.
-        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
-    }
-    let ctx = GpuContext::new(&GpuConfig::default())
-        .expect("a GPU adapter is required (CI installs lavapipe: mesa-vulkan-drivers)");
-    eprintln!("adapter: {}", ctx.adapter_info());
-    Arc::new(ctx)
-}
 
 const W: u32 = 120;
 const H: u32 = 90;
@@ -137,7 +118,7 @@ fn render(w: &World) -> caustica::render::RenderOutput {
 }
 
 fn render_with(w: &World, opts: &RenderOptions) -> caustica::render::RenderOutput {
-    let mut r = Renderer::new(context()).expect("renderer");
+    let mut r = gpu::renderer();
     let out = r.render(w, opts).expect("render");
     eprintln!("timings: {:?}", out.timings);
     out
@@ -145,7 +126,7 @@ fn render_with(w: &World, opts: &RenderOptions) -> caustica::render::RenderOutpu
 
 #[test]
 fn readback_handles_any_width() {
-    let ctx = context();
+    let ctx = gpu::context();
     let h = ctx.handle();
     for &(w, ht) in &[(1u32, 3u32), (7, 5), (257, 4), (800, 3)] {
         let tex = h.device.create_texture(&wgpu::TextureDescriptor {
@@ -419,7 +400,7 @@ fn glossy_plane_matches_cpu_brdf() {
 
 #[test]
 fn renders_again_after_device_loss() {
-    let ctx = context();
+    let ctx = gpu::context();
     let mut r = Renderer::new(ctx.clone()).expect("renderer");
     let w = world(
         Material::Diffuse {
@@ -508,7 +489,7 @@ fn constant_environment_and_mirror() {
     w.materials[1] = Material::Mirror {
         reflectance: Vec3::splat(0.8),
     };
-    let mut r = Renderer::new(context()).unwrap();
+    let mut r = gpu::renderer();
     let out = r.render(&w, &RenderOptions::default()).unwrap();
     // Diffuse plane under a constant sky (unshadowed): albedo × L.
     let px = plane_pixels(&w.camera, &[(Vec3::new(0.0, 0.6, 0.0), 0.5)], 0.02);

@@ -2,16 +2,13 @@
 //! spec (and the other way round), every such route answers (not 404/405), `/openapi.json`
 //! is the YAML converted, and the spec's request examples are accepted.
 
-mod common;
+use crate::support::repo_path;
+use crate::support::server::*;
 use caustica::http::ROUTES;
-use common::*;
 use std::collections::BTreeSet;
 
 fn spec() -> serde_json::Value {
-    let yaml = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("api/openapi.yaml"),
-    )
-    .unwrap();
+    let yaml = std::fs::read_to_string(repo_path("api/openapi.yaml")).unwrap();
     serde_yaml_ng::from_str(&yaml).unwrap()
 }
 

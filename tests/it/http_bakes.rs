@@ -2,8 +2,8 @@
 //! DELETE (the worker really stops); idempotency by content and by `Idempotency-Key`; a small
 //! bake succeeds and its artifact is a multi-layer EXR.
 
-mod common;
-use common::*;
+use crate::support::scenes::{self, scene_sized};
+use crate::support::server::*;
 use std::time::Duration;
 
 fn bake(scene: &serde_json::Value, photons: u64) -> serde_json::Value {
@@ -349,7 +349,7 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
     let set = CslSet::from_bytes(&bytes).expect("a valid CSL set");
     assert!(!set.csls.is_empty());
     // The same bake through the library: identical bytes (deterministic, same inputs).
-    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let world = scenes::parse(&scene.to_string());
     let light = CslSet::light_in_object_frame(
         world.object("glass").unwrap(),
         glam::Vec3::new(1.0, -1.2, 0.0).normalize(),
@@ -408,7 +408,7 @@ async fn dynamic_csl_bake_job_serves_renders() {
     let bytes = r.bytes().await.unwrap().to_vec();
     let set = DynamicSet::from_bytes(&bytes).expect("a valid dynamic CSL set");
     assert_eq!(set.sets.len(), 12);
-    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let world = scenes::parse(&scene.to_string());
     let params = DynamicParams {
         subdivisions: 0,
         track_grid: 16,
@@ -489,7 +489,7 @@ async fn transport_bake_job_gives_the_library_bake_bytes() {
     let r = srv.bake_artifact(&id).await;
     let bytes = r.bytes().await.unwrap().to_vec();
     TransportTable::from_bytes(&bytes).expect("a valid table");
-    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let world = scenes::parse(&scene.to_string());
     let lib = tokio::task::spawn_blocking(move || {
         let params = TransportParams {
             rings: 4,

@@ -2,6 +2,7 @@
 //! glTF-Validator and gltf-rs inputs), hostile inputs built here, and the bundled sample
 //! assets in `scenes/assets/`.
 
+use crate::support::{files_under, repo_path, scenes};
 use caustica::scene::gltf::{GltfError, GltfImport, GltfLimits, import_gltf};
 use caustica::scene::{AssetSource, DirSource, Limits, MapSource, Material};
 use glam::Vec3;
@@ -9,16 +10,12 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn corpus() -> PathBuf {
-    root().join("tests/data/gltf-bad")
+    repo_path("tests/data/gltf-bad")
 }
 
 fn assets_dir() -> PathBuf {
-    root().join("scenes/assets")
+    repo_path("scenes/assets")
 }
 
 /// An asset source that counts what it is asked for (the work an import does on the side).
@@ -67,29 +64,13 @@ fn err_text(r: Result<GltfImport, GltfError>) -> String {
     }
 }
 
-fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            files_under(&p, out);
-        } else {
-            out.push(p);
-        }
-    }
-}
-
 fn triangles(i: &GltfImport) -> usize {
     i.parts.iter().map(|(m, _)| m.triangle_count()).sum()
 }
 
 #[test]
 fn corpus_files_give_ok_or_err_never_panic() {
-    let mut files = Vec::new();
-    files_under(&corpus(), &mut files);
+    let files = files_under(&corpus());
     assert!(
         files.len() >= 50,
         "corpus incomplete: {} files",
@@ -693,9 +674,7 @@ fn suzanne_through_an_in_memory_source() {
 
 #[test]
 fn scene_files_with_gltf_load() {
-    let limits = Limits::default();
-    let w = caustica::scene::load_scene_file(&root().join("scenes/glass-teapot.json"), &limits)
-        .unwrap();
+    let w = scenes::load("glass-teapot");
     let teapot = w.object("teapot").unwrap();
     assert_eq!(teapot.triangle_count(), 6_320);
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -717,8 +696,7 @@ fn scene_files_with_gltf_load() {
     assert!(lo.x > -4.0 && hi.x < 4.0 && lo.z > -4.0 && hi.z < 4.0);
     assert_eq!((w.camera.width, w.camera.height), (256, 256));
 
-    let w =
-        caustica::scene::load_scene_file(&root().join("scenes/glass-vase.json"), &limits).unwrap();
+    let w = scenes::load("glass-vase");
     let vase = w.object("vase").unwrap();
     let table = w.object("table").unwrap();
     assert_eq!(vase.triangle_count(), 14_036);
@@ -750,7 +728,7 @@ fn gltf_in_a_subfolder_finds_its_files() {
         "objects": [{"name": "suzanne", "shape": {"type": "gltf", "path": "assets/Suzanne-glTF/Suzanne.gltf"}}]
     }"#;
     let desc = caustica::scene::parse_scene(json.as_bytes()).unwrap();
-    let w = caustica::scene::resolve(&desc, &DirSource(root().join("scenes")), &Limits::default())
+    let w = caustica::scene::resolve(&desc, &DirSource(repo_path("scenes")), &Limits::default())
         .unwrap();
     assert_eq!(w.triangle_count(), 3_936);
 }

@@ -1,11 +1,12 @@
 //! Every WGSL file under shaders/ parses and validates with naga, after the same `#include`
 //! expansion the renderer does (reading the included files from disk).
 
+use crate::support::repo_path;
 use caustica::render::shaders::{FILES, expand_includes};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn shader_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders")
+    repo_path("shaders")
 }
 
 fn validate(name: &str, src: &str) -> Result<(), String> {

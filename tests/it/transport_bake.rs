@@ -2,19 +2,17 @@
 //! Fresnel in closed form, self-occlusion, trapped rays, determinism, quantisation and the
 //! artifact format.
 
+use crate::support::quiet;
+use crate::support::scenes::parse;
 use caustica::bake::transport::table::TableError;
 use caustica::bake::transport::{
     TransportParams, TransportTable, bake_transport, local_angles, sampling_direction,
     table_vertices, tangent_frame,
 };
 use caustica::bake::{BakeError, Progress};
-use caustica::scene::{self, World};
+use caustica::scene::World;
 use caustica::trace::optics::{fresnel_dielectric, refract};
 use glam::Vec3;
-
-fn parse(json: &str) -> World {
-    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
-}
 
 /// One object `shape` of material `mat` over a floor, moved and turned (the table is made in
 /// the object's rigid frame, so that must not matter).
@@ -35,10 +33,6 @@ fn world(shape: &str, mat: &str) -> World {
 }
 
 const SPHERE: &str = r#"{"type": "sphere", "radius": 0.5, "segments": 96}"#;
-
-fn quiet(_: Progress) -> bool {
-    true
-}
 
 fn bake(world: &World, params: &TransportParams) -> TransportTable {
     bake_transport(world, "thing", params, &quiet).expect("bakes")

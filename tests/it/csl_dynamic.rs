@@ -9,15 +9,15 @@
 //! about its centre, so the stored reference of the scene holds for every direction, and any
 //! change between frames is the interpolation's.
 
+use crate::support::{gpu, images, scenes};
 use caustica::bake::csl::dynamic::{DynamicParams, DynamicSet, Icosphere, bake_dynamic};
 use caustica::bake::csl::{CslParams, CslSet, cache, eval};
-use caustica::encode::{Frame, decode_frame};
+use caustica::encode::Frame;
 use caustica::reference::compare;
-use caustica::render::{CslLayer, RenderOptions, Renderer};
-use caustica::scene::{self, Light, World};
+use caustica::render::{CslLayer, RenderOptions};
+use caustica::scene::World;
 use caustica::trace::Accel;
 use glam::{Mat4, Quat, Vec3};
-use std::path::Path;
 use std::sync::OnceLock;
 
 fn params() -> DynamicParams {
@@ -34,11 +34,7 @@ fn params() -> DynamicParams {
 }
 
 fn world() -> World {
-    scene::load_scene_file(
-        Path::new("scenes/glass-sphere-directional.json"),
-        &Default::default(),
-    )
-    .expect("scene loads")
+    scenes::load("glass-sphere-directional")
 }
 
 /// The bake every test shares (made once), as a render reads it from its artifact: the images
@@ -55,13 +51,7 @@ fn baked() -> &'static (World, DynamicSet) {
 }
 
 fn light(world: &World) -> (Vec3, Vec3) {
-    let Light::Directional {
-        direction,
-        irradiance,
-    } = world.lights[0].clone()
-    else {
-        panic!("directional light expected")
-    };
+    let (direction, irradiance) = scenes::directional_light(world);
     (direction.normalize(), irradiance)
 }
 
@@ -69,7 +59,7 @@ fn light(world: &World) -> (Vec3, Vec3) {
 fn turned(world: &World, dir: Vec3) -> World {
     let mut w = world.clone();
     let (l, _) = light(world);
-    let oi = w.objects.iter().position(|o| o.name == "glass").unwrap();
+    let oi = scenes::object_index(&w, "glass");
     let (s, _, t) = w.objects[oi].transform.to_scale_rotation_translation();
     let rot = Quat::from_rotation_arc(dir.normalize(), l);
     w.objects[oi].transform = Mat4::from_scale_rotation_translation(s, rot, t);
@@ -78,23 +68,16 @@ fn turned(world: &World, dir: Vec3) -> World {
 
 /// The caustics component of `set` (rigid frame of the sphere) in `world`, on the CPU.
 fn caustics(world: &World, set: &CslSet, spp: u32) -> Frame {
-    let oi = world
-        .objects
-        .iter()
-        .position(|o| o.name == "glass")
-        .unwrap();
+    let oi = scenes::object_index(world, "glass");
     let obj = &world.objects[oi];
     let accel = Accel::build(world);
-    let blockers = Accel::build_with(world, |i| i != oi, obvhs::BvhBuildParams::fast_build());
+    let blockers = scenes::blockers(world, oi);
     let csls = set.to_world(CslSet::rigid_transform(obj));
     eval::render_caustics(world, &accel, &blockers, &csls, light(world).1, spp)
 }
 
 fn reference() -> Frame {
-    decode_frame(
-        &std::fs::read("tests/data/reference/glass-sphere-directional.caustics.64M.exr").unwrap(),
-    )
-    .unwrap()
+    images::stored_reference("glass-sphere-directional.caustics.64M.exr")
 }
 
 /// Issue 6's targets at directions that are no bake direction: relative L1 ≤ 0.20 and flux
@@ -117,15 +100,10 @@ fn off_the_bake_directions_the_caustics_match_the_reference() {
             (v(0) * 0.6 + v(1) * 0.3 + v(2) * 0.1).normalize(),
         ),
     ];
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut renderer = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut renderer = gpu::renderer();
     for (name, dir) in cases {
         let world = turned(w0, dir);
-        let oi = world
-            .objects
-            .iter()
-            .position(|o| o.name == "glass")
-            .unwrap();
+        let oi = scenes::object_index(&world, "glass");
         let local = CslSet::light_in_object_frame(&world.objects[oi], light(&world).0);
         assert!(local.dot(dir) > 1.0 - 1e-5);
         let set = d.interpolate(local);
@@ -232,7 +210,7 @@ fn the_caustic_changes_smoothly_across_a_face_boundary() {
             let t = i as f32 / steps as f32;
             let dir = a.lerp(b, t).normalize();
             let w = turned(&world, dir);
-            let oi = w.objects.iter().position(|o| o.name == "glass").unwrap();
+            let oi = scenes::object_index(&w, "glass");
             let local = CslSet::light_in_object_frame(&w.objects[oi], light(&w).0);
             // Which side of the edge: the sign along the great circle's normal.
             let side = local.dot(centroid(g) - centroid(f));
@@ -321,11 +299,7 @@ fn dynamic_bake_is_deterministic_and_round_trips() {
     assert!(back.is_for(&w, w.object("glass").unwrap()));
     // Another object (a different scale) is told apart.
     let mut other = w.clone();
-    let oi = other
-        .objects
-        .iter()
-        .position(|o| o.name == "glass")
-        .unwrap();
+    let oi = scenes::object_index(&other, "glass");
     other.objects[oi].transform = Mat4::from_scale(Vec3::splat(1.1)) * other.objects[oi].transform;
     assert!(!back.is_for(&other, other.object("glass").unwrap()));
     // A canceled bake stops with an error.

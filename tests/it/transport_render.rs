@@ -8,21 +8,23 @@
 //! 33 k: the same shape with smooth normals, and a bake a test can afford); the stored
 //! references were rendered with 256.
 
+use crate::support::{gpu, images, scenes};
 use caustica::bake::transport::{
     TransportParams, TransportTable, bake_transport, eval, table_vertices,
 };
-use caustica::encode::{Frame, decode_frame};
+use caustica::encode::Frame;
 use caustica::reference::compare;
-use caustica::render::{Renderer, TransportLayer};
-use caustica::scene::{self, World};
+use caustica::render::TransportLayer;
+use caustica::scene::World;
 use caustica::trace::Accel;
 use caustica::trace::optics::{fresnel_dielectric, refract};
 use glam::Vec3;
 
-fn sphere_scene(file: &str, segments: u32, edit: impl Fn(String) -> String) -> World {
-    let text = std::fs::read_to_string(file).unwrap();
+/// Scene `name` with `segments` instead of 256 in its sphere, then edited by `edit`.
+fn sphere_scene(name: &str, segments: u32, edit: impl Fn(String) -> String) -> World {
+    let text = scenes::text(name);
     let text = text.replace("\"segments\": 256", &format!("\"segments\": {segments}"));
-    scene::load_scene_json(edit(text).as_bytes()).unwrap()
+    scenes::parse(&edit(text))
 }
 
 fn bake(world: &World, rings: u32, azimuths: u32) -> TransportTable {
@@ -34,27 +36,18 @@ fn bake(world: &World, rings: u32, azimuths: u32) -> TransportTable {
     bake_transport(world, "glass", &params, &|_| true).unwrap()
 }
 
-fn glass_index(world: &World) -> usize {
-    world
-        .objects
-        .iter()
-        .position(|o| o.name == "glass")
-        .unwrap()
-}
-
 /// The CPU caustics layer of `world` from `table`.
 fn cpu_caustics(world: &World, table: &TransportTable) -> (Frame, TransportLayer) {
-    let oi = glass_index(world);
+    let oi = scenes::object_index(world, "glass");
     let layer = TransportLayer::build(world, &[(oi, table)], eval::DEFAULT_LINE_POINTS).unwrap();
     let accel = Accel::build(world);
-    let blockers = Accel::build_with(world, |i| i != oi, obvhs::BvhBuildParams::fast_build());
+    let blockers = scenes::blockers(world, oi);
     let img = eval::render_caustics(world, &accel, Some(&blockers), &layer.volumes);
     (img, layer)
 }
 
 fn gpu_caustics(world: &World, layer: &TransportLayer) -> Frame {
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut r = gpu::renderer();
     let out = r
         .render_transport(world, &Default::default(), layer)
         .unwrap();
@@ -71,7 +64,7 @@ fn floor_mask(world: &World) -> Vec<bool> {
 /// errors are small at the paper's 129 directions and shrink with finer sampling.
 #[test]
 fn lookup_interpolates_the_sphere_in_closed_form() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 32, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 32, |s| s);
     let verts = table_vertices(&world, world.object("glass").unwrap());
     let mut means = Vec::new();
     for (rings, az) in [(8, 16), (16, 32)] {
@@ -152,7 +145,7 @@ fn lookup_interpolates_the_sphere_in_closed_form() {
 /// rounding (the footprint evaluation integrates the piecewise linear field exactly).
 #[test]
 fn volumes_conserve_flux_on_a_plane() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 16, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 16, |s| s);
     let table = bake(&world, 8, 16);
     let sources = eval::sources(&world.lights, 16);
     let (vols, stats) = eval::build_volumes(&world, "glass", &table, &sources, None).unwrap();
@@ -202,7 +195,7 @@ fn volumes_conserve_flux_on_a_plane() {
 /// corner fluxes must add up to it, to the mesh's approximation of the sphere.
 #[test]
 fn reflection_volumes_carry_the_fresnel_reflected_flux() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 96, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 96, |s| s);
     let sources = eval::sources(&world.lights, 16);
     let (vols, stats) = eval::build_reflection_volumes(&world, "glass", &sources, None).unwrap();
     let n = 20_000;
@@ -266,7 +259,7 @@ fn gpu_pass_matches_the_cpu_evaluation() {
         ("occluder", &boxed),
         ("camera among the beams", &inside),
     ] {
-        let world = sphere_scene("scenes/glass-sphere-directional.json", 64, edit);
+        let world = sphere_scene("glass-sphere-directional", 64, edit);
         let table = bake(&world, 8, 16);
         let (cpu, layer) = cpu_caustics(&world, &table);
         if name == "camera among the beams" {
@@ -312,10 +305,10 @@ fn gpu_pass_matches_the_cpu_evaluation() {
 /// turned (a sphere's caustic only moves with it), and a table for another mesh is refused.
 #[test]
 fn moving_and_turning_the_object_reuses_the_table() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 48, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 48, |s| s);
     let table = bake(&world, 8, 16);
     let place = |transform: &'static str| {
-        sphere_scene("scenes/glass-sphere-directional.json", 48, move |s| {
+        sphere_scene("glass-sphere-directional", 48, move |s| {
             s.replace(r#""transform": {"translation": [0, 0.58, 0]}"#, transform)
         })
     };
@@ -352,7 +345,7 @@ fn moving_and_turning_the_object_reuses_the_table() {
         "{pa:?} {pb:?} ({ex}, {ey})"
     );
     // Another mesh: refused with a message.
-    let other = sphere_scene("scenes/glass-sphere-directional.json", 40, |s| s);
+    let other = sphere_scene("glass-sphere-directional", 40, |s| s);
     let err = eval::build_volumes(&other, "glass", &table, &[], None).unwrap_err();
     assert!(err.to_string().contains("does not fit object"), "{err}");
 }
@@ -366,7 +359,7 @@ fn moving_and_turning_the_object_reuses_the_table() {
 /// measured L1 0.066 at 32 segments).
 #[test]
 fn a_mirrored_object_casts_the_same_caustic() {
-    let file = "scenes/glass-sphere-directional.json";
+    let file = "glass-sphere-directional";
     let world = sphere_scene(file, 32, |s| s);
     let mirrored = sphere_scene(file, 32, |s| {
         s.replace(
@@ -391,9 +384,9 @@ fn a_mirrored_object_casts_the_same_caustic() {
 /// Building a frame's volumes stops when told to (a canceled or timed-out render job).
 #[test]
 fn building_the_volumes_can_be_canceled() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 16, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 16, |s| s);
     let table = bake(&world, 4, 8);
-    let tables = [(glass_index(&world), &table)];
+    let tables = [(scenes::object_index(&world, "glass"), &table)];
     let err = TransportLayer::build_with(&world, &tables, 16, &|| false).unwrap_err();
     assert!(matches!(err, eval::EvalError::Canceled), "{err}");
     let layer = TransportLayer::build_with(&world, &tables, 16, &|| true).unwrap();
@@ -425,10 +418,8 @@ fn sphere_caustics_against_the_reference() {
         ("spot", "glass-sphere-spot.caustics.32M.exr"),
         ("point", "glass-sphere-point.caustics.32M.exr"),
     ] {
-        let world = sphere_scene(&format!("scenes/glass-sphere-{light}.json"), 96, |s| s);
-        let reference =
-            decode_frame(&std::fs::read(format!("tests/data/reference/{reference}")).unwrap())
-                .unwrap();
+        let world = sphere_scene(&format!("glass-sphere-{light}"), 96, |s| s);
+        let reference = images::stored_reference(reference);
         let mask = floor_mask(&world);
         for (rings, az) in [(8, 16), (16, 32)] {
             let table = bake(&world, rings, az);
@@ -460,18 +451,19 @@ fn sphere_caustics_against_the_reference() {
 /// environment only (none here), is black there.
 #[test]
 fn glass_seen_through_the_tables_matches_the_reference() {
-    let world = sphere_scene("scenes/glass-sphere-directional.json", 96, |s| s);
+    let world = sphere_scene("glass-sphere-directional", 96, |s| s);
     let table = bake(&world, 8, 16);
-    let layer = TransportLayer::build(&world, &[(glass_index(&world), &table)], 16).unwrap();
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let layer = TransportLayer::build(
+        &world,
+        &[(scenes::object_index(&world, "glass"), &table)],
+        16,
+    )
+    .unwrap();
+    let mut r = gpu::renderer();
     let out = r
         .render_transport(&world, &Default::default(), &layer)
         .unwrap();
-    let reference = decode_frame(
-        &std::fs::read("tests/data/reference/glass-sphere-directional.specular.8M.exr").unwrap(),
-    )
-    .unwrap();
+    let reference = images::stored_reference("glass-sphere-directional.specular.8M.exr");
     let mask = compare::object_mask(&world, &Accel::build(&world), "glass");
     let c = compare::compare(&out.specular, &reference, &mask);
     eprintln!("specular over the glass: {c:?}");

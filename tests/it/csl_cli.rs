@@ -1,22 +1,16 @@
 //! `caustica bake csl` and `caustica render --method csl --bake FILE`: the artifact is written,
 //! read back and rendered; a corrupted artifact is refused with a message.
 
-use caustica::encode::decode_frame;
-use std::process::Command;
-
-fn caustica(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_caustica"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
+use crate::support::images::{self, read_frame};
+use crate::support::{Cleanup, caustica, scenes, temp_dir};
 
 #[test]
 fn bake_then_render_with_the_artifact() {
-    let dir = std::env::temp_dir().join(format!("caustica-csl-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("csl-cli");
+    let _cleanup = Cleanup(dir.clone());
     let set = dir.join("sphere.csl");
-    let scene = "scenes/glass-sphere-directional.json";
+    let scene = scenes::path("glass-sphere-directional");
+    let scene = scene.to_str().unwrap();
     let out = caustica(&[
         "bake",
         "csl",
@@ -56,9 +50,9 @@ fn bake_then_render_with_the_artifact() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let f = decode_frame(&std::fs::read(&exr).unwrap()).unwrap();
+    let f = read_frame(&exr);
     assert_eq!((f.width, f.height), (64, 48));
-    let peak = f.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let peak = images::peak(&f);
     assert!(peak > 1.0, "a bright caustic: {peak}");
 
     let mut bytes = std::fs::read(&set).unwrap();
@@ -73,17 +67,17 @@ fn bake_then_render_with_the_artifact() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `caustica bake csl --dynamic` writes a dynamic bake that `render --method csl --bake` turns
 /// into the set of the scene's light; a dynamic bake of another object is refused by name.
 #[test]
 fn dynamic_bake_then_render_with_the_artifact() {
-    let dir = std::env::temp_dir().join(format!("caustica-csl-dyn-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("csl-dyn-cli");
+    let _cleanup = Cleanup(dir.clone());
     let set = dir.join("sphere.csld");
-    let scene = "scenes/glass-sphere-directional.json";
+    let scene = scenes::path("glass-sphere-directional");
+    let scene = scene.to_str().unwrap();
     let out = caustica(&[
         "bake",
         "csl",
@@ -129,13 +123,12 @@ fn dynamic_bake_then_render_with_the_artifact() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains("csl interpolate"), "{err}");
-    let f = decode_frame(&std::fs::read(&exr).unwrap()).unwrap();
-    let peak = f.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let f = read_frame(&exr);
+    let peak = images::peak(&f);
     assert!(peak > 1.0, "a bright caustic: {peak}");
     // The teapot scene's caustic object is another object.
-    let out = render("scenes/glass-teapot.json");
+    let out = render(scenes::path("glass-teapot").to_str().unwrap());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("dynamic bake of another object"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -28,42 +28,23 @@
 //! and the CSL model's fit of the far, thin light (1.6 m and more from the focus the set has
 //! about half of the reference's light).
 
+use crate::support::{gpu, images, scenes};
 use caustica::bake::csl::{CslParams, CslSet, bake_csl, cache, eval};
-use caustica::encode::decode_frame;
 use caustica::reference::compare;
-use caustica::render::{CslLayer, RenderOptions, Renderer};
-use caustica::scene::{self, Light, World};
+use caustica::render::{CslLayer, RenderOptions};
 use caustica::trace::Accel;
-use std::path::Path;
-
-fn load(path: &str) -> World {
-    scene::load_scene_file(Path::new(path), &Default::default()).expect("scene loads")
-}
 
 #[test]
 fn glass_sphere_caustics_match_the_reference() {
-    let world = load("scenes/glass-sphere-directional.json");
-    let Light::Directional {
-        direction,
-        irradiance,
-    } = world.lights[0].clone()
-    else {
-        panic!("directional light expected")
-    };
-    let reference = decode_frame(
-        &std::fs::read("tests/data/reference/glass-sphere-directional.caustics.64M.exr").unwrap(),
-    )
-    .unwrap();
+    let world = scenes::load("glass-sphere-directional");
+    let (direction, irradiance) = scenes::directional_light(&world);
+    let reference = images::stored_reference("glass-sphere-directional.caustics.64M.exr");
     assert_eq!(
         (reference.width, reference.height),
         (world.camera.width, world.camera.height)
     );
     let obj = world.object("glass").unwrap();
-    let oi = world
-        .objects
-        .iter()
-        .position(|o| o.name == "glass")
-        .unwrap();
+    let oi = scenes::object_index(&world, "glass");
     let light = CslSet::light_in_object_frame(obj, direction);
     let params = CslParams {
         grid: 512,
@@ -73,12 +54,11 @@ fn glass_sphere_caustics_match_the_reference() {
     eprintln!("{:#?}", set.stats);
     let csls = set.to_world(CslSet::rigid_transform(obj));
     let accel = Accel::build(&world);
-    let blockers = Accel::build_with(&world, |i| i != oi, obvhs::BvhBuildParams::fast_build());
+    let blockers = scenes::blockers(&world, oi);
     // The CSL model over the whole pixel (6×6 stratified samples: converged to 1 % in flux),
     // and the product path, the GPU pass at one sample per pixel.
     let cpu = eval::render_caustics(&world, &accel, &blockers, &csls, irradiance, 6);
-    let ctx = caustica::gpu::GpuContext::new(&Default::default()).expect("a GPU adapter");
-    let mut renderer = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+    let mut renderer = gpu::renderer();
     let sets = cache::RenderSets {
         sets: vec![cache::ObjectSet {
             object: oi,

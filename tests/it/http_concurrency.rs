@@ -1,8 +1,8 @@
 //! 32 clients × 3 small renders at once (GPU direct and CPU reference mixed): every request
 //! answers an image (or a job that then succeeds), no error, no job lost.
 
-mod common;
-use common::*;
+use crate::support::scenes::scene_sized;
+use crate::support::server::*;
 use std::collections::HashSet;
 use std::time::Duration;
 
@@ -27,7 +27,7 @@ async fn thirty_two_clients_three_renders_each() {
     for client in 0..32u32 {
         let (base, id) = (srv.base.clone(), id.clone());
         tasks.push(tokio::spawn(async move {
-            let c = common::client();
+            let c = crate::support::server::client();
             let mut ids = Vec::new();
             for k in 0..3u32 {
                 let method = if (client + k) % 2 == 0 {

@@ -1,17 +1,17 @@
 //! Without a usable adapter the service still starts and serves CPU methods; `/readyz` says
 //! why it is not ready and GPU renders are a 503 problem naming the cause.
 
-mod common;
-use common::*;
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use crate::support::scenes::scene_sized;
+use crate::support::server::*;
+use crate::support::{Cleanup, caustica_command, temp_dir};
+use std::process::Stdio;
 use std::time::Duration;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn no_adapter_means_not_ready_and_503_for_gpu_renders() {
     let dir = temp_dir("no-gpu");
     let _cleanup = Cleanup(dir.clone());
-    let mut child = Command::new(env!("CARGO_BIN_EXE_caustica"))
+    let mut child = caustica_command()
         .args(["serve", "--addr", "127.0.0.1:0", "--log-json", "--data-dir"])
         .arg(&dir)
         .env("CAUSTICA_ADAPTER", "no-such-adapter")
@@ -19,15 +19,7 @@ async fn no_adapter_means_not_ready_and_503_for_gpu_renders() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let base = line
-        .trim()
-        .strip_prefix("caustica listening on ")
-        .unwrap()
-        .to_string();
+    let base = listening_on(&mut child);
     let c = client();
     let p = poll("readyz to settle", Duration::from_secs(60), || async {
         let r = c.get(format!("{base}/readyz")).send().await.unwrap();
@@ -58,10 +50,7 @@ async fn no_adapter_means_not_ready_and_503_for_gpu_renders() {
         .await
         .unwrap();
     assert_eq!(r.status(), 200);
-    Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
+    sigterm(&child);
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success());
     // --log-json: every log line is a JSON object.

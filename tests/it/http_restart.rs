@@ -2,16 +2,16 @@
 //! again on the same data directory, and the bake completes under the same id; a finished
 //! render from before the kill is still served.
 
-mod common;
-use common::*;
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use crate::support::scenes::scene_sized;
+use crate::support::server::*;
+use crate::support::{Cleanup, caustica_command, temp_dir};
+use std::process::{Child, Stdio};
 use std::time::Duration;
 
 /// Starts `caustica serve` on an ephemeral port; returns the child and its base URL (read
 /// from the line it prints on stdout).
 fn spawn(dir: &std::path::Path) -> (Child, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_caustica"))
+    let mut child = caustica_command()
         .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
         .arg(dir)
         .env("CAUSTICA_LOG", "warn")
@@ -19,15 +19,7 @@ fn spawn(dir: &std::path::Path) -> (Child, String) {
         .stderr(Stdio::inherit())
         .spawn()
         .expect("starts");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let url = line
-        .trim()
-        .strip_prefix("caustica listening on ")
-        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
-        .to_string();
+    let url = listening_on(&mut child);
     (child, url)
 }
 
@@ -91,8 +83,7 @@ async fn a_bake_interrupted_by_kill_9_completes_after_restart() {
     assert_eq!(r.status(), 200);
     assert_eq!(r.bytes().await.unwrap(), png);
     // SIGTERM: graceful exit.
-    let pid = child.id().to_string();
-    Command::new("kill").args(["-TERM", &pid]).status().unwrap();
+    sigterm(&child);
     let status = child.wait().unwrap();
     assert!(status.success(), "{status:?}");
 }

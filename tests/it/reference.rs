@@ -1,20 +1,13 @@
 //! The reference renderer against Mitsuba 3 and against closed-form answers.
 
-use caustica::encode::{Frame, decode_frame};
+use crate::support::images::{self, mitsuba};
+use crate::support::scenes::{self, parse};
+use crate::support::{Cleanup, temp_dir};
 use caustica::reference::{self, Components, ReferenceParams, compare};
 use caustica::scene::{self, World};
 use caustica::trace::Accel;
 use glam::Vec3;
 use std::f32::consts::PI;
-use std::path::Path;
-
-fn load(path: &str) -> World {
-    scene::load_scene_file(Path::new(path), &Default::default()).expect("scene loads")
-}
-
-fn parse(json: &str) -> World {
-    scene::load_scene_json(json.as_bytes()).expect("scene resolves")
-}
 
 fn render(world: &World, photons: u64, spp: u32, seed: u64) -> Components {
     let accel = Accel::build(world);
@@ -29,15 +22,10 @@ fn render(world: &World, photons: u64, spp: u32, seed: u64) -> Components {
         .0
 }
 
-fn mitsuba(name: &str) -> Frame {
-    let p = format!("tests/data/mitsuba/{name}");
-    decode_frame(&std::fs::read(&p).expect("reference image")).expect("decodes")
-}
-
 /// Our total (direct + caustics + indirect) on the floor against Mitsuba's particle tracer, and
 /// our direct component against Mitsuba's path tracer (no caustics from delta lights).
 fn check_against_mitsuba(light: &str) {
-    let world = load(&format!("scenes/glass-sphere-{light}.json"));
+    let world = scenes::load(&format!("glass-sphere-{light}"));
     let c = render(&world, 1_500_000, 4, 7);
     let accel = Accel::build(&world);
     let mask = compare::object_mask(&world, &accel, "floor");
@@ -60,8 +48,8 @@ fn check_against_mitsuba(light: &str) {
     );
     assert!(direct.rel_l1 <= 0.02, "{light}: direct {direct:?}");
     // The caustic is really there: a bright spot on the floor, above the direct lighting.
-    let peak = c.caustics.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
-    let lit = c.direct.pixels.iter().map(|p| p.x).fold(0.0, f32::max);
+    let peak = images::peak(&c.caustics);
+    let lit = images::peak(&c.direct);
     assert!(peak > lit, "{light}: caustic peak {peak} vs direct {lit}");
 }
 
@@ -82,7 +70,7 @@ fn sphere_point_matches_mitsuba() {
 
 #[test]
 fn same_seed_same_image_other_seed_other_noise() {
-    let mut world = load("scenes/glass-sphere-point.json");
+    let mut world = scenes::load("glass-sphere-point");
     world.camera.width = 64;
     world.camera.height = 64;
     let a = render(&world, 100_000, 1, 3);
@@ -250,8 +238,8 @@ fn line_light_matches_numerical_integration() {
 #[test]
 fn environment_map_file_is_loaded_scaled_and_oriented() {
     // An equirectangular HDR: the upper half (v < 0.5, +Y) has radiance 2, the lower half 0.
-    let dir = std::env::temp_dir().join(format!("caustica-env-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = temp_dir("env");
+    let _cleanup = Cleanup(dir.clone());
     let (w, h) = (16u32, 8u32);
     let img = image::Rgb32FImage::from_fn(w, h, |_, y| {
         image::Rgb(if y < h / 2 { [2.0; 3] } else { [0.0; 3] })
@@ -284,5 +272,4 @@ fn environment_map_file_is_loaded_scaled_and_oriented() {
         "{}",
         c.direct.at(2, 2)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,26 +1,16 @@
 //! The GPU `direct` method against the CPU reference's direct component and against Mitsuba's
 //! path tracer (which has no caustics from delta lights), on the canonical scenes' floor pixels.
 
-use caustica::encode::decode_frame;
-use caustica::gpu::{GpuConfig, GpuContext};
+use crate::support::{gpu, images, scenes};
 use caustica::reference::{self, ReferenceParams, compare};
-use caustica::render::{RenderOptions, Renderer};
-use caustica::scene;
+use caustica::render::RenderOptions;
 use caustica::trace::Accel;
-use std::path::Path;
-use std::sync::Arc;
 
 #[test]
 fn gpu_direct_agrees_with_reference_and_mitsuba_on_all_canonical_scenes() {
-    let ctx =
-        Arc::new(GpuContext::new(&GpuConfig::from_env()).expect("an adapter (lavapipe in CI)"));
-    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let mut renderer = gpu::renderer();
     for light in ["directional", "spot", "point"] {
-        let world = scene::load_scene_file(
-            Path::new(&format!("scenes/glass-sphere-{light}.json")),
-            &Default::default(),
-        )
-        .unwrap();
+        let world = scenes::load(&format!("glass-sphere-{light}"));
         let gpu = renderer.render(&world, &RenderOptions::default()).unwrap();
         let accel = Accel::build(&world);
         let params = ReferenceParams {
@@ -31,10 +21,7 @@ fn gpu_direct_agrees_with_reference_and_mitsuba_on_all_canonical_scenes() {
         let (cpu, _) = reference::render(&world, &accel, &params, &|_| true).unwrap();
         let mask = compare::object_mask(&world, &accel, "floor");
         let vs_ref = compare::compare(&gpu.direct, &cpu.direct, &mask);
-        let mitsuba = decode_frame(
-            &std::fs::read(format!("tests/data/mitsuba/sphere-{light}-path-256spp.exr")).unwrap(),
-        )
-        .unwrap();
+        let mitsuba = images::mitsuba(&format!("sphere-{light}-path-256spp.exr"));
         let vs_mitsuba = compare::compare(&gpu.direct, &mitsuba, &mask);
         eprintln!("{light}: vs reference {vs_ref:?}, vs mitsuba path {vs_mitsuba:?}");
         for c in [vs_ref, vs_mitsuba] {

@@ -3,20 +3,19 @@
 //! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
 //! `Server-Timing` say what happened.
 
-mod common;
+use crate::support::scenes::{self, SCENE, scene_sized};
+use crate::support::server::*;
+use crate::support::{gpu, images};
 use caustica::encode::{self, PngSettings};
 use caustica::reference::{self, ReferenceParams};
-use caustica::scene::{Limits, MapSource, parse_scene, resolve};
 use caustica::trace::Accel;
-use common::*;
 use std::time::Duration;
 
 const PHOTONS: u64 = 50_000;
 
 /// The same render through the library: components of the canonical scene at 64×64.
 fn library_components() -> reference::Components {
-    let desc = parse_scene(SCENE.as_bytes()).unwrap();
-    let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+    let mut w = scenes::parse(SCENE);
     w.camera.width = 64;
     w.camera.height = 64;
     let accel = Accel::build(&w);
@@ -254,7 +253,7 @@ async fn a_render_past_its_job_time_limit_is_a_504_problem() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn csl_render_bakes_first_then_reuses_the_bake() {
     use caustica::bake::csl::{CslParams, cache};
-    use caustica::render::{CslLayer, RenderOptions, Renderer};
+    use caustica::render::{CslLayer, RenderOptions};
     let srv = Server::start("render-csl", |_, _| {}).await;
     let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     let req = serde_json::json!({
@@ -280,8 +279,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
 
     // The library path: same bake parameters, same renderer pass.
     let want = tokio::task::spawn_blocking(|| {
-        let desc = parse_scene(SCENE.as_bytes()).unwrap();
-        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        let mut w = scenes::parse(SCENE);
         w.camera.width = 64;
         w.camera.height = 64;
         let params = CslParams {
@@ -289,8 +287,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
             ..CslParams::fast()
         };
         let sets = cache::sets_for_render(&w, &params, &cache::NoStore, &|_, _| true).unwrap();
-        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
-        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        let mut r = gpu::renderer();
         let layer = CslLayer::from_sets(&w, &sets);
         r.render_csl(&w, &RenderOptions::default(), Some(&layer))
             .unwrap()
@@ -299,7 +296,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
     })
     .await
     .unwrap();
-    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let peak = images::peak(&want);
     assert!(peak > 1.0, "a caustic: {peak}");
     let worst = got
         .pixels
@@ -345,7 +342,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn transport_render_bakes_first_then_reuses_the_table() {
     use caustica::bake::transport::{TransportParams, bake_transport, eval};
-    use caustica::render::{Renderer, TransportLayer};
+    use caustica::render::TransportLayer;
     let srv = Server::start("render-transport", |_, _| {}).await;
     let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     scene["objects"][1]["shape"]["segments"] = 32.into();
@@ -370,14 +367,12 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
 
     let text = scene.to_string();
     let want = tokio::task::spawn_blocking(move || {
-        let desc = parse_scene(text.as_bytes()).unwrap();
-        let mut w = resolve(&desc, &MapSource::default(), &Limits::default()).unwrap();
+        let mut w = scenes::parse(&text);
         w.camera.width = 64;
         w.camera.height = 64;
         let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
         let layer = TransportLayer::build(&w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).unwrap();
-        let ctx = caustica::gpu::GpuContext::new(&Default::default()).unwrap();
-        let mut r = Renderer::new(std::sync::Arc::new(ctx)).unwrap();
+        let mut r = gpu::renderer();
         r.render_transport(&w, &Default::default(), &layer)
             .unwrap()
             .caustics
@@ -385,7 +380,7 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
     })
     .await
     .unwrap();
-    let peak = want.pixels.iter().map(|p| p.x).fold(0.0f32, f32::max);
+    let peak = images::peak(&want);
     assert!(peak > 1.0, "a caustic: {peak}");
     let worst = got
         .pixels

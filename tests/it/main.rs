@@ -1,0 +1,27 @@
+//! The integration tests, as one binary: each module was a file of its own under `tests/`, and
+//! so a binary of its own linking wgpu, axum and rusqlite; `support` holds what several of them
+//! share. One module alone: `cargo test --test it cli::`.
+
+mod support;
+
+mod cli;
+mod csl_bake;
+mod csl_cli;
+mod csl_dynamic;
+mod csl_gpu;
+mod csl_quality;
+mod gltf_import;
+mod gpu_direct;
+mod gpu_vs_reference;
+mod http_bad_input;
+mod http_bakes;
+mod http_concurrency;
+mod http_no_gpu;
+mod http_openapi;
+mod http_render;
+mod http_restart;
+mod reference;
+mod schema;
+mod shaders_naga;
+mod transport_bake;
+mod transport_render;
