@@ -112,7 +112,7 @@ pub fn openapi() -> &'static serde_json::Value {
     static DOC: std::sync::OnceLock<serde_json::Value> = std::sync::OnceLock::new();
     DOC.get_or_init(|| {
         serde_yaml_ng::from_str(include_str!("../../api/openapi.yaml"))
-            .expect("api/openapi.yaml parses (checked by tests/http_openapi.rs)")
+            .expect("api/openapi.yaml parses (checked by the http_openapi tests)")
     })
 }
 

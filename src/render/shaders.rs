@@ -12,7 +12,6 @@ pub const FILES: &[(&str, &str)] = &[
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
-    ("csl.wgsl", include_str!("../../shaders/csl.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     (
         "transport.wgsl",

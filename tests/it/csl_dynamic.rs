@@ -11,9 +11,10 @@
 
 use crate::support::{gpu, images, scenes};
 use caustica::bake::csl::dynamic::{DynamicParams, DynamicSet, Icosphere, bake_dynamic};
-use caustica::bake::csl::{CslParams, CslSet, cache, eval};
-use caustica::encode::Frame;
+use caustica::bake::csl::{CslParams, CslSet};
+use caustica::frame::Frame;
 use caustica::reference::compare;
+use caustica::render::csl::eval;
 use caustica::render::{CslLayer, RenderOptions};
 use caustica::scene::World;
 use caustica::trace::Accel;
@@ -110,15 +111,7 @@ fn off_the_bake_directions_the_caustics_match_the_reference() {
         let accel = Accel::build(&world);
         let mask = compare::object_mask(&world, &accel, "floor");
         let cpu = compare::compare(&caustics(&world, &set, 3), &reference, &mask);
-        let sets = cache::RenderSets {
-            sets: vec![cache::ObjectSet {
-                object: oi,
-                set,
-                cached: true,
-            }],
-            light: light(&world),
-        };
-        let layer = CslLayer::from_sets(&world, &sets);
+        let layer = CslLayer::new(&world, &[(oi, &set)], light(&world).1);
         let gpu = renderer
             .render_csl(&world, &RenderOptions::default(), Some(&layer))
             .unwrap()

@@ -1,9 +1,9 @@
 //! The GPU CSL evaluation (shaders/csl.inc.wgsl) against the CPU one (bake::csl::eval) on a
 //! baked glass sphere, point for point. Needs an adapter (lavapipe in CI).
 
+use crate::support::csl_points::CslEvaluator;
 use crate::support::{gpu, scenes};
 use caustica::bake::csl::{CslParams, bake_csl};
-use caustica::render::csl::CslEvaluator;
 use caustica::scene;
 use glam::Vec3;
 
@@ -106,21 +106,23 @@ fn sphere_scene(wall: bool) -> scene::World {
 /// whose light it stops must lose their caustic on both CPU and GPU, the others keep it.
 #[test]
 fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
-    use caustica::bake::csl::{CslSet, cache, eval};
+    use caustica::bake::csl::CslSet;
+    use caustica::methods::{ArtifactStore, csl};
     use caustica::reference::compare;
+    use caustica::render::csl::eval;
     use caustica::render::{CslLayer, RenderOptions};
     use caustica::trace::Accel;
     let mut renderer = gpu::renderer();
-    let params = CslParams {
-        grid: 256,
-        ..CslParams::fast()
-    };
+    let params =
+        csl::BakeParams::parse(&serde_json::json!({"preset": "fast", "grid": 256}), "").unwrap();
     let mut flux_half = Vec::new();
     for wall in [false, true] {
         let world = sphere_scene(wall);
-        let sets = cache::sets_for_render(&world, &params, &cache::NoStore, &|_, _| true).unwrap();
-        assert_eq!(sets.sets.len(), 1, "one caustic object");
-        let layer = CslLayer::from_sets(&world, &sets);
+        let (dir, irradiance) = scenes::directional_light(&world);
+        let sets =
+            csl::sets_for_render(&world, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
+        assert_eq!(sets.len(), 1, "one caustic object");
+        let layer = CslLayer::new(&world, &[(sets[0].object, &sets[0].set)], irradiance);
         let out = renderer
             .render_csl(&world, &RenderOptions::default(), Some(&layer))
             .unwrap();
@@ -128,7 +130,7 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
         let accel = Accel::build(&world);
         let glass = scenes::object_index(&world, "glass");
         let blockers = scenes::blockers(&world, glass);
-        let csls = sets.sets[0]
+        let csls = sets[0]
             .set
             .to_world(CslSet::rigid_transform(&world.objects[glass]));
         let cpu = eval::render_caustics(&world, &accel, &blockers, &csls, layer.irradiance, 1);

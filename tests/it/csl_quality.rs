@@ -29,8 +29,9 @@
 //! about half of the reference's light).
 
 use crate::support::{gpu, images, scenes};
-use caustica::bake::csl::{CslParams, CslSet, bake_csl, cache, eval};
+use caustica::bake::csl::{CslParams, CslSet, bake_csl};
 use caustica::reference::compare;
+use caustica::render::csl::eval;
 use caustica::render::{CslLayer, RenderOptions};
 use caustica::trace::Accel;
 
@@ -59,15 +60,7 @@ fn glass_sphere_caustics_match_the_reference() {
     // and the product path, the GPU pass at one sample per pixel.
     let cpu = eval::render_caustics(&world, &accel, &blockers, &csls, irradiance, 6);
     let mut renderer = gpu::renderer();
-    let sets = cache::RenderSets {
-        sets: vec![cache::ObjectSet {
-            object: oi,
-            set,
-            cached: false,
-        }],
-        light: (direction, irradiance),
-    };
-    let layer = CslLayer::from_sets(&world, &sets);
+    let layer = CslLayer::new(&world, &[(oi, &set)], irradiance);
     let gpu = renderer
         .render_csl(&world, &RenderOptions::default(), Some(&layer))
         .unwrap()

@@ -252,7 +252,7 @@ async fn a_render_past_its_job_time_limit_is_a_504_problem() {
 /// pass); a second render of the same object and light finds the bake by content hash.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn csl_render_bakes_first_then_reuses_the_bake() {
-    use caustica::bake::csl::{CslParams, cache};
+    use caustica::methods::{ArtifactStore, csl};
     use caustica::render::{CslLayer, RenderOptions};
     let srv = Server::start("render-csl", |_, _| {}).await;
     let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
@@ -278,17 +278,17 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
     );
 
     // The library path: same bake parameters, same renderer pass.
-    let want = tokio::task::spawn_blocking(|| {
+    let csl_params = req["csl"].clone();
+    let want = tokio::task::spawn_blocking(move || {
         let mut w = scenes::parse(SCENE);
         w.camera.width = 64;
         w.camera.height = 64;
-        let params = CslParams {
-            grid: 128,
-            ..CslParams::fast()
-        };
-        let sets = cache::sets_for_render(&w, &params, &cache::NoStore, &|_, _| true).unwrap();
+        let params = csl::BakeParams::parse(&csl_params, "csl").unwrap();
+        let (dir, irradiance) = scenes::directional_light(&w);
+        let sets =
+            csl::sets_for_render(&w, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
         let mut r = gpu::renderer();
-        let layer = CslLayer::from_sets(&w, &sets);
+        let layer = CslLayer::new(&w, &[(sets[0].object, &sets[0].set)], irradiance);
         r.render_csl(&w, &RenderOptions::default(), Some(&layer))
             .unwrap()
             .caustics
@@ -341,8 +341,9 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
 /// a second render finds the table by content hash; a scene without glass is refused.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn transport_render_bakes_first_then_reuses_the_table() {
-    use caustica::bake::transport::{TransportParams, bake_transport, eval};
+    use caustica::bake::transport::{TransportParams, bake_transport};
     use caustica::render::TransportLayer;
+    use caustica::render::transport::volumes;
     let srv = Server::start("render-transport", |_, _| {}).await;
     let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     scene["objects"][1]["shape"]["segments"] = 32.into();
@@ -371,7 +372,8 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
         w.camera.width = 64;
         w.camera.height = 64;
         let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
-        let layer = TransportLayer::build(&w, &[(1, &table)], eval::DEFAULT_LINE_POINTS).unwrap();
+        let layer =
+            TransportLayer::build(&w, &[(1, &table)], volumes::DEFAULT_LINE_POINTS).unwrap();
         let mut r = gpu::renderer();
         r.render_transport(&w, &Default::default(), &layer)
             .unwrap()

@@ -1,5 +1,6 @@
-//! Every WGSL file under shaders/ parses and validates with naga, after the same `#include`
-//! expansion the renderer does (reading the included files from disk).
+//! Every WGSL file under shaders/ (and the tests' own, under tests/it/support/) parses and
+//! validates with naga, after the same `#include` expansion the renderer does (reading the
+//! included files from shaders/ on disk).
 
 use crate::support::repo_path;
 use caustica::render::shaders::{FILES, expand_includes};
@@ -24,16 +25,23 @@ fn validate(name: &str, src: &str) -> Result<(), String> {
 fn every_wgsl_file_validates() {
     let dir = shader_dir();
     let lookup = |n: &str| std::fs::read_to_string(dir.join(n)).ok();
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| n.ends_with(".wgsl"))
-        .collect();
-    names.sort();
-    assert!(names.len() >= 3, "expected shaders, found {names:?}");
+    let wgsl_in = |dir: PathBuf| {
+        let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "wgsl"))
+            .collect();
+        paths.sort();
+        paths
+    };
+    let renderer = wgsl_in(dir.clone());
+    assert!(renderer.len() >= 3, "expected shaders, found {renderer:?}");
+    let tests = wgsl_in(repo_path("tests/it/support"));
+    assert!(!tests.is_empty(), "the tests' compute shader");
     let mut failures = Vec::new();
-    for name in &names {
-        let raw = std::fs::read_to_string(dir.join(name)).unwrap();
+    for path in renderer.iter().chain(&tests) {
+        let name = &path.display().to_string();
+        let raw = std::fs::read_to_string(path).unwrap();
         assert!(
             raw.trim_start().starts_with("//"),
             "{name} must start with a comment paragraph of intent"

@@ -9,12 +9,11 @@
 //! references were rendered with 256.
 
 use crate::support::{gpu, images, scenes};
-use caustica::bake::transport::{
-    TransportParams, TransportTable, bake_transport, eval, table_vertices,
-};
-use caustica::encode::Frame;
+use caustica::bake::transport::{TransportParams, TransportTable, bake_transport, table_vertices};
+use caustica::frame::Frame;
 use caustica::reference::compare;
 use caustica::render::TransportLayer;
+use caustica::render::transport::volumes;
 use caustica::scene::World;
 use caustica::trace::Accel;
 use caustica::trace::optics::{fresnel_dielectric, refract};
@@ -39,10 +38,10 @@ fn bake(world: &World, rings: u32, azimuths: u32) -> TransportTable {
 /// The CPU caustics layer of `world` from `table`.
 fn cpu_caustics(world: &World, table: &TransportTable) -> (Frame, TransportLayer) {
     let oi = scenes::object_index(world, "glass");
-    let layer = TransportLayer::build(world, &[(oi, table)], eval::DEFAULT_LINE_POINTS).unwrap();
+    let layer = TransportLayer::build(world, &[(oi, table)], volumes::DEFAULT_LINE_POINTS).unwrap();
     let accel = Accel::build(world);
     let blockers = scenes::blockers(world, oi);
-    let img = eval::render_caustics(world, &accel, Some(&blockers), &layer.volumes);
+    let img = volumes::render_caustics(world, &accel, Some(&blockers), &layer.volumes);
     (img, layer)
 }
 
@@ -77,7 +76,7 @@ fn lookup_interpolates_the_sphere_in_closed_form() {
                 let frame = caustica::bake::transport::tangent_frame(verts[i].normal);
                 let w = caustica::bake::transport::sampling_direction(frame, phi, theta);
                 let s = table.sample(i, j);
-                let e = eval::lookup(&table, i, &verts[i], w).unwrap();
+                let e = volumes::lookup(&table, i, &verts[i], w).unwrap();
                 assert!((e.position - s.position).length() < 1e-4, "{i} {j}");
                 assert!((e.direction - s.direction).length() < 1e-3, "{i} {j}");
                 assert!(
@@ -104,7 +103,7 @@ fn lookup_interpolates_the_sphere_in_closed_form() {
             if w.dot(nn) > -0.2 {
                 continue;
             }
-            let Some(e) = eval::lookup(&table, i, &v, w) else {
+            let Some(e) = volumes::lookup(&table, i, &v, w) else {
                 panic!("vertex {i} normal {:?} w {w:?}: no exit", v.normal);
             };
             let d1 = refract(w, nn, 1.0 / 1.5).unwrap();
@@ -137,7 +136,7 @@ fn lookup_interpolates_the_sphere_in_closed_form() {
     );
     // From below the tangent plane: no light.
     let i = 0;
-    assert!(eval::lookup(&bake(&world, 8, 16), i, &verts[i], verts[i].normal).is_none());
+    assert!(volumes::lookup(&bake(&world, 8, 16), i, &verts[i], verts[i].normal).is_none());
 }
 
 /// Every volume's flux lands: integrating the footprint-averaged irradiance over cells that
@@ -147,8 +146,8 @@ fn lookup_interpolates_the_sphere_in_closed_form() {
 fn volumes_conserve_flux_on_a_plane() {
     let world = sphere_scene("glass-sphere-directional", 16, |s| s);
     let table = bake(&world, 8, 16);
-    let sources = eval::sources(&world.lights, 16);
-    let (vols, stats) = eval::build_volumes(&world, "glass", &table, &sources, None).unwrap();
+    let sources = volumes::sources(&world.lights, 16);
+    let (vols, stats) = volumes::build_volumes(&world, "glass", &table, &sources, None).unwrap();
     assert!(stats.volumes > 50, "{stats:?}");
     let half = 4.0f32;
     let mut expect = 0.0f64;
@@ -196,8 +195,8 @@ fn volumes_conserve_flux_on_a_plane() {
 #[test]
 fn reflection_volumes_carry_the_fresnel_reflected_flux() {
     let world = sphere_scene("glass-sphere-directional", 96, |s| s);
-    let sources = eval::sources(&world.lights, 16);
-    let (vols, stats) = eval::build_reflection_volumes(&world, "glass", &sources, None).unwrap();
+    let sources = volumes::sources(&world.lights, 16);
+    let (vols, stats) = volumes::build_reflection_volumes(&world, "glass", &sources, None).unwrap();
     let n = 20_000;
     let mean_r: f64 = (0..n)
         .map(|k| {
@@ -346,7 +345,7 @@ fn moving_and_turning_the_object_reuses_the_table() {
     );
     // Another mesh: refused with a message.
     let other = sphere_scene("glass-sphere-directional", 40, |s| s);
-    let err = eval::build_volumes(&other, "glass", &table, &[], None).unwrap_err();
+    let err = volumes::build_volumes(&other, "glass", &table, &[], None).unwrap_err();
     assert!(err.to_string().contains("does not fit object"), "{err}");
 }
 
@@ -388,7 +387,7 @@ fn building_the_volumes_can_be_canceled() {
     let table = bake(&world, 4, 8);
     let tables = [(scenes::object_index(&world, "glass"), &table)];
     let err = TransportLayer::build_with(&world, &tables, 16, &|| false).unwrap_err();
-    assert!(matches!(err, eval::EvalError::Canceled), "{err}");
+    assert!(matches!(err, volumes::EvalError::Canceled), "{err}");
     let layer = TransportLayer::build_with(&world, &tables, 16, &|| true).unwrap();
     assert!(layer.stats.volumes > 0);
 }

@@ -2,11 +2,9 @@
 //! inside the direct pass (`shaders/direct.wgsl` with `CSL_LAYER`, the evaluation in
 //! `shaders/csl.inc.wgsl`, occlusion by the non-caustic objects in `shaders/occlusion.inc.wgsl`
 //! over [`super::blockers`]). Here: the frame's CSLs ([`CslLayer`]) and their packing for
-//! upload; the CPU evaluation the pass is checked against ([`eval`]); a compute evaluation at
-//! points ([`points`]).
+//! upload; the CPU evaluation the pass is checked against ([`eval`]).
 
 pub mod eval;
-pub mod points;
 
 use crate::bake::csl::{Csl, CslSet};
 use crate::scene::World;

@@ -1,7 +1,8 @@
 //! Images the tests read: frames from EXR files, the stored references under `tests/data/`, and
 //! the measure of a frame several modules take.
 
-use caustica::encode::{Frame, decode_frame};
+use caustica::encode::decode_frame;
+use caustica::frame::Frame;
 use std::path::Path;
 
 /// The frame in an image file (EXR, or whatever [`decode_frame`] reads).

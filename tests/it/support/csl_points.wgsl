@@ -1,6 +1,6 @@
 // CSL evaluation at a list of receiver points (position, normal): the summed irradiance of all
-// CSLs per unit light irradiance, without occlusion. It runs the same functions a per-pixel
-// caustics pass uses (csl.inc.wgsl) and is what tests/csl_gpu.rs checks against the CPU.
+// CSLs per unit light irradiance, without occlusion. It runs the same functions the per-pixel
+// CSL pass uses (shaders/csl.inc.wgsl); the csl_gpu tests check it against the CPU.
 
 struct Params {
     csl_count: u32,

@@ -1,12 +1,25 @@
-//! A compute entry (shaders/csl.wgsl) that evaluates CSL sets at a list of receiver points
-//! with the functions of the CSL pass (shaders/csl.inc.wgsl).
+//! A compute entry (`csl_points.wgsl` beside this file) that evaluates CSL sets at a list of
+//! receiver points with the functions of the CSL pass (shaders/csl.inc.wgsl): the csl_gpu
+//! tests check the GPU's CSL evaluation against the CPU's at arbitrary points and normals.
 
-use super::{GpuCsl, pack};
-use crate::bake::csl::Csl;
-use crate::gpu::{GpuContext, GpuError};
 use bytemuck::Zeroable;
+use caustica::bake::csl::Csl;
+use caustica::gpu::{GpuContext, GpuError};
+use caustica::render::csl::{GpuCsl, pack};
+use caustica::render::shaders::{FILES, expand_includes};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
+
+/// The compute shader with the renderer's includes expanded.
+pub fn source() -> String {
+    let lookup = |n: &str| {
+        FILES
+            .iter()
+            .find(|(f, _)| *f == n)
+            .map(|(_, s)| s.to_string())
+    };
+    expand_includes(include_str!("csl_points.wgsl"), &lookup).expect("includes expand")
+}
 
 /// Compute pipeline evaluating CSL sets at points.
 pub struct CslEvaluator {
@@ -49,8 +62,8 @@ impl CslEvaluator {
                 ],
             });
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("csl.wgsl"),
-                source: wgpu::ShaderSource::Wgsl(crate::render::shaders::source("csl.wgsl").into()),
+                label: Some("csl_points.wgsl"),
+                source: wgpu::ShaderSource::Wgsl(source().into()),
             });
             let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("csl eval"),
