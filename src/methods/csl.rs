@@ -10,8 +10,8 @@
 
 use super::{
     ArtifactKind, ArtifactStore, BakePlan, Baked, Env, Frames, Lane, Method, MethodArgs,
-    MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, caustic_objects, from_value,
-    scaled_progress,
+    MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, bake_object, canonical,
+    caustic_objects, from_value, scaled_progress,
 };
 use crate::bake::csl::dynamic::{self, DynamicParams, DynamicProgress, DynamicSet, bake_dynamic};
 use crate::bake::csl::{CslParams, CslSet, bake_csl, csl_source_hash, scene_directional_light};
@@ -59,7 +59,7 @@ impl MethodImpl for Csl {
         v: &serde_json::Value,
         at: &str,
     ) -> Result<serde_json::Value, ParamError> {
-        Ok(serde_json::to_value(BakeParams::parse(v, at)?).expect("params serialise"))
+        Ok(canonical(BakeParams::parse(v, at)?))
     }
 
     fn plan_bake(
@@ -70,18 +70,14 @@ impl MethodImpl for Csl {
         _: &Limits,
     ) -> Result<Box<dyn BakePlan>, MethodError> {
         let params = BakeParams::parse(params, "params")?;
-        let object = match object {
-            Some(o) => o.to_string(),
-            None => caustic_objects(&world)
-                .first()
-                .map(|&i| world.objects[i].name.clone())
-                .ok_or_else(|| {
-                    ParamError::new("object", "the scene has no glass or mirror object to bake")
-                })?,
-        };
-        let obj = world
-            .object(&object)
-            .ok_or_else(|| MethodError::UnknownObject(object.clone()))?;
+        let oi = bake_object(
+            &world,
+            object,
+            &caustic_objects(&world),
+            "glass or mirror object",
+        )?;
+        let obj = &world.objects[oi];
+        let object = obj.name.clone();
         // A static bake is for the scene's light, in the object's rigid frame; a dynamic bake
         // serves every direction.
         let light = if params.dynamic {

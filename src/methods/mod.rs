@@ -480,17 +480,32 @@ fn no_bake(info: &MethodInfo) -> ParamError {
 
 /// Indices of the objects with a glass or mirror part: the objects that cast caustics.
 pub fn caustic_objects(world: &World) -> Vec<usize> {
-    world
-        .objects
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| {
-            o.parts
-                .iter()
-                .any(|p| world.materials[p.material as usize].is_specular())
-        })
-        .map(|(i, _)| i)
-        .collect()
+    world.objects_with(crate::scene::Material::is_specular)
+}
+
+/// The object a bake is for: `object` by name, or the first of `candidates` (the method's
+/// objects of the scene, `what` in the error when there is none); its index.
+pub(crate) fn bake_object(
+    world: &World,
+    object: Option<&str>,
+    candidates: &[usize],
+    what: &str,
+) -> Result<usize, MethodError> {
+    match object {
+        Some(name) => world
+            .objects
+            .iter()
+            .position(|o| o.name == name)
+            .ok_or_else(|| MethodError::UnknownObject(name.into())),
+        None => candidates.first().copied().ok_or_else(|| {
+            ParamError::new("object", format!("the scene has no {what} to bake")).into()
+        }),
+    }
+}
+
+/// The canonical form of checked bake parameters (what a bake id is computed from).
+pub(crate) fn canonical(params: impl Serialize) -> serde_json::Value {
+    serde_json::to_value(params).expect("bake parameters serialise")
 }
 
 /// The progress callback of a bake inside a render: its fraction mapped into `lo..hi` of the

@@ -5,7 +5,7 @@
 
 use super::{
     BakePlan, Baked, Component, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
-    MethodInfo, ParamError, RenderPlan, from_value,
+    MethodInfo, ParamError, RenderPlan, canonical, from_value,
 };
 use crate::reference::{self, Components, ReferenceParams, ReferenceStats};
 use crate::scene::{Limits, World};
@@ -49,8 +49,7 @@ impl MethodImpl for Reference {
         v: &serde_json::Value,
         at: &str,
     ) -> Result<serde_json::Value, ParamError> {
-        let p = BakeParams::parse(v, at)?;
-        Ok(serde_json::to_value(p).expect("params serialise"))
+        Ok(canonical(BakeParams::parse(v, at)?))
     }
 
     fn plan_bake(

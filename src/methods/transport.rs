@@ -10,7 +10,7 @@
 
 use super::{
     ArtifactKind, BakePlan, Baked, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
-    MethodInfo, ParamError, RenderPlan, from_value, scaled_progress,
+    MethodInfo, ParamError, RenderPlan, bake_object, canonical, from_value, scaled_progress,
 };
 use crate::bake::Progress;
 use crate::bake::transport::{
@@ -63,7 +63,7 @@ impl MethodImpl for Transport {
         v: &serde_json::Value,
         at: &str,
     ) -> Result<serde_json::Value, ParamError> {
-        Ok(serde_json::to_value(BakeParams::parse(v, at)?).expect("params serialise"))
+        Ok(canonical(BakeParams::parse(v, at)?))
     }
 
     fn plan_bake(
@@ -75,16 +75,7 @@ impl MethodImpl for Transport {
     ) -> Result<Box<dyn BakePlan>, MethodError> {
         let params = BakeParams::parse(params, "params")?;
         let glass = refractive_objects(&world);
-        let oi = match object {
-            Some(name) => world
-                .objects
-                .iter()
-                .position(|o| o.name == name)
-                .ok_or_else(|| MethodError::UnknownObject(name.into()))?,
-            None => *glass.first().ok_or_else(|| {
-                ParamError::new("object", "the scene has no glass object to bake")
-            })?,
-        };
+        let oi = bake_object(&world, object, &glass, "glass object")?;
         let object = world.objects[oi].name.clone();
         if !glass.contains(&oi) {
             return Err(ParamError::new(

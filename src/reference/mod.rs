@@ -164,7 +164,7 @@ pub fn render(
     let t0 = Instant::now();
 
     // --- Photon pass -----------------------------------------------------------------------
-    let pops = populations(world, accel, params.photons);
+    let pops = populations(world, params.photons);
     let mut caustics = vec![Vec3::ZERO; (w * h) as usize];
     let mut indirect = vec![Vec3::ZERO; (w * h) as usize];
     let mut photons: Vec<Photon> = Vec::new();
@@ -373,18 +373,8 @@ fn cone_cos(p: Vec3, c: Vec3, r: f32) -> f32 {
     }
 }
 
-fn populations(world: &World, accel: &Accel, photons: u64) -> Vec<Population> {
-    let specular_objects: Vec<usize> = world
-        .objects
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| {
-            o.parts
-                .iter()
-                .any(|p| accel.materials[p.material as usize].is_specular())
-        })
-        .map(|(i, _)| i)
-        .collect();
+fn populations(world: &World, photons: u64) -> Vec<Population> {
+    let specular_objects = world.objects_with(Material::is_specular);
     let (lo, hi) = world.bounds();
     let scene_centre = (lo + hi) * 0.5;
     let scene_radius = ((hi - lo).length() * 0.5).max(1e-3) * 1.001;

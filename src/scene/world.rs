@@ -306,6 +306,21 @@ pub struct World {
 }
 
 impl World {
+    /// Indices of the objects with a part whose material `pick` accepts (e.g.
+    /// [`Material::is_specular`]: the objects that cast caustics).
+    pub fn objects_with(&self, pick: impl Fn(&Material) -> bool) -> Vec<usize> {
+        self.objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| {
+                o.parts
+                    .iter()
+                    .any(|p| pick(&self.materials[p.material as usize]))
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(Object::triangle_count).sum()
     }

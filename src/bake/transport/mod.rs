@@ -464,20 +464,7 @@ pub fn check_table_size(vertices: usize, params: &TransportParams) -> Result<(),
 /// Indices into `World::objects` of the objects with a dielectric part (those a table can be
 /// baked for), in scene order.
 pub fn refractive_objects(world: &World) -> Vec<usize> {
-    world
-        .objects
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| {
-            o.parts.iter().any(|p| {
-                matches!(
-                    world.materials[p.material as usize],
-                    Material::Dielectric { .. }
-                )
-            })
-        })
-        .map(|(i, _)| i)
-        .collect()
+    world.objects_with(|m| matches!(m, Material::Dielectric { .. }))
 }
 
 /// Hash of everything the bake reads: the object's meshes, materials and scale, and the

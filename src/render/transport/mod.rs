@@ -320,22 +320,8 @@ pub struct GBuffer {
 
 impl GBuffer {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
-        let tex = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        let tex =
+            |label, format, usage| super::texture_2d(device, label, (width, height), format, usage);
         let color = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         GBuffer {
             width,
