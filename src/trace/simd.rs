@@ -76,3 +76,29 @@ macro_rules! dispatch {
 }
 
 pub(crate) use dispatch;
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn dispatch_takes_the_first_build_the_processor_has() {
+        // `as NAME` is true in the builds for a feature, false in the portable one.
+        let wide = dispatch!(["avx512f", "avx2"] as WIDE, fn() -> bool { WIDE });
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(
+            wide,
+            std::arch::is_x86_feature_detected!("avx512f")
+                || std::arch::is_x86_feature_detected!("avx2")
+        );
+        #[cfg(not(target_arch = "x86_64"))]
+        assert!(!wide);
+        // Parameters take the caller's variable of their name or the value given; the body may
+        // write through a `&mut` one and return nothing.
+        let (x, y) = (3u32, 4u32);
+        let mut out = 0;
+        dispatch!(
+            ["avx2"],
+            fn(x: u32, z: u32 = y + 1, out: &mut u32 = &mut out) { *out = x * z }
+        );
+        assert_eq!(out, 15);
+    }
+}
