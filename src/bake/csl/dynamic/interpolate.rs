@@ -70,11 +70,12 @@ impl DynamicSet {
     }
 }
 
-/// Spherical interpolation of unit vectors with the barycentric weights of [`Icosphere::locate`]:
-/// those are gnomonic (the point on the face's plane), so the blend that agrees with them is the
-/// normalised weighted sum, which carries the three icosahedron directions exactly onto the
-/// light direction; on an edge it runs along the great arc, and at a corner it is that corner's
-/// vector. (Nested slerps of the same weights missed a face centre by 1.5° at 63° spacing.)
+/// Spherical interpolation of unit vectors with the barycentric weights of
+/// [`Icosphere::locate`](super::Icosphere::locate): those are gnomonic (the point on the face's
+/// plane), so the blend that agrees with them is the normalised weighted sum, which carries the
+/// three icosahedron directions exactly onto the light direction; on an edge it runs along the
+/// great arc, and at a corner it is that corner's vector. (Nested slerps of the same weights
+/// missed a face centre by 1.5° at 63° spacing.)
 fn blend_axes(members: &[(&Csl, f32)]) -> Vec3 {
     members
         .iter()
