@@ -10,9 +10,10 @@
 /// it is where it has none of them (and on other architectures than x86-64):
 ///
 /// ```ignore
-/// crate::trace::simd::dispatch!(["avx512f", "avx2"], fn(terms: &Terms = self, p: [f64; 5]) -> f64 {
-///     terms.sum(p)
-/// })
+/// crate::trace::simd::dispatch!(
+///     ["avx512f", "avx2"],
+///     fn(terms: &Terms = self, p: [f64; 5]) -> f64 { terms.sum(p) }
+/// )
 /// ```
 ///
 /// - The features, in order of preference, are string literals as `#[target_feature(enable)]`
@@ -56,8 +57,8 @@ macro_rules! dispatch {
                 $body
             }
             if ::std::arch::is_x86_feature_detected!($feature) {
-                // SAFETY: `simd_clone` is compiled for `$feature` (and what it implies) alone,
-                // and the processor has it (detected just above).
+                // SAFETY: the processor has `$feature` (detected just above), the one feature
+                // `simd_clone` is compiled with.
                 return unsafe { simd_clone($($arg),*) };
             }
         }
