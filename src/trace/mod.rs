@@ -4,6 +4,7 @@
 //! reflection, Beer-Lambert) that bakes and the reference share. No GPU.
 
 pub mod optics;
+pub(crate) mod simd;
 mod wide;
 
 use crate::scene::{Material, World};

@@ -59,6 +59,7 @@ pub struct Branch {
 /// dielectric below the critical angle, the refraction, each weighted by Fresnel (mirrors reflect
 /// with their reflectance). Absorption along the segment that reached the hit is *not* included;
 /// see [`segment_transmittance`].
+#[inline]
 pub fn specular_branches(hit: &Hit, dir: Vec3, mat: &Material) -> [Option<Branch>; 2] {
     match *mat {
         Material::Mirror { reflectance } => [

@@ -17,6 +17,7 @@
 //! triangle and distance as obvhs's traversal gives, except where two triangles lie at exactly
 //! the same distance (a ray through a shared edge): the visiting order picks one of them.
 
+use super::simd;
 use obvhs::{cwbvh::CwBvh, ray::Ray, rt_triangle::RtTriangle};
 
 /// Set in [`Node::child`] for a leaf: then bit k (k < 24) is set for each of its triangles,
@@ -72,9 +73,6 @@ pub(crate) struct WideBvh {
     /// The absolute part of [`WideBvh::closest_packet`]'s margin: [`NEAR_ABS`] of the largest
     /// coordinate magnitude of the tree's bounds.
     near_abs: f32,
-    /// Whether the processor has AVX2, for the eight-lane tests (read on x86-64 only).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-    avx2: bool,
 }
 
 impl WideBvh {
@@ -170,10 +168,6 @@ impl WideBvh {
                 }
             }
         }
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = false;
         let root = &nodes[0];
         let extent = (0..8)
             .filter(|s| root.used & (1 << s) != 0)
@@ -183,7 +177,6 @@ impl WideBvh {
             near_abs: NEAR_ABS * extent,
             nodes,
             tris: blocks,
-            avx2,
         })
     }
 
@@ -191,18 +184,12 @@ impl WideBvh {
     /// and distance.
     #[inline]
     pub(crate) fn closest(&self, ray: &Ray) -> Option<(u32, f32)> {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the processor has AVX2 (checked when the tree was built).
-            return unsafe { self.closest_avx2(ray) };
-        }
-        self.closest_in::<false>(ray)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn closest_avx2(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_in::<true>(ray)
+        simd::dispatch!(
+            ["avx2"] as AVX,
+            fn(tree: &WideBvh = self, ray: &Ray) -> Option<(u32, f32)> {
+                tree.closest_in::<AVX>(ray)
+            }
+        )
     }
 
     #[inline(always)]
@@ -220,18 +207,10 @@ impl WideBvh {
     /// Whether any triangle lies along `ray` within (`ray.tmin`, `ray.tmax`].
     #[inline]
     pub(crate) fn any(&self, ray: &Ray) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the processor has AVX2 (checked when the tree was built).
-            return unsafe { self.any_avx2(ray) };
-        }
-        self.any_in::<false>(ray)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn any_avx2(&self, ray: &Ray) -> bool {
-        self.any_in::<true>(ray)
+        simd::dispatch!(
+            ["avx2"] as AVX,
+            fn(tree: &WideBvh = self, ray: &Ray) -> bool { tree.any_in::<AVX>(ray) }
+        )
     }
 
     #[inline(always)]
@@ -258,18 +237,12 @@ impl WideBvh {
     /// the single walk's.
     #[inline]
     pub(crate) fn closest_packet(&self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the processor has AVX2 (checked when the tree was built).
-            return unsafe { self.closest_packet_avx2(rays, out) };
-        }
-        self.closest_packet_in::<false>(rays, out)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn closest_packet_avx2(&self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
-        self.closest_packet_in::<true>(rays, out)
+        simd::dispatch!(
+            ["avx2"] as AVX,
+            fn(tree: &WideBvh = self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
+                tree.closest_packet_in::<AVX>(rays, out)
+            }
+        )
     }
 
     #[inline(always)]

@@ -19,6 +19,7 @@
 //! the axis of the most energetic one.
 
 use super::trace::CausticRay;
+use crate::trace::simd;
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -307,12 +308,12 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
     let mut grid = idx
         .par_chunks(chunk)
         .map(|part| {
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the processor has AVX2 (checked above).
-                return unsafe { rasterise_part_avx2(rays, fixed, part, volume) };
-            }
-            rasterise_part(rays, fixed, part, volume)
+            simd::dispatch!(
+                ["avx2"],
+                fn(rays: &[CausticRay], fixed: &[u64], part: &[u32], volume: Volume) -> Vec<u64> {
+                    rasterise_part(rays, fixed, part, volume)
+                }
+            )
         })
         .reduce_with(|mut a, b| {
             for (x, y) in a.iter_mut().zip(&b) {
@@ -323,12 +324,6 @@ fn rasterise(rays: &[CausticRay], fixed: &[u64], idx: &[u32], volume: Volume) ->
         .unwrap_or_else(|| vec![0; cells]);
     grid.truncate(cells);
     grid
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn rasterise_part_avx2(rays: &[CausticRay], fixed: &[u64], part: &[u32], v: Volume) -> Vec<u64> {
-    rasterise_part(rays, fixed, part, v)
 }
 
 /// The grid of one share of the rays, with eight dummy cells after the last.
@@ -370,12 +365,6 @@ fn splat<const ADD: bool>(
             }
         }
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn subtract_avx2(rays: &[CausticRay], fixed: &[u64], part: &[u32], v: Volume, grid: &mut [u64]) {
-    splat::<false>(rays, fixed, part, v, grid)
 }
 
 /// Number of elements in exactly one of two ascending lists.
@@ -586,12 +575,16 @@ impl Columns {
         range: std::ops::Range<usize>,
         test: impl Fn(Vec3, Vec3) -> bool,
     ) -> Vec<u32> {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the processor has AVX2 (checked above).
-            return unsafe { self.filter_range_avx2(range, test) };
-        }
-        self.filter_range(range, test)
+        simd::dispatch!(
+            ["avx2"],
+            fn(
+                columns: &Columns = self,
+                range: std::ops::Range<usize>,
+                test: impl Fn(Vec3, Vec3) -> bool,
+            ) -> Vec<u32> {
+                columns.filter_range(range, test)
+            }
+        )
     }
 
     /// Ray indices of the rays at positions in `ranges` for which `test` holds, ascending, on
@@ -622,16 +615,6 @@ impl Columns {
             .map(|c| self.filter_range_best(c * SCAN_SHARE..((c + 1) * SCAN_SHARE).min(n), test))
             .collect();
         parts.concat()
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn filter_range_avx2(
-        &self,
-        range: std::ops::Range<usize>,
-        test: impl Fn(Vec3, Vec3) -> bool,
-    ) -> Vec<u32> {
-        self.filter_range(range, test)
     }
 
     #[inline(always)]
@@ -785,17 +768,18 @@ impl<'a> Extractor<'a> {
         if in_place {
             let cells = self.grid.len();
             self.grid.resize(cells + 8, 0);
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the processor has AVX2 (checked above).
-                unsafe {
-                    subtract_avx2(self.rays, &self.fixed, members, self.volume, &mut self.grid)
-                };
-            } else {
-                splat::<false>(self.rays, &self.fixed, members, self.volume, &mut self.grid);
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            splat::<false>(self.rays, &self.fixed, members, self.volume, &mut self.grid);
+            simd::dispatch!(
+                ["avx2"],
+                fn(
+                    rays: &[CausticRay] = self.rays,
+                    fixed: &[u64] = &self.fixed,
+                    part: &[u32] = members,
+                    volume: Volume = self.volume,
+                    grid: &mut [u64] = &mut self.grid,
+                ) {
+                    splat::<false>(rays, fixed, part, volume, grid)
+                }
+            );
             self.grid.truncate(cells);
             return;
         }

@@ -12,6 +12,7 @@
 use super::bundle::{Bundle, det_fold, det_sum};
 use super::optimize::powell;
 use super::trace::CausticRay;
+use crate::trace::simd;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -125,29 +126,10 @@ impl Terms {
     /// same bytes).
     fn objective(&self, ell: f64, kappa: f64, gamma: f64, w: f64, cap: f64) -> f64 {
         let p = [ell, kappa, gamma, w, cap];
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the processor has AVX-512F (checked above).
-            return unsafe { self.sum_avx512(p) };
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the processor has AVX2 (checked above).
-            return unsafe { self.sum_avx2(p) };
-        }
-        self.sum(p)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn sum_avx512(&self, p: [f64; 5]) -> f64 {
-        self.sum(p)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn sum_avx2(&self, p: [f64; 5]) -> f64 {
-        self.sum(p)
+        simd::dispatch!(
+            ["avx512f", "avx2"],
+            fn(terms: &Terms = self, p: [f64; 5]) -> f64 { terms.sum(p) }
+        )
     }
 
     #[inline(always)]
@@ -387,28 +369,21 @@ fn within_cap(
     let parts: Vec<Vec<u32>> = members
         .par_chunks(8192)
         .map(|part| {
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the processor has AVX2 (checked above).
-                return unsafe { within_cap_part_avx2(rays, part, b, a, csl, cap) };
-            }
-            within_cap_part(rays, part, b, a, csl, cap)
+            simd::dispatch!(
+                ["avx2"],
+                fn(
+                    rays: &[CausticRay],
+                    part: &[u32],
+                    line: (DVec3, DVec3) = (b, a),
+                    csl: (f64, f64, f64),
+                    cap: f64,
+                ) -> Vec<u32> {
+                    within_cap_part(rays, part, line.0, line.1, csl, cap)
+                }
+            )
         })
         .collect();
     parts.concat()
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn within_cap_part_avx2(
-    rays: &[CausticRay],
-    part: &[u32],
-    b: DVec3,
-    a: DVec3,
-    csl: (f64, f64, f64),
-    cap: f64,
-) -> Vec<u32> {
-    within_cap_part(rays, part, b, a, csl, cap)
 }
 
 #[inline(always)]

@@ -3,7 +3,7 @@
 //! Beer-Lambert absorption) until they leave it for good.
 
 use super::CslParams;
-use crate::trace::{Accel, optics};
+use crate::trace::{Accel, optics, simd};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -192,17 +192,20 @@ pub fn trace_grid(
             if waved {
                 trace_row_waves(accel, grid, row, params, &mut waves, &mut out, &mut tot);
             } else {
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the processor has AVX2 (checked above).
-                    unsafe {
-                        trace_row_avx2(accel, grid, row, params, &mut stack, &mut out, &mut tot)
-                    };
-                } else {
-                    trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                trace_row(accel, grid, row, params, &mut stack, &mut out, &mut tot);
+                simd::dispatch!(
+                    ["avx2"],
+                    fn(
+                        accel: &Accel,
+                        grid: &RayGrid,
+                        row: Row,
+                        params: &CslParams,
+                        stack: &mut PathStack = &mut stack,
+                        out: &mut Vec<CausticRay> = &mut out,
+                        tot: &mut TraceTotals = &mut tot,
+                    ) {
+                        trace_row(accel, grid, row, params, stack, out, tot)
+                    }
+                );
             }
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if d.is_multiple_of(16) && !progress(d) {
@@ -230,20 +233,6 @@ pub fn trace_grid(
 struct Row<'a> {
     j: u32,
     first: Option<&'a [u32]>,
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn trace_row_avx2(
-    accel: &Accel,
-    grid: &RayGrid,
-    row: Row,
-    params: &CslParams,
-    stack: &mut PathStack,
-    out: &mut Vec<CausticRay>,
-    tot: &mut TraceTotals,
-) {
-    trace_row(accel, grid, row, params, stack, out, tot)
 }
 
 /// The grid rays of one row.
