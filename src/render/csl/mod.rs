@@ -2,9 +2,11 @@
 //! inside the direct pass (`shaders/direct.wgsl` with `CSL_LAYER`, the evaluation in
 //! `shaders/csl.inc.wgsl`, occlusion by the non-caustic objects in `shaders/occlusion.inc.wgsl`
 //! over [`super::blockers`]). Here: the frame's CSLs ([`CslLayer`]) and their packing for
-//! upload; the CPU evaluation the pass is checked against ([`eval`]).
+//! upload; the set of a dynamic bake for the frame's light direction ([`interpolate`]); the CPU
+//! evaluation the pass is checked against ([`eval`]).
 
 pub mod eval;
+pub mod interpolate;
 
 use crate::bake::csl::{Csl, CslSet};
 use crate::scene::World;

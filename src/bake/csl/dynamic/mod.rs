@@ -30,13 +30,12 @@
 //!
 //! The bake is laid out by stage: [`Icosphere`] (the light directions, `icosphere.rs`),
 //! tracking and matching along the edges (`tracking.rs`), the triples of each face
-//! (`triples.rs`), the per-frame interpolation (`interpolate.rs`) and the artifact
-//! (`codec.rs`); this file holds the parameters, the set and [`bake_dynamic`], which runs the
-//! stages in turn.
+//! (`triples.rs`) and the artifact (`codec.rs`); this file holds the parameters, the set and
+//! [`bake_dynamic`], which runs the stages in turn. The per-frame interpolation is on the
+//! render side ([`crate::render::csl::interpolate`]).
 
 mod codec;
 mod icosphere;
-mod interpolate;
 mod tracking;
 mod triples;
 
@@ -412,14 +411,14 @@ impl DynamicSet {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use glam::{Quat, Vec3};
 
     /// Copies of one set turned with the light (what a sphere would give), matched one to one;
     /// the CSL axes lie `tilt` off the light direction and the image blobs `tilt` off centre
     /// (with 0, radially symmetric: no twist of the images' frames can change them).
-    pub(super) fn rotated_copies(sub: u32, tilt: f32) -> DynamicSet {
+    pub(crate) fn rotated_copies(sub: u32, tilt: f32) -> DynamicSet {
         let ico = Icosphere::new(sub);
         let centre = Vec3::new(0.1, 0.5, -0.2);
         let n = 64u32;

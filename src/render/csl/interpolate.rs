@@ -1,10 +1,11 @@
-//! §4.1: the CSL set for any light direction, interpolated from the triples of the face it
-//! passes through. This runs every frame: it is kept to this file and depends on the rest of
-//! the bake only through public items ([`DynamicSet`]'s fields and accessors, [`Triple`](super::Triple),
-//! [`Share`], [`Icosphere::locate`](super::Icosphere::locate)).
+//! Liu et al. 2008 §4.1: the CSL set for any light direction, interpolated from the triples of
+//! the dynamic bake's icosahedron face it passes through. This runs every frame, so it lives on
+//! the render side; it depends on the bake only through public items ([`DynamicSet`]'s fields
+//! and accessors, [`Triple`](crate::bake::csl::dynamic::Triple), [`Share`],
+//! [`Icosphere::locate`](crate::bake::csl::dynamic::Icosphere::locate)).
 
-use super::{DynamicSet, Share};
 use crate::bake::Fnv64;
+use crate::bake::csl::dynamic::{DynamicSet, Share};
 use crate::bake::csl::image::quantise;
 use crate::bake::csl::{Csl, CslSet};
 use glam::{Quat, Vec3};
@@ -178,8 +179,8 @@ fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::rotated_copies;
     use super::*;
+    use crate::bake::csl::dynamic::tests::rotated_copies;
 
     fn same_csl(a: &Csl, b: &Csl, tol: f32) {
         assert!((a.origin - b.origin).length() < tol, "{a:?} {b:?}");
