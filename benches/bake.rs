@@ -3,7 +3,7 @@
 //! cores. The stage times of one bake are printed before timing.
 
 use caustica::bake::csl::dynamic::{DynamicParams, Icosphere, bake_dynamic};
-use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+use caustica::bake::csl::{CslParams, bake_csl};
 use caustica::bake::transport::{TransportParams, bake_transport};
 use caustica::scene;
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -19,7 +19,7 @@ fn bench(c: &mut Criterion) {
     .expect("scene");
     let obj = w.object("glass").expect("glass");
     let (dir, _) = caustica::bake::csl::scene_directional_light(&w).expect("light");
-    let light = CslSet::light_in_object_frame(obj, dir);
+    let light = obj.to_rigid_frame(dir);
     let params = CslParams::paper();
     let once = bake_csl(&w, "glass", light, &params, &|_| true).expect("bake");
     println!(

@@ -2,8 +2,8 @@
 //! random secondary rays) and reference photon paths/s, on the canonical glass-sphere scene
 //! (65k triangles: a 256-segment sphere on a floor).
 
-use caustica::reference::sampling::{Pcg, uniform_sphere};
 use caustica::reference::{self, ReferenceParams};
+use caustica::sampling::{Pcg, uniform_sphere};
 use caustica::scene;
 use caustica::trace::Accel;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -5,6 +5,7 @@
 //!
 //! - [`scene`]: the scene model, JSON schema, glTF import, validation. No GPU, no HTTP.
 //! - [`frame`]: frames and their components (`total`, `direct`, `caustics`, ...).
+//! - [`sampling`]: deterministic random numbers (PCG) and warps, for every layer that samples.
 //! - [`trace`]: CPU ray tracing (an obvhs-built BVH walked eight children at a time, packets,
 //!   closest hit, occlusion, Fresnel/Snell paths, SIMD dispatch).
 //! - [`reference`](mod@reference): photon tracing + camera paths, the ground truth other
@@ -54,5 +55,6 @@ pub mod jobs;
 pub mod methods;
 pub mod reference;
 pub mod render;
+pub mod sampling;
 pub mod scene;
 pub mod trace;

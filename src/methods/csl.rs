@@ -90,7 +90,7 @@ impl MethodImpl for Csl {
                      does not)",
                 )
             })?;
-            Some(CslSet::light_in_object_frame(obj, dir))
+            Some(obj.to_rigid_frame(dir))
         };
         Ok(Box::new(Bake {
             world,
@@ -261,7 +261,7 @@ pub fn sets_for_render(
     for (k, oi) in objects.into_iter().enumerate() {
         let o = &world.objects[oi];
         let part = |f: f32| progress((k as f32 + f) / n);
-        let dir = CslSet::light_in_object_frame(o, light);
+        let dir = o.to_rigid_frame(light);
         let (set, cached, path) = if params.dynamic {
             let dp = params.dynamic_params();
             let key = dynamic::dynamic_source_hash(world, &o.name, &dp)
@@ -328,7 +328,7 @@ fn given_set(
         }
         timings.push(("csl load".into(), t.elapsed()));
         let t = Instant::now();
-        let set = d.interpolate(CslSet::light_in_object_frame(o, light));
+        let set = d.interpolate(o.to_rigid_frame(light));
         timings.push(("csl interpolate".into(), t.elapsed()));
         set
     } else {

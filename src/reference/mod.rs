@@ -30,15 +30,14 @@
 //! their results are summed in chunk order.
 
 pub mod compare;
-pub mod sampling;
 
 use crate::frame::Frame;
+use crate::sampling::*;
 use crate::scene::{Light, Material, World};
 use crate::trace::optics::{brdf, sample_specular, segment_transmittance};
 use crate::trace::{Accel, Hit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use sampling::*;
 use std::time::{Duration, Instant};
 
 /// Reference render settings.

@@ -288,6 +288,19 @@ pub struct Object {
 }
 
 impl Object {
+    /// The object-to-world transform without its scale (rotation and translation): the frame
+    /// bakes work in, with the scale baked in, so that a render moves a bake with the object.
+    pub fn rigid_transform(&self) -> Mat4 {
+        let (_, rot, trans) = self.transform.to_scale_rotation_translation();
+        Mat4::from_rotation_translation(rot, trans)
+    }
+
+    /// The world direction `dir` (e.g. a light's) in the object's rigid frame, normalised.
+    pub fn to_rigid_frame(&self, dir: Vec3) -> Vec3 {
+        let (_, rot, _) = self.transform.to_scale_rotation_translation();
+        (rot.inverse() * dir).normalize()
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.parts.iter().map(|p| p.mesh.triangle_count()).sum()
     }

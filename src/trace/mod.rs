@@ -487,7 +487,7 @@ mod tests {
     use crate::scene::{MapSource, parse_scene, resolve};
 
     /// A random unit vector (a point of the unit ball's shell, normalised).
-    fn random_unit(rng: &mut crate::reference::sampling::Pcg) -> Vec3 {
+    fn random_unit(rng: &mut crate::sampling::Pcg) -> Vec3 {
         loop {
             let v = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
             let l = v.length();
@@ -603,7 +603,7 @@ mod tests {
             assert!(sign.is_some(), "{name} is convex");
             // The property the CSL trace relies on: a ray leaving through a triangle (along
             // its outward normal's side) meets nothing more.
-            let mut rng = crate::reference::sampling::Pcg::new(21, 4);
+            let mut rng = crate::sampling::Pcg::new(21, 4);
             let (mut left, mut guessed) = (0, 0);
             for _ in 0..3000 {
                 let mut unit = || {
@@ -675,7 +675,7 @@ mod tests {
     /// octant, along axes and with signed zeros, and with finite ranges.
     #[test]
     fn the_wide_tree_agrees_with_obvhs() {
-        use crate::reference::sampling::Pcg;
+        use crate::sampling::Pcg;
         let teapot = crate::scene::load_scene_file(
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-teapot.json"),
             &Default::default(),
@@ -773,7 +773,7 @@ mod tests {
     /// incoherent ones and partial ones, with the AVX and the portable slab tests alike.
     #[test]
     fn packets_find_what_single_rays_find() {
-        use crate::reference::sampling::Pcg;
+        use crate::sampling::Pcg;
         let teapot = crate::scene::load_scene_file(
             &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glass-teapot.json"),
             &Default::default(),

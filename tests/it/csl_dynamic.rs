@@ -73,7 +73,7 @@ fn caustics(world: &World, set: &CslSet, spp: u32) -> Frame {
     let obj = &world.objects[oi];
     let accel = Accel::build(world);
     let blockers = scenes::blockers(world, oi);
-    let csls = set.to_world(CslSet::rigid_transform(obj));
+    let csls = set.to_world(obj.rigid_transform());
     eval::render_caustics(world, &accel, &blockers, &csls, light(world).1, spp)
 }
 
@@ -105,7 +105,7 @@ fn off_the_bake_directions_the_caustics_match_the_reference() {
     for (name, dir) in cases {
         let world = turned(w0, dir);
         let oi = scenes::object_index(&world, "glass");
-        let local = CslSet::light_in_object_frame(&world.objects[oi], light(&world).0);
+        let local = world.objects[oi].to_rigid_frame(light(&world).0);
         assert!(local.dot(dir) > 1.0 - 1e-5);
         let set = d.interpolate(local);
         let accel = Accel::build(&world);
@@ -204,7 +204,7 @@ fn the_caustic_changes_smoothly_across_a_face_boundary() {
             let dir = a.lerp(b, t).normalize();
             let w = turned(&world, dir);
             let oi = scenes::object_index(&w, "glass");
-            let local = CslSet::light_in_object_frame(&w.objects[oi], light(&w).0);
+            let local = w.objects[oi].to_rigid_frame(light(&w).0);
             // Which side of the edge: the sign along the great circle's normal.
             let side = local.dot(centroid(g) - centroid(f));
             (side, caustics(&w, &d.interpolate(local), 1))

@@ -106,7 +106,6 @@ fn sphere_scene(wall: bool) -> scene::World {
 /// whose light it stops must lose their caustic on both CPU and GPU, the others keep it.
 #[test]
 fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
-    use caustica::bake::csl::CslSet;
     use caustica::methods::{ArtifactStore, csl};
     use caustica::reference::compare;
     use caustica::render::csl::eval;
@@ -130,9 +129,7 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
         let accel = Accel::build(&world);
         let glass = scenes::object_index(&world, "glass");
         let blockers = scenes::blockers(&world, glass);
-        let csls = sets[0]
-            .set
-            .to_world(CslSet::rigid_transform(&world.objects[glass]));
+        let csls = sets[0].set.to_world(world.objects[glass].rigid_transform());
         let cpu = eval::render_caustics(&world, &accel, &blockers, &csls, layer.irradiance, 1);
         let mask = compare::object_mask(&world, &accel, "floor");
         let c = compare::compare(&gpu, &cpu, &mask);

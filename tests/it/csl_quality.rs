@@ -29,7 +29,7 @@
 //! about half of the reference's light).
 
 use crate::support::{gpu, images, scenes};
-use caustica::bake::csl::{CslParams, CslSet, bake_csl};
+use caustica::bake::csl::{CslParams, bake_csl};
 use caustica::reference::compare;
 use caustica::render::csl::eval;
 use caustica::render::{CslLayer, RenderOptions};
@@ -46,14 +46,14 @@ fn glass_sphere_caustics_match_the_reference() {
     );
     let obj = world.object("glass").unwrap();
     let oi = scenes::object_index(&world, "glass");
-    let light = CslSet::light_in_object_frame(obj, direction);
+    let light = obj.to_rigid_frame(direction);
     let params = CslParams {
         grid: 512,
         ..CslParams::fast()
     };
     let set = bake_csl(&world, "glass", light, &params, &|_| true).unwrap();
     eprintln!("{:#?}", set.stats);
-    let csls = set.to_world(CslSet::rigid_transform(obj));
+    let csls = set.to_world(obj.rigid_transform());
     let accel = Accel::build(&world);
     let blockers = scenes::blockers(&world, oi);
     // The CSL model over the whole pixel (6×6 stratified samples: converged to 1 % in flux),

@@ -350,10 +350,10 @@ async fn csl_bake_job_gives_the_library_bake_bytes() {
     assert!(!set.csls.is_empty());
     // The same bake through the library: identical bytes (deterministic, same inputs).
     let world = scenes::parse(&scene.to_string());
-    let light = CslSet::light_in_object_frame(
-        world.object("glass").unwrap(),
-        glam::Vec3::new(1.0, -1.2, 0.0).normalize(),
-    );
+    let light = world
+        .object("glass")
+        .unwrap()
+        .to_rigid_frame(glam::Vec3::new(1.0, -1.2, 0.0).normalize());
     let params = CslParams {
         grid: 96,
         ..CslParams::fast()

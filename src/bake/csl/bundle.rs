@@ -1054,7 +1054,7 @@ mod tests {
         // to the one before (sharing a face), each met by the line, and every cell that a dense
         // sampling of the line finds (away from cell boundaries) is among them.
         let v = Volume::new(Vec3::new(0.3, -0.2, 0.1), 2.0, 16);
-        let mut rng = crate::reference::sampling::Pcg::new(7, 1);
+        let mut rng = crate::sampling::Pcg::new(7, 1);
         let mut lines = 0;
         for _ in 0..2000 {
             let o = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 6.0 - 3.0;
@@ -1105,8 +1105,8 @@ mod tests {
 
     #[test]
     fn line_distance_test_agrees_with_the_distance() {
-        let mut rng = crate::reference::sampling::Pcg::new(5, 3);
-        let unit = |rng: &mut crate::reference::sampling::Pcg| {
+        let mut rng = crate::sampling::Pcg::new(5, 3);
+        let unit = |rng: &mut crate::sampling::Pcg| {
             (Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0).normalize()
         };
         for k in 0..5000 {
@@ -1126,7 +1126,7 @@ mod tests {
 
     /// Random caustic rays around the origin, every tenth along a coordinate axis.
     fn random_rays(count: usize, seed: u64) -> Vec<CausticRay> {
-        let mut rng = crate::reference::sampling::Pcg::new(seed, 11);
+        let mut rng = crate::sampling::Pcg::new(seed, 11);
         (0..count)
             .map(|k| {
                 let mut v = || Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - 1.0;
@@ -1236,7 +1236,7 @@ mod tests {
         (seed, stream): (u64, u64),
         scatter: u64,
     ) -> (Vec<CausticRay>, Volume, Thresholds) {
-        let mut rng = crate::reference::sampling::Pcg::new(seed, stream);
+        let mut rng = crate::sampling::Pcg::new(seed, stream);
         let mut rays = random_rays(20_000, scatter);
         for _ in 0..20_000 {
             let (r, phi) = (0.3 * rng.f32().sqrt(), std::f32::consts::TAU * rng.f32());

@@ -468,7 +468,7 @@ fn initial_guess(rays: &[CausticRay], members: &[u32], b: DVec3, a: DVec3, l: f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::sampling::Pcg;
+    use crate::sampling::Pcg;
 
     #[test]
     fn dismissal_keeps_the_rays_within_the_cap() {

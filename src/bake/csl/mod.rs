@@ -347,19 +347,6 @@ pub struct CslSet {
 }
 
 impl CslSet {
-    /// The object-to-world transform a render applies to this set: the object's rotation and
-    /// translation (its scale is already in the bake).
-    pub fn rigid_transform(object: &Object) -> Mat4 {
-        let (_, rot, trans) = object.transform.to_scale_rotation_translation();
-        Mat4::from_rotation_translation(rot, trans)
-    }
-
-    /// The world light direction `dir` expressed in the rigid frame of `object`.
-    pub fn light_in_object_frame(object: &Object, dir: Vec3) -> Vec3 {
-        let (_, rot, _) = object.transform.to_scale_rotation_translation();
-        (rot.inverse() * dir).normalize()
-    }
-
     /// A copy with every CSL moved by the rigid transform `m` (rotation + translation).
     pub fn to_world(&self, m: Mat4) -> Vec<Csl> {
         let (_, rot, _): (Vec3, Quat, Vec3) = m.to_scale_rotation_translation();

@@ -28,15 +28,11 @@ pub struct CslLayer {
 impl CslLayer {
     /// The layer of a render: every (object index, its set) placed where the object is now, lit
     /// by a directional light of `irradiance` (W/m²).
-    pub fn new(
-        world: &World,
-        sets: &[(usize, &crate::bake::csl::CslSet)],
-        irradiance: Vec3,
-    ) -> CslLayer {
+    pub fn new(world: &World, sets: &[(usize, &CslSet)], irradiance: Vec3) -> CslLayer {
         let mut csls = Vec::new();
         let mut caustic_objects = Vec::new();
         for &(oi, set) in sets {
-            csls.extend(set.to_world(CslSet::rigid_transform(&world.objects[oi])));
+            csls.extend(set.to_world(world.objects[oi].rigid_transform()));
             caustic_objects.push(oi);
         }
         CslLayer {

@@ -2,7 +2,6 @@
 //! glass object, per table vertex, for the renderer to interpolate across its triangles.
 
 use super::volumes::{EvalError, Source, Use, Volume, lookup_with};
-use crate::bake::csl::CslSet;
 use crate::bake::transport::{TransportTable, table_vertices};
 use crate::scene::{Light, World};
 use crate::trace::Accel;
@@ -45,7 +44,7 @@ pub fn view_refraction(
             object_hash: crate::bake::transport::source_hash(world, object, &table.params),
         });
     }
-    let m = CslSet::rigid_transform(object);
+    let m = object.rigid_transform();
     let (_, rot, _) = object.transform.to_scale_rotation_translation();
     let inv_rot = rot.inverse();
     let (lo, hi) = world.bounds();

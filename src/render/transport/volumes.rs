@@ -51,7 +51,6 @@
 //! `render::transport` draws the same volumes on the GPU (shaders/transport.wgsl); this module
 //! is its reference and the test oracle.
 
-use crate::bake::csl::CslSet;
 use crate::bake::transport::{TransportTable, Vertex, local_angles, table_vertices, tangent_frame};
 use crate::scene::{Light, Material, World};
 use crate::trace::Accel;
@@ -508,7 +507,7 @@ struct Glass {
 impl Glass {
     fn new(world: &World, object: &crate::scene::Object) -> Glass {
         let vertices = table_vertices(world, object);
-        let m = CslSet::rigid_transform(object);
+        let m = object.rigid_transform();
         let (_, rot, _) = object.transform.to_scale_rotation_translation();
         let world_pos = vertices
             .iter()

@@ -491,7 +491,7 @@ mod tests {
     use super::super::tests::rotated_copies;
     use super::*;
     use crate::bake::csl::trace::CausticRay;
-    use crate::reference::sampling::Pcg;
+    use crate::sampling::Pcg;
 
     #[test]
     fn texel_coding_restores_every_bit() {

@@ -443,7 +443,7 @@ pub(super) fn match_edge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::reference::sampling::Pcg;
+    use crate::sampling::Pcg;
     use std::collections::BTreeSet;
 
     #[test]

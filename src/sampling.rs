@@ -1,4 +1,5 @@
-//! Deterministic random numbers and the few warps the reference needs.
+//! Deterministic random numbers (PCG) and the few warps the reference needs; the bakes and the
+//! tests draw from the same generator.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
