@@ -100,3 +100,59 @@ fn bad_inputs_fail_with_a_message_naming_the_problem() {
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains(".png or .exr"));
 }
+
+/// Without `--method`, `auto` picks from the scene and says which and why; a method's flag
+/// given to another method, and a bad value, are refused naming the flag.
+#[test]
+fn auto_is_the_default_and_flags_are_checked_by_the_methods_parser() {
+    let dir = temp_dir("cli-auto");
+    let _cleanup = Cleanup(dir.clone());
+    // The canonical scene with its sphere painted diffuse: nothing casts caustics.
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&scenes::text("glass-sphere-directional")).unwrap();
+    scene["materials"]["glass"] = serde_json::json!({"type": "diffuse", "albedo": 0.5});
+    let path = dir.join("matte.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let (a, d) = (out("auto.exr"), out("direct.exr"));
+    let size = ["--width", "24", "--height", "16"];
+    let r = caustica(&[&["render", path.to_str().unwrap(), "--out", &a], &size[..]].concat());
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("method direct (no object has a glass or mirror part"),
+        "{stderr}"
+    );
+    let r = caustica(
+        &[
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "--method",
+                "direct",
+                "--out",
+                &d,
+            ],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(read_frame(&a), read_frame(&d));
+    // `--bake` is for csl and transport only; `--photons 0` is out of range.
+    for (args, want) in [
+        (
+            vec!["--method", "reference", "--bake", "x.csl"],
+            "--bake: only with method csl, transport",
+        ),
+        (
+            vec!["--method", "reference", "--photons", "0"],
+            "--photons: must lie in 1..=1e9",
+        ),
+    ] {
+        let r = caustica(&[&["render", path.to_str().unwrap(), "--out", &a], &args[..]].concat());
+        assert!(!r.status.success());
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(stderr.contains(want), "{stderr}");
+    }
+}

@@ -184,6 +184,16 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
     bad["params"]["photonz"] = 3.into();
     let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
     assert!(p["detail"].as_str().unwrap().contains("photonz"), "{p}");
+    assert_eq!(p["field"], "params.photonz", "{p}");
+    // A method without a bake, and no method at all, are refused naming the field.
+    for method in ["direct", "magic"] {
+        let mut bad = body.clone();
+        bad["method"] = method.into();
+        let p = problem(srv.post_json("/v1/bakes", &bad).await, 422).await;
+        assert_eq!(p["field"], "method", "{p}");
+        let detail = p["detail"].as_str().unwrap();
+        assert!(detail.contains("reference, csl, transport"), "{detail}");
+    }
     srv.stop().await;
 }
 

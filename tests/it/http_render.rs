@@ -201,6 +201,38 @@ async fn direct_render_gives_a_png_and_exr_from_the_gpu_worker() {
     srv.stop().await;
 }
 
+/// `method: auto` renders with the method the scene calls for and says which and why: the
+/// canonical scene with its sphere painted diffuse has nothing that casts caustics, so `direct`
+/// on the GPU worker, the same image as asking for `direct`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn auto_render_picks_the_method_and_says_why() {
+    let srv = Server::start("render-auto", |_, _| {}).await;
+    let mut scene = scene_sized(24, 16);
+    scene["materials"]["glass"] = serde_json::json!({"type": "diffuse", "albedo": 0.5});
+    let render = |method: &str| serde_json::json!({"scene": scene, "method": method, "format": "exr", "layers": true});
+    let r = srv.post_json("/v1/renders", &render("auto")).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let auto = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["method"], "auto", "{rec}");
+    assert_eq!(rec["info"]["method"], "direct", "{rec}");
+    assert_eq!(rec["info"]["requested_method"], "auto", "{rec}");
+    let why = rec["info"]["reason"].as_str().unwrap();
+    assert!(why.contains("nothing casts caustics"), "{why}");
+    let r = srv.post_json("/v1/renders", &render("direct")).await;
+    assert_eq!(r.status(), 200);
+    let direct = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert_eq!(auto, direct);
+    // A field of a method the scene did not call for is refused, naming it.
+    let mut req = render("auto");
+    req["csl"] = serde_json::json!({"grid": 64});
+    let p = problem(srv.post_json("/v1/renders", &req).await, 422).await;
+    assert_eq!(p["field"], "csl", "{p}");
+    assert!(p["detail"].as_str().unwrap().contains("not direct"), "{p}");
+    srv.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_render_past_the_wait_answers_202_and_completes() {
     let srv = Server::start("render-202", |_, h| h.render_wait = Duration::ZERO).await;
