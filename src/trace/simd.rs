@@ -9,7 +9,7 @@
 /// Call `body` compiled for the first of the listed `target_feature`s the processor has, or as
 /// it is where it has none of them (and on other architectures than x86-64):
 ///
-/// ```ignore
+/// ```text
 /// crate::trace::simd::dispatch!(
 ///     ["avx512f", "avx2"],
 ///     fn(terms: &Terms = self, p: [f64; 5]) -> f64 { terms.sum(p) }
