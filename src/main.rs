@@ -6,7 +6,9 @@ use caustica::encode::{self, PngSettings, ToneMap};
 use caustica::frame::Component;
 use caustica::frame::Frame;
 use caustica::gpu::{GpuConfig, GpuContext};
-use caustica::methods::{ArtifactStore, Env, Gpu, Method, MethodArgs, MethodError, ParamError};
+use caustica::methods::{
+    ArtifactStore, BakeRequest, Env, Gpu, Method, MethodArgs, MethodError, ParamError,
+};
 use caustica::reference::compare;
 use caustica::render::Renderer;
 use caustica::scene::{self, World};
@@ -387,7 +389,12 @@ fn bake(
         .bake_params(params, "params")
         .map_err(|e| flag_error(&e))?;
     let plan = imp
-        .plan_bake(world, object, &params, &scene::Limits::default())
+        .plan_bake(BakeRequest {
+            world,
+            object,
+            params: &params,
+            limits: &scene::Limits::default(),
+        })
         .map_err(cli_error)?;
     let store = ArtifactStore::from_env();
     let label = format!("bake {method} {}", plan.object());

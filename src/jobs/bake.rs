@@ -6,7 +6,7 @@
 
 use super::job::{Artifact, Job, JobError, JobKind};
 use super::worker::JobCtx;
-use crate::methods::{BakePlan, Lane, Method};
+use crate::methods::{BakePlan, BakeRequest, Lane, Method};
 use crate::scene::{Limits, World};
 use std::sync::Arc;
 
@@ -24,7 +24,12 @@ impl BakeJob {
         params: &serde_json::Value,
         limits: &Limits,
     ) -> Result<Self, JobError> {
-        let plan = method.imp().plan_bake(world, object, params, limits)?;
+        let plan = method.imp().plan_bake(BakeRequest {
+            world,
+            object,
+            params,
+            limits,
+        })?;
         Ok(BakeJob { method, plan })
     }
 }

@@ -9,15 +9,15 @@
 //! camera, or the object moving rigidly with the light reuse the bake.
 
 use super::{
-    ArtifactKind, ArtifactStore, BakePlan, Baked, Env, Frames, Lane, Method, MethodArgs,
-    MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, bake_object, canonical,
-    caustic_objects, from_value, scaled_progress,
+    ArtifactKind, ArtifactStore, BakePlan, BakeRequest, Baked, Env, Frames, Json, Lane, Method,
+    MethodArgs, MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, bake_object,
+    canonical, caustic_objects, from_value, scaled_progress,
 };
 use crate::bake::csl::dynamic::{self, DynamicParams, DynamicProgress, DynamicSet, bake_dynamic};
 use crate::bake::csl::{CslParams, CslSet, bake_csl, csl_source_hash, scene_directional_light};
 use crate::bake::{BakeError, Progress};
 use crate::render::{CslLayer, RenderOptions};
-use crate::scene::{Limits, World};
+use crate::scene::World;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -54,22 +54,13 @@ impl MethodImpl for Csl {
         }))
     }
 
-    fn bake_params(
-        &self,
-        v: &serde_json::Value,
-        at: &str,
-    ) -> Result<serde_json::Value, ParamError> {
+    fn bake_params(&self, v: &Json, at: &str) -> Result<Json, ParamError> {
         Ok(canonical(BakeParams::parse(v, at)?))
     }
 
-    fn plan_bake(
-        &self,
-        world: Arc<World>,
-        object: Option<&str>,
-        params: &serde_json::Value,
-        _: &Limits,
-    ) -> Result<Box<dyn BakePlan>, MethodError> {
-        let params = BakeParams::parse(params, "params")?;
+    fn plan_bake(&self, req: BakeRequest) -> Result<Box<dyn BakePlan>, MethodError> {
+        let params = BakeParams::parse(req.params, "params")?;
+        let (world, object) = (req.world, req.object);
         let oi = bake_object(
             &world,
             object,

@@ -415,6 +415,18 @@ pub trait RenderPlan: Send + Sync {
     fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError>;
 }
 
+/// JSON, as requests give parameters.
+pub type Json = serde_json::Value;
+
+/// A bake asked for: of `object` (None: the method's default object of the scene) of `world`,
+/// with canonical `params` (see [`MethodImpl::bake_params`]), within `limits`.
+pub struct BakeRequest<'a> {
+    pub world: Arc<World>,
+    pub object: Option<&'a str>,
+    pub params: &'a Json,
+    pub limits: &'a Limits,
+}
+
 /// A checked bake, ready to run.
 pub trait BakePlan: Send + Sync {
     /// The object baked.
@@ -446,23 +458,12 @@ pub trait MethodImpl: Sync {
 
     /// Parses and checks the parameters of a bake, found at field `at` of a request, with the
     /// defaults filled in: the canonical form that names the bake.
-    fn bake_params(
-        &self,
-        _v: &serde_json::Value,
-        _at: &str,
-    ) -> Result<serde_json::Value, ParamError> {
+    fn bake_params(&self, _v: &Json, _at: &str) -> Result<Json, ParamError> {
         Err(no_bake(self.info()))
     }
 
-    /// Checks a bake of `object` (None: the method's default object of the scene) with
-    /// canonical `params` (see [`MethodImpl::bake_params`]) against the scene and `limits`.
-    fn plan_bake(
-        &self,
-        _world: Arc<World>,
-        _object: Option<&str>,
-        _params: &serde_json::Value,
-        _limits: &Limits,
-    ) -> Result<Box<dyn BakePlan>, MethodError> {
+    /// Checks a bake (see [`BakeRequest`]) against its scene and limits.
+    fn plan_bake(&self, _req: BakeRequest) -> Result<Box<dyn BakePlan>, MethodError> {
         Err(no_bake(self.info()).into())
     }
 }

@@ -4,14 +4,13 @@
 //! for a seed. Its bake is the same render kept as a multi-layer EXR of every component.
 
 use super::{
-    BakePlan, Baked, Component, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
-    MethodInfo, ParamError, RenderPlan, canonical, from_value,
+    BakePlan, BakeRequest, Baked, Component, Env, Frames, Json, Lane, Method, MethodArgs,
+    MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, canonical, from_value,
 };
 use crate::reference::{self, Components, ReferenceParams, ReferenceStats};
-use crate::scene::{Limits, World};
+use crate::scene::World;
 use crate::trace::Accel;
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 pub static INFO: MethodInfo = MethodInfo {
@@ -44,22 +43,13 @@ impl MethodImpl for Reference {
         })))
     }
 
-    fn bake_params(
-        &self,
-        v: &serde_json::Value,
-        at: &str,
-    ) -> Result<serde_json::Value, ParamError> {
+    fn bake_params(&self, v: &Json, at: &str) -> Result<Json, ParamError> {
         Ok(canonical(BakeParams::parse(v, at)?))
     }
 
-    fn plan_bake(
-        &self,
-        world: Arc<World>,
-        object: Option<&str>,
-        params: &serde_json::Value,
-        limits: &Limits,
-    ) -> Result<Box<dyn BakePlan>, MethodError> {
-        let params = BakeParams::parse(params, "params")?;
+    fn plan_bake(&self, req: BakeRequest) -> Result<Box<dyn BakePlan>, MethodError> {
+        let params = BakeParams::parse(req.params, "params")?;
+        let (world, object) = (req.world, req.object);
         let object = object.ok_or_else(|| ParamError::new("object", "required"))?;
         if world.object(object).is_none() {
             return Err(MethodError::UnknownObject(object.into()));
@@ -70,7 +60,7 @@ impl MethodImpl for Reference {
             ("params.height", params.height),
         ] {
             if let Some(v) = v {
-                ParamError::range(name, v, 1, limits.max_image_side)?;
+                ParamError::range(name, v, 1, req.limits.max_image_side)?;
             }
         }
         world.camera.width = params.width.unwrap_or(world.camera.width);

@@ -9,8 +9,9 @@
 //! move or turn between frames.
 
 use super::{
-    ArtifactKind, BakePlan, Baked, Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl,
-    MethodInfo, ParamError, RenderPlan, bake_object, canonical, from_value, scaled_progress,
+    ArtifactKind, BakePlan, BakeRequest, Baked, Env, Frames, Json, Lane, Method, MethodArgs,
+    MethodError, MethodImpl, MethodInfo, ParamError, RenderPlan, bake_object, canonical,
+    from_value, scaled_progress,
 };
 use crate::bake::Progress;
 use crate::bake::transport::{
@@ -19,7 +20,7 @@ use crate::bake::transport::{
 };
 use crate::render::transport::volumes::{DEFAULT_LINE_POINTS, EvalError};
 use crate::render::{RenderOptions, TransportLayer};
-use crate::scene::{Limits, World};
+use crate::scene::World;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -58,22 +59,13 @@ impl MethodImpl for Transport {
         }))
     }
 
-    fn bake_params(
-        &self,
-        v: &serde_json::Value,
-        at: &str,
-    ) -> Result<serde_json::Value, ParamError> {
+    fn bake_params(&self, v: &Json, at: &str) -> Result<Json, ParamError> {
         Ok(canonical(BakeParams::parse(v, at)?))
     }
 
-    fn plan_bake(
-        &self,
-        world: Arc<World>,
-        object: Option<&str>,
-        params: &serde_json::Value,
-        _: &Limits,
-    ) -> Result<Box<dyn BakePlan>, MethodError> {
-        let params = BakeParams::parse(params, "params")?;
+    fn plan_bake(&self, req: BakeRequest) -> Result<Box<dyn BakePlan>, MethodError> {
+        let params = BakeParams::parse(req.params, "params")?;
+        let (world, object) = (req.world, req.object);
         let glass = refractive_objects(&world);
         let oi = bake_object(&world, object, &glass, "glass object")?;
         let object = world.objects[oi].name.clone();
