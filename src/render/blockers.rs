@@ -2,7 +2,7 @@
 //! triangle of the scene *except* the caustic objects (whose own surfaces are where the caustic
 //! rays come from), flattened into two storage buffers that `shaders/occlusion.inc.wgsl`
 //! traverses with one shadow ray per caustic arrival. It is the GPU twin of the CPU
-//! evaluation's `blockers` acceleration structure (`bake::csl::eval::render_caustics`), so both
+//! evaluation's `blockers` acceleration structure (`render::csl::eval::render_caustics`), so both
 //! answer the same question: is anything between the receiver and the light plane along the
 //! arriving ray?
 //!

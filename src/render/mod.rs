@@ -161,6 +161,53 @@ struct DeviceCache {
     occluders: scene::OccluderCache,
 }
 
+impl DeviceCache {
+    /// The resources kept between frames, made or remade to fit `plan`: the targets of its
+    /// size, a shadow map array that holds its layers, the environment texture of its map, the
+    /// transport pipelines and G-buffer when it draws illumination volumes.
+    fn fit(&mut self, dev: &wgpu::Device, queue: &wgpu::Queue, plan: &FramePlan) {
+        let size = (plan.width, plan.height);
+        if self
+            .targets
+            .as_ref()
+            .is_none_or(|t| (t.width, t.height) != size)
+        {
+            self.targets = Some(direct::Targets::new(dev, size.0, size.1));
+        }
+        let n_layers = plan.lights.layers.len() as u32;
+        if !self
+            .atlas
+            .as_ref()
+            .is_some_and(|a| a.fits(plan.shadow_resolution, n_layers))
+        {
+            drop(self.atlas.take()); // free the old one first
+            self.atlas = Some(shadow::ShadowAtlas::new(
+                dev,
+                plan.shadow_resolution,
+                n_layers,
+            ));
+        }
+        let env = &plan.lights.env;
+        let key = env.map.as_ref().map_or(0, |(m, _)| Arc::as_ptr(m) as usize);
+        if self.env.as_ref().is_none_or(|e| e.key != key) {
+            let map = env.map.as_ref().map(|(m, _)| m.as_ref());
+            self.env = Some(direct::EnvTexture::new(dev, queue, map, key));
+        }
+        if plan.transport.is_some() {
+            if self.transport.is_none() {
+                self.transport = Some(transport::TransportPipelines::new(dev));
+            }
+            if self
+                .gbuffer
+                .as_ref()
+                .is_none_or(|g| (g.width, g.height) != size)
+            {
+                self.gbuffer = Some(transport::GBuffer::new(dev, size.0, size.1));
+            }
+        }
+    }
+}
+
 /// The GPU renderer. Not `Sync`: one GPU worker owns it (the context may be shared).
 pub struct Renderer {
     ctx: Arc<GpuContext>,
@@ -280,48 +327,7 @@ impl Renderer {
         let dev = &h.device;
         let c = &mut self.cache;
         let mut ts = self.ctx.scoped(dev, || {
-            if !c
-                .targets
-                .as_ref()
-                .is_some_and(|t| t.width == width && t.height == height)
-            {
-                c.targets = Some(direct::Targets::new(dev, width, height));
-            }
-            let n_layers = plan.lights.layers.len() as u32;
-            if !c
-                .atlas
-                .as_ref()
-                .is_some_and(|a| a.fits(plan.shadow_resolution, n_layers))
-            {
-                drop(c.atlas.take()); // free the old one first
-                c.atlas = Some(shadow::ShadowAtlas::new(
-                    dev,
-                    plan.shadow_resolution,
-                    n_layers,
-                ));
-            }
-            let key = plan
-                .lights
-                .env
-                .map
-                .as_ref()
-                .map_or(0, |(m, _)| Arc::as_ptr(m) as usize);
-            if c.env.as_ref().is_none_or(|e| e.key != key) {
-                let map = plan.lights.env.map.as_ref().map(|(m, _)| m.as_ref());
-                c.env = Some(direct::EnvTexture::new(dev, &h.queue, map, key));
-            }
-            if plan.transport.is_some() {
-                if c.transport.is_none() {
-                    c.transport = Some(transport::TransportPipelines::new(dev));
-                }
-                if !c
-                    .gbuffer
-                    .as_ref()
-                    .is_some_and(|g| g.width == width && g.height == height)
-                {
-                    c.gbuffer = Some(transport::GBuffer::new(dev, width, height));
-                }
-            }
+            c.fit(dev, &h.queue, &plan);
             // Shadow maps, direct, transport.
             timestamps::Timestamps::new(&self.ctx, dev, 3)
         })?;
@@ -407,26 +413,24 @@ impl Renderer {
         }
 
         let t3 = Instant::now();
-        let to_frame = |px: Vec<[f32; 4]>| Frame {
-            width,
-            height,
-            pixels: px
-                .into_iter()
-                .map(|p| Vec3::new(p[0], p[1], p[2]))
-                .collect(),
+        let read = |on: bool, t: &wgpu::Texture| -> Result<Frame, RenderError> {
+            if !on {
+                return Ok(Frame::new(width, height));
+            }
+            let px = self.ctx.readback_rgba32f(t)?;
+            Ok(Frame {
+                width,
+                height,
+                pixels: px
+                    .into_iter()
+                    .map(|p| Vec3::new(p[0], p[1], p[2]))
+                    .collect(),
+            })
         };
-        let direct_frame = if opts.components.direct {
-            to_frame(self.ctx.readback_rgba32f(&targets.direct)?)
-        } else {
-            Frame::new(width, height)
-        };
-        let specular_frame = if opts.components.specular {
-            to_frame(self.ctx.readback_rgba32f(&targets.specular)?)
-        } else {
-            Frame::new(width, height)
-        };
+        let direct_frame = read(opts.components.direct, &targets.direct)?;
+        let specular_frame = read(opts.components.specular, &targets.specular)?;
         let caustics_frame = if plan.has_caustics() {
-            Some(to_frame(self.ctx.readback_rgba32f(&targets.caustics)?))
+            Some(read(true, &targets.caustics)?)
         } else {
             None
         };

@@ -1,4 +1,4 @@
-//! The GPU CSL evaluation (shaders/csl.inc.wgsl) against the CPU one (bake::csl::eval) on a
+//! The GPU CSL evaluation (shaders/csl.inc.wgsl) against the CPU one (render::csl::eval) on a
 //! baked glass sphere, point for point. Needs an adapter (lavapipe in CI).
 
 use crate::support::csl_points::CslEvaluator;
@@ -100,7 +100,7 @@ fn sphere_scene(wall: bool) -> scene::World {
 }
 
 /// The per-pixel caustics layer of the renderer (direct.wgsl with csl.inc.wgsl and
-/// occlusion.inc.wgsl) against the CPU render of the same CSLs (bake::csl::eval, one sample at
+/// occlusion.inc.wgsl) against the CPU render of the same CSLs (render::csl::eval, one sample at
 /// each pixel centre), with and without an occluder. Occlusion is tested by a wall that the
 /// caustic rays cross on their way to the floor but the camera's rays do not: the floor pixels
 /// whose light it stops must lose their caustic on both CPU and GPU, the others keep it.
