@@ -2,6 +2,7 @@
 //! number for number with analytic CPU evaluations of the same scenes. No adapter = failure.
 
 use crate::support::gpu;
+use caustica::frame::Frame;
 use caustica::render::{Components, RenderOptions, Renderer};
 use caustica::scene::shapes;
 use caustica::scene::{Camera, Light, Material, Object, Part, World};
@@ -563,4 +564,62 @@ fn wide_spot_uses_cube_shadows_and_matches_cpu() {
         },
         "wide spot",
     );
+}
+
+/// The renderer keeps the scene's buffers and occluders between frames of the same scene: a
+/// frame after other scenes, after the same scene moved, and after a transport frame (whose
+/// glass vertices carry the radiance seen through them) is the frame a fresh renderer makes.
+#[test]
+fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
+    use caustica::bake::transport::{TransportParams, bake_transport};
+    use caustica::render::transport::volumes::DEFAULT_LINE_POINTS;
+    use caustica::render::{Caustics, TransportLayer};
+    let mut scene = crate::support::scenes::scene_sized(48, 36);
+    scene["objects"][1]["shape"]["segments"] = 24.into();
+    let a = crate::support::scenes::parse(&scene.to_string());
+    let mut b = a.clone();
+    b.objects[1].transform =
+        Mat4::from_translation(Vec3::new(0.6, 0.0, -0.3)) * b.objects[1].transform;
+    let table = bake_transport(&a, "glass", &TransportParams::paper(), &|_| true).unwrap();
+    let layer = TransportLayer::build(&a, &[(1, &table)], DEFAULT_LINE_POINTS).unwrap();
+    let opts = RenderOptions::default();
+    let fresh = |w: &World, c: Caustics| {
+        let out = crate::support::gpu::renderer()
+            .render_with(w, &opts, c)
+            .unwrap();
+        (out.total(), out.specular)
+    };
+    let (want_a, _) = fresh(&a, Caustics::None);
+    let (want_b, _) = fresh(&b, Caustics::None);
+    let (want_t, want_t_specular) = fresh(&a, Caustics::Transport(&layer));
+    // Frames compared pixel for pixel; a failure names the largest difference.
+    let same = |got: &Frame, want: &Frame, what: &str| {
+        let d = got
+            .pixels
+            .iter()
+            .zip(&want.pixels)
+            .map(|(a, b)| (*a - *b).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(
+            d == 0.0,
+            "{what}: differs from a fresh renderer's by up to {d}"
+        );
+    };
+    assert!(want_a != want_b, "the move shows");
+    let mut r = crate::support::gpu::renderer();
+    let mut frame = |w: &World, c: Caustics| {
+        let out = r.render_with(w, &opts, c).unwrap();
+        (out.total(), out.specular)
+    };
+    assert_eq!(frame(&a, Caustics::None).0, want_a);
+    assert_eq!(frame(&b, Caustics::None).0, want_b);
+    assert_eq!(frame(&a, Caustics::None).0, want_a);
+    let (t, t_specular) = frame(&a, Caustics::Transport(&layer));
+    assert_eq!((&t, &t_specular), (&want_t, &want_t_specular));
+    assert_ne!(
+        t_specular,
+        frame(&a, Caustics::None).1,
+        "the view through the glass shows"
+    );
+    assert_eq!(frame(&a, Caustics::None).0, want_a);
 }
