@@ -215,9 +215,8 @@ impl MethodArgs {
     /// Checks what holds whatever the method: the ranges of the fields given, and no `csl` or
     /// `bake` for a method that does not take them.
     pub fn check(&self, info: &MethodInfo) -> Result<(), ParamError> {
-        if let Some(n) = self.photons {
-            ParamError::range("photons", n, 1, 1_000_000_000)
-                .map_err(|_| ParamError::new("photons", "must lie in 1..=1e9"))?;
+        if self.photons.is_some_and(|n| !(1..=1_000_000_000).contains(&n)) {
+            return Err(ParamError::new("photons", "must lie in 1..=1e9"));
         }
         if let Some(n) = self.spp {
             ParamError::range("spp", n, 1, 1024)?;
