@@ -215,7 +215,10 @@ impl MethodArgs {
     /// Checks what holds whatever the method: the ranges of the fields given, and no `csl` or
     /// `bake` for a method that does not take them.
     pub fn check(&self, info: &MethodInfo) -> Result<(), ParamError> {
-        if self.photons.is_some_and(|n| !(1..=1_000_000_000).contains(&n)) {
+        if self
+            .photons
+            .is_some_and(|n| !(1..=1_000_000_000).contains(&n))
+        {
             return Err(ParamError::new("photons", "must lie in 1..=1e9"));
         }
         if let Some(n) = self.spp {

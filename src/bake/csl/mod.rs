@@ -450,7 +450,7 @@ pub fn scene_directional_light(world: &World) -> Option<(Vec3, Vec3)> {
 }
 
 /// Bake the CSL set of object `object_name` lit from unit travel direction `light_dir`
-/// (in the object's rigid frame, see [`CslSet::light_in_object_frame`]). `progress` is called
+/// (in the object's rigid frame, see [`Object::to_rigid_frame`](crate::scene::Object::to_rigid_frame)). `progress` is called
 /// now and then; returning false cancels the bake ([`BakeError::Canceled`]).
 pub fn bake_csl(
     world: &World,
