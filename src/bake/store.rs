@@ -4,7 +4,7 @@
 //! through [`ArtifactStore::find_or_bake`]; the CLI keeps its store in `$CAUSTICA_CACHE` (or a
 //! folder under the system's temporary directory), the service under its data directory.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What an artifact is: its file name prefix and extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,10 +62,6 @@ impl ArtifactStore {
             .map(PathBuf::from)
             .unwrap_or_else(|| std::env::temp_dir().join("caustica-bakes"));
         ArtifactStore::new(dir)
-    }
-
-    pub fn dir(&self) -> Option<&Path> {
-        self.dir.as_deref()
     }
 
     /// Where the artifact `kind` of source hash `hash` is kept (None: a store of nothing).

@@ -169,12 +169,12 @@ impl Job for RenderJob {
 
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
         ctx.progress(0.0, "render");
-        let frames = ctx
+        let mut frames = ctx
             .with_env(|env| self.plan.frames(&self.world, env))
             .map_err(|e| ctx.method_error(e))?;
         ctx.check()?;
         ctx.progress(1.0, "encode");
-        let mut timings = frames.timings.clone();
+        let mut timings = std::mem::take(&mut frames.timings);
         let t = Instant::now();
         let component = self.p.component;
         let main = frames.get(component);

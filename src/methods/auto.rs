@@ -16,8 +16,6 @@ use crate::scene::{Light, Material, World};
 pub static INFO: MethodInfo = MethodInfo {
     method: Method::Auto,
     name: "auto",
-    summary: "picks direct, transport, csl or reference from the scene",
-    lights: "all",
     // An auto render runs where the chosen method does.
     lane: Lane::Cpu,
     gpu: true,

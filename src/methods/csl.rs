@@ -27,9 +27,6 @@ use std::time::{Duration, Instant};
 pub static INFO: MethodInfo = MethodInfo {
     method: Method::Csl,
     name: "csl",
-    summary: "caustic spot lights: rigid glass or mirror objects under a directional light, \
-              turned freely with a dynamic bake",
-    lights: "directional",
     lane: Lane::Cpu,
     gpu: true,
     bake: true,

@@ -12,8 +12,6 @@ use crate::scene::World;
 pub static INFO: MethodInfo = MethodInfo {
     method: Method::Direct,
     name: "direct",
-    summary: "direct light and shadows only, no caustics: previews, scenes without glass",
-    lights: "all (no caustics)",
     lane: Lane::Gpu,
     gpu: true,
     bake: false,

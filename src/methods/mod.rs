@@ -6,7 +6,7 @@
 //! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), and [`auto`], which picks
 //! one of them from the scene. Each module implements [`MethodImpl`]:
 //!
-//! - its [`MethodInfo`] (name, what it is good for, light types, lane, whether it bakes);
+//! - its [`MethodInfo`] (name, lane, whether it needs the GPU, whether it bakes, its fields);
 //! - [`MethodImpl::plan`]: parse and check its render parameters against the scene (one parser,
 //!   one error for the CLI and the API) into a [`RenderPlan`], whose
 //!   [`RenderPlan::frames`] makes every [`Component`] of the frame, finding or baking what it
@@ -129,10 +129,6 @@ pub enum Lane {
 pub struct MethodInfo {
     pub method: Method,
     pub name: &'static str,
-    /// What it is good for, in one line.
-    pub summary: &'static str,
-    /// The lights whose caustics it renders.
-    pub lights: &'static str,
     /// Where a render of it runs (an `auto` render runs where the chosen method does).
     pub lane: Lane,
     /// Whether its frames need the GPU.

@@ -16,8 +16,6 @@ use std::time::{Duration, Instant};
 pub static INFO: MethodInfo = MethodInfo {
     method: Method::Reference,
     name: "reference",
-    summary: "the ground truth: every light path, any light and object; seconds to minutes",
-    lights: "all",
     lane: Lane::Cpu,
     gpu: false,
     bake: true,

@@ -29,9 +29,6 @@ use std::time::Instant;
 pub static INFO: MethodInfo = MethodInfo {
     method: Method::Transport,
     name: "transport",
-    summary: "light transport tables: rigid glass objects under any delta light, light moved \
-              freely without a new bake",
-    lights: "directional, point, spot, line",
     lane: Lane::Cpu,
     gpu: true,
     bake: true,
