@@ -74,9 +74,27 @@ enum Cmd {
         /// object, found by its content hash; every other glass object is baked first.
         #[arg(long)]
         bake: Option<PathBuf>,
-        /// Transport: point lights a line light is split into (Iwasaki et al. 2005 §5.1).
+        /// Transport, pinhole: point lights a line light is split into (Iwasaki et al. 2005
+        /// §5.1).
         #[arg(long, default_value_t = caustica::render::transport::volumes::DEFAULT_LINE_POINTS)]
         line_points: u32,
+        /// Pinhole: sample points over all reflectors, 1..=100000 (default 2000).
+        #[arg(long)]
+        samples: Option<u32>,
+        /// Pinhole: how the points are chosen (Wand and Straßer 2003 §3.2).
+        #[arg(long, value_enum)]
+        sampling: Option<caustica::render::pinhole::Strategy>,
+        /// Pinhole: no curvature-based anti-aliasing (shows the aliasing of §3.3).
+        #[arg(long)]
+        no_filter: bool,
+        /// Pinhole: occlusion of the reflected light by the scene's objects on the GPU (off by
+        /// default: it loses light on lavapipe, see docs/methods/pinhole.md).
+        #[arg(long)]
+        shadows: bool,
+        /// Pinhole: angular radius in degrees of the disc a directional, point or spot light
+        /// appears as (default 0.27, the sun's).
+        #[arg(long)]
+        sun_radius: Option<f32>,
     },
     /// Precompute a method's data for a scene.
     Bake {
@@ -190,7 +208,27 @@ fn main() -> Result<()> {
             time_budget,
             bake,
             line_points,
+            samples,
+            sampling,
+            no_filter,
+            shadows,
+            sun_radius,
         } => {
+            let pinhole_given = samples.is_some()
+                || sampling.is_some()
+                || no_filter
+                || shadows
+                || sun_radius.is_some();
+            let pinhole = pinhole_given.then(|| {
+                serde_json::to_value(caustica::methods::pinhole::PinholeArgs {
+                    samples,
+                    sampling,
+                    filter: no_filter.then_some(false),
+                    shadows: shadows.then_some(true),
+                    sun_radius,
+                })
+                .expect("pinhole arguments serialise")
+            });
             let args = MethodArgs {
                 photons: Some(photons),
                 spp: Some(spp),
@@ -198,6 +236,7 @@ fn main() -> Result<()> {
                 time_budget,
                 csl: None,
                 line_points: Some(line_points),
+                pinhole,
                 bake,
             };
             let png = PngSettings { exposure, tone_map };

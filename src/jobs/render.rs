@@ -63,6 +63,10 @@ pub struct RenderParams {
     /// `POST /v1/bakes` (default: the paper's).
     #[serde(default)]
     pub csl: Option<serde_json::Value>,
+    /// Pinhole: `{"samples": 1..=100000, "sampling": "random" | "grid" | "quantized" |
+    /// "neighbourhood", "filter": bool, "shadows": bool, "sun_radius": degrees}`.
+    #[serde(default)]
+    pub pinhole: Option<serde_json::Value>,
 }
 
 impl RenderParams {
@@ -73,6 +77,7 @@ impl RenderParams {
             spp: self.spp,
             seed: self.seed,
             csl: self.csl.clone(),
+            pinhole: self.pinhole.clone(),
             ..Default::default()
         }
     }

@@ -4,8 +4,11 @@
 //! 1. no object has a glass or mirror part → `direct` (nothing casts caustics);
 //! 2. every caustic part is glass (dielectric) and a directional, point, spot or line light
 //!    lights the scene → `transport` (every delta light type, the light may move freely);
-//! 3. a directional light → `csl` (mirrors too);
-//! 4. otherwise → `reference` (e.g. mirrors under a point light, or only environment light).
+//! 3. every caustic part is a mirror and an environment light lights the scene → `pinhole`
+//!    (one reflection of the environment and of the other lights);
+//! 4. a directional light → `csl` (mirrors too);
+//! 5. otherwise → `reference` (e.g. mirrors under a point light, glass under only
+//!    environment light).
 
 use super::{
     Env, Frames, Lane, Method, MethodArgs, MethodError, MethodImpl, MethodInfo, ParamError,
@@ -45,6 +48,16 @@ pub fn choose(world: &World) -> (Method, &'static str) {
         .lights
         .iter()
         .any(|l| !matches!(l, Light::Environment { .. }));
+    let all_mirror = caustic.iter().all(|&i| {
+        world.objects[i].parts.iter().all(|p| {
+            let m = &world.materials[p.material as usize];
+            !m.is_specular() || matches!(m, Material::Mirror { .. })
+        })
+    });
+    let environment = world
+        .lights
+        .iter()
+        .any(|l| matches!(l, Light::Environment { .. }));
     let directional = world
         .lights
         .iter()
@@ -53,6 +66,11 @@ pub fn choose(world: &World) -> (Method, &'static str) {
         (
             Method::Transport,
             "every caustic object is glass, lit by a delta light",
+        )
+    } else if all_mirror && environment {
+        (
+            Method::Pinhole,
+            "every caustic object is a mirror, lit by an environment light",
         )
     } else if directional {
         (
@@ -135,6 +153,7 @@ mod tests {
         assert_eq!(choose(&with(mirror, sun)).0, Method::Csl);
         assert_eq!(choose(&with(mirror, bulb)).0, Method::Reference);
         assert_eq!(choose(&with(glass, sky)).0, Method::Reference);
+        assert_eq!(choose(&with(mirror, sky)).0, Method::Pinhole);
         // The plan is the chosen method's, and says why.
         let plan = Auto
             .plan(&with(mirror, sun), &MethodArgs::default())

@@ -3,8 +3,8 @@
 //!
 //! A method is a way of making the frames of a scene: [`direct`] (GPU direct lighting, no
 //! caustics), [`reference`](mod@reference) (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
-//! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), and [`auto`], which picks
-//! one of them from the scene. Each module implements [`MethodImpl`]:
+//! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), [`pinhole`] (pinhole
+//! caustics, Wand and Straßer 2003), and [`auto`], which picks one of them from the scene. Each module implements [`MethodImpl`]:
 //!
 //! - its [`MethodInfo`] (name, lane, whether it needs the GPU, whether it bakes, its fields);
 //! - [`MethodImpl::plan`]: parse and check its render parameters against the scene (one parser,
@@ -20,6 +20,7 @@
 pub mod auto;
 pub mod csl;
 pub mod direct;
+pub mod pinhole;
 pub mod reference;
 pub mod transport;
 
@@ -52,16 +53,20 @@ pub enum Method {
     /// Light transport tables (Iwasaki et al. 2005): CPU bake, illumination volumes drawn on the
     /// GPU; directional, point, spot and line lights. Needs a float-blendable adapter.
     Transport,
+    /// Pinhole caustics (Wand and Straßer 2003): no bake, points on the reflectors project the
+    /// environment and the lights onto the receivers every frame.
+    Pinhole,
 }
 
 impl Method {
     /// Every method, in the order of the registry's listings.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Auto,
         Method::Direct,
         Method::Reference,
         Method::Csl,
         Method::Transport,
+        Method::Pinhole,
     ];
 
     /// The registry: the implementation of each method.
@@ -72,6 +77,7 @@ impl Method {
             Method::Reference => &reference::Reference,
             Method::Csl => &csl::Csl,
             Method::Transport => &transport::Transport,
+            Method::Pinhole => &pinhole::Pinhole,
         }
     }
 
@@ -201,8 +207,10 @@ pub struct MethodArgs {
     pub time_budget: Option<f64>,
     /// CSL: the bake's parameters, as for a `csl` bake.
     pub csl: Option<serde_json::Value>,
-    /// Transport: point lights a line light is split into, 1..=256 (CLI).
+    /// Transport, pinhole: point lights a line light is split into, 1..=256 (CLI).
     pub line_points: Option<u32>,
+    /// Pinhole: its parameters (`methods::pinhole::PinholeArgs`).
+    pub pinhole: Option<serde_json::Value>,
     /// CSL, transport: a bake made beforehand (CLI: `--bake FILE`).
     pub bake: Option<PathBuf>,
 }
@@ -231,7 +239,11 @@ impl MethodArgs {
         if let Some(n) = self.line_points {
             ParamError::range("line_points", n, 1, 256)?;
         }
-        for (field, given) in [("csl", self.csl.is_some()), ("bake", self.bake.is_some())] {
+        for (field, given) in [
+            ("csl", self.csl.is_some()),
+            ("bake", self.bake.is_some()),
+            ("pinhole", self.pinhole.is_some()),
+        ] {
             if given && !info.args.contains(&field) {
                 let takers = names(|i| i.args.contains(&field));
                 return Err(ParamError::new(
@@ -539,7 +551,7 @@ mod tests {
         assert_eq!(e.field, "method");
         assert!(
             e.message
-                .contains("auto, direct, reference, csl, transport"),
+                .contains("auto, direct, reference, csl, transport, pinhole"),
             "{e}"
         );
     }

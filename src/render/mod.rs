@@ -18,7 +18,9 @@
 pub mod blockers;
 pub mod csl;
 pub mod direct;
+pub mod gbuffer;
 pub mod lights;
+pub mod pinhole;
 pub mod plan;
 pub mod scene;
 pub mod shaders;
@@ -27,6 +29,7 @@ pub mod timestamps;
 pub mod transport;
 
 pub use csl::CslLayer;
+pub use pinhole::PinholeLayer;
 pub use plan::{DeviceLimits, FramePlan, SHADOW_BUDGET_BYTES};
 pub use transport::TransportLayer;
 
@@ -45,6 +48,7 @@ pub enum Caustics<'a> {
     None,
     Csl(&'a CslLayer),
     Transport(&'a TransportLayer),
+    Pinhole(&'a PinholeLayer),
 }
 
 /// Which layers to compute and read back.
@@ -150,9 +154,13 @@ struct DeviceCache {
     shadow: shadow::ShadowPipeline,
     /// Built on the first transport frame.
     transport: Option<transport::TransportPipelines>,
+    /// Built on the first pinhole frame, with the environment pyramid of its map.
+    pinhole: Option<pinhole::PinholePipeline>,
+    /// Built on the first frame that needs a G-buffer (transport, pinhole).
+    gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
     targets: Option<direct::Targets>,
-    gbuffer: Option<transport::GBuffer>,
+    gbuffer: Option<gbuffer::GBuffer>,
     /// Grown as needed.
     atlas: Option<shadow::ShadowAtlas>,
     env: Option<direct::EnvTexture>,
@@ -164,7 +172,7 @@ struct DeviceCache {
 impl DeviceCache {
     /// The resources kept between frames, made or remade to fit `plan`: the targets of its
     /// size, a shadow map array that holds its layers, the environment texture of its map, the
-    /// transport pipelines and G-buffer when it draws illumination volumes.
+    /// transport or pinhole pipelines and the G-buffer when it gathers caustics per pixel.
     fn fit(&mut self, dev: &wgpu::Device, queue: &wgpu::Queue, plan: &FramePlan) {
         let size = (plan.width, plan.height);
         if self
@@ -193,16 +201,24 @@ impl DeviceCache {
             let map = env.map.as_ref().map(|(m, _)| m.as_ref());
             self.env = Some(direct::EnvTexture::new(dev, queue, map, key));
         }
-        if plan.transport.is_some() {
-            if self.transport.is_none() {
-                self.transport = Some(transport::TransportPipelines::new(dev));
+        if plan.transport.is_some() && self.transport.is_none() {
+            self.transport = Some(transport::TransportPipelines::new(dev));
+        }
+        if let Some(layer) = plan.pinhole {
+            self.pinhole
+                .get_or_insert_with(|| pinhole::PinholePipeline::new(dev))
+                .fit_env(dev, queue, layer);
+        }
+        if plan.transport.is_some() || plan.pinhole.is_some() {
+            if self.gbuffer_pipeline.is_none() {
+                self.gbuffer_pipeline = Some(gbuffer::GBufferPipeline::new(dev));
             }
             if self
                 .gbuffer
                 .as_ref()
                 .is_none_or(|g| (g.width, g.height) != size)
             {
-                self.gbuffer = Some(transport::GBuffer::new(dev, size.0, size.1));
+                self.gbuffer = Some(gbuffer::GBuffer::new(dev, size.0, size.1));
             }
         }
     }
@@ -234,6 +250,8 @@ impl Renderer {
             pipelines,
             shadow,
             transport: None,
+            pinhole: None,
+            gbuffer_pipeline: None,
             targets: None,
             gbuffer: None,
             atlas: None,
@@ -285,6 +303,17 @@ impl Renderer {
         self.render_with(world, opts, Caustics::Transport(layer))
     }
 
+    /// Renders `world` and its caustics layer by pinhole projection from the points of
+    /// `layer` (`RenderOutput::caustics` is then `Some`).
+    pub fn render_pinhole(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &PinholeLayer,
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_with(world, opts, Caustics::Pinhole(layer))
+    }
+
     /// Renders `world` with the caustics method `caustics`.
     pub fn render_with(
         &mut self,
@@ -328,15 +357,18 @@ impl Renderer {
         let c = &mut self.cache;
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan);
-            // Shadow maps, direct, transport.
+            // Shadow maps, direct, transport or pinhole.
             timestamps::Timestamps::new(&self.ctx, dev, 3)
         })?;
-        let (frame, volumes, generation) = self.ctx.scoped(dev, || {
+        let (frame, volumes, pinhole_buffers, generation) = self.ctx.scoped(dev, || {
             let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
             (
                 direct::FrameBuffers::upload(dev, &plan.globals, &plan.lights, &csl),
                 plan.transport
                     .map(|l| transport::upload_volumes(dev, &l.volumes)),
+                plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
+                    pinhole::PinholeBuffers::upload(dev, l, p.env.as_ref().expect("fitted"))
+                }),
                 generation,
             )
         })?;
@@ -378,6 +410,27 @@ impl Renderer {
                 env,
                 ts.as_mut(),
             );
+            if let (true, Some(gp), Some(gb)) = (
+                plan.transport.is_some() || plan.pinhole.is_some(),
+                &c.gbuffer_pipeline,
+                &c.gbuffer,
+            ) {
+                gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals);
+            }
+            if let (Some(pb), Some(pp), Some(gb)) = (&pinhole_buffers, &c.pinhole, &c.gbuffer) {
+                pinhole::encode(
+                    dev,
+                    &mut enc,
+                    pp,
+                    gb,
+                    scene,
+                    &frame.globals,
+                    blockers,
+                    pb,
+                    targets,
+                    ts.as_mut(),
+                );
+            }
             if let (Some(l), Some(vb), Some(tp), Some(gb)) =
                 (plan.transport, &volumes, &c.transport, &c.gbuffer)
             {

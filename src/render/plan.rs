@@ -8,6 +8,7 @@
 use super::csl::CslLayer;
 use super::direct::{Globals, globals};
 use super::lights::LightPlan;
+use super::pinhole::PinholeLayer;
 use super::transport::{GpuVolume, TransportLayer};
 use super::{Caustics, RenderError, RenderOptions};
 use crate::bake::csl::Csl;
@@ -71,6 +72,7 @@ pub struct FramePlan<'a> {
     pub globals: Globals,
     pub csl: Option<CslFrame<'a>>,
     pub transport: Option<&'a TransportLayer>,
+    pub pinhole: Option<&'a PinholeLayer>,
     /// The objects whose own caustic light nothing else occludes (the caustic objects of the
     /// method), when the frame has caustics.
     pub caustic_objects: Option<&'a [usize]>,
@@ -83,10 +85,11 @@ impl<'a> FramePlan<'a> {
         caustics: Caustics<'a>,
         dev: &DeviceLimits,
     ) -> Result<FramePlan<'a>, RenderError> {
-        let (csl, transport) = match caustics {
-            Caustics::None => (None, None),
-            Caustics::Csl(l) => (Some(l), None),
-            Caustics::Transport(l) => (None, Some(l)),
+        let (csl, transport, pinhole) = match caustics {
+            Caustics::None => (None, None, None),
+            Caustics::Csl(l) => (Some(l), None, None),
+            Caustics::Transport(l) => (None, Some(l), None),
+            Caustics::Pinhole(l) => (None, None, Some(l)),
         };
         if transport.is_some()
             && let Some(why) = dev.transport_unsupported()
@@ -195,10 +198,22 @@ impl<'a> FramePlan<'a> {
                 )));
             }
         }
+        if let Some(l) = pinhole {
+            let bytes = l.storage_bytes();
+            if bytes > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "{} pinhole points ({bytes} bytes) over the adapter's storage binding limit \
+                     of {max_storage}",
+                    l.samples.len()
+                )));
+            }
+        }
+        // Pinhole points are shadowed by every object, their own included.
         let caustic_objects = csl
             .as_ref()
             .map(|c| c.layer.caustic_objects.as_slice())
-            .or(transport.map(|t| t.caustic_objects.as_slice()));
+            .or(transport.map(|t| t.caustic_objects.as_slice()))
+            .or(pinhole.map(|_| &[][..]));
         Ok(FramePlan {
             width,
             height,
@@ -207,13 +222,14 @@ impl<'a> FramePlan<'a> {
             globals,
             csl,
             transport,
+            pinhole,
             caustic_objects,
         })
     }
 
     /// Whether the frame has a caustics layer to read back.
     pub fn has_caustics(&self) -> bool {
-        self.csl.is_some() || self.transport.is_some()
+        self.csl.is_some() || self.transport.is_some() || self.pinhole.is_some()
     }
 }
 

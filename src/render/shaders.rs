@@ -13,6 +13,7 @@ pub const FILES: &[(&str, &str)] = &[
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
+    ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
     (
         "transport.wgsl",
         include_str!("../../shaders/transport.wgsl"),
@@ -218,6 +219,43 @@ mod tests {
                 ("f0", f),
                 ("f1", f + 16),
                 ("f2", f + 32),
+            ],
+        );
+    }
+
+    #[test]
+    fn pinhole_structs_have_the_wgsl_layout() {
+        use crate::render::pinhole::{GpuPinhole, GpuSample, GpuSampleLight};
+        mirror(
+            "pinhole.wgsl",
+            "Sample",
+            size_of::<GpuSample>(),
+            &[
+                ("position", offset_of!(GpuSample, position)),
+                ("normal", offset_of!(GpuSample, normal)),
+                ("dir1", offset_of!(GpuSample, dir1)),
+                ("dir2", offset_of!(GpuSample, dir2)),
+                ("reflectance", offset_of!(GpuSample, reflectance)),
+            ],
+        );
+        mirror(
+            "pinhole.wgsl",
+            "SampleLight",
+            size_of::<GpuSampleLight>(),
+            &[
+                ("dir", offset_of!(GpuSampleLight, dir)),
+                ("irradiance", offset_of!(GpuSampleLight, irradiance)),
+            ],
+        );
+        mirror(
+            "pinhole.wgsl",
+            "Pinhole",
+            size_of::<GpuPinhole>(),
+            &[
+                ("counts", offset_of!(GpuPinhole, counts)),
+                ("env", offset_of!(GpuPinhole, env)),
+                ("env_scale", offset_of!(GpuPinhole, env_scale)),
+                ("env_size", offset_of!(GpuPinhole, env_size)),
             ],
         );
     }

@@ -2,6 +2,7 @@
 //! into a [`World`] ([`load`]), procedural shapes, glTF import and the bounded decoding of input
 //! images ([`image`]). No GPU, no HTTP.
 
+pub mod curvature;
 pub mod gltf;
 pub mod image;
 pub mod load;

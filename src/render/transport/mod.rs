@@ -13,7 +13,8 @@ pub mod view;
 pub mod volumes;
 
 use super::direct::{HDR_FORMAT, Targets};
-use super::scene::{BlockerBuffers, SceneBuffers, vertex_layout};
+use super::gbuffer::GBuffer;
+use super::scene::{BlockerBuffers, SceneBuffers};
 use super::shaders;
 use super::timestamps::Timestamps;
 use crate::bake::transport::TransportTable;
@@ -157,18 +158,14 @@ impl TransportLayer {
     }
 }
 
-/// The G-buffer and volume pipelines, created once per device.
+/// The volume pipeline, created once per device.
 pub struct TransportPipelines {
-    pub gbuffer: wgpu::RenderPipeline,
-    pub gbuffer_layout: wgpu::BindGroupLayout,
     pub volume: wgpu::RenderPipeline,
     pub volume_layout: wgpu::BindGroupLayout,
 }
 
 /// Vertices drawn per volume (`HULL_VERTICES` of transport.wgsl).
 pub const HULL_VERTICES: u32 = 12;
-
-pub const GBUF_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 impl TransportPipelines {
     pub fn new(device: &wgpu::Device) -> TransportPipelines {
@@ -195,10 +192,6 @@ impl TransportPipelines {
             view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
         };
-        let gbuffer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("gbuffer"),
-            entries: &[entry(0, vf, uniform), entry(2, frag, storage)],
-        });
         let volume_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("transport volumes"),
             entries: &[
@@ -217,7 +210,6 @@ impl TransportPipelines {
                 source: wgpu::ShaderSource::Wgsl(shaders::source(name).into()),
             })
         };
-        let gmod = module("gbuffer.wgsl");
         let tmod = module("transport.wgsl");
         let layout = |l: &wgpu::BindGroupLayout| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -231,38 +223,6 @@ impl TransportPipelines {
             cull_mode: None,
             ..Default::default()
         };
-        let gtarget = Some(wgpu::ColorTargetState {
-            format: GBUF_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        });
-        let gbuffer = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("gbuffer"),
-            layout: Some(&layout(&gbuffer_layout)),
-            vertex: wgpu::VertexState {
-                module: &gmod,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive,
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: super::direct::DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &gmod,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[gtarget.clone(), gtarget],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
         let add = wgpu::BlendState {
             color: wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::One,
@@ -301,38 +261,8 @@ impl TransportPipelines {
             cache: None,
         });
         TransportPipelines {
-            gbuffer,
-            gbuffer_layout,
             volume,
             volume_layout,
-        }
-    }
-}
-
-/// G-buffer textures kept between frames of one size.
-pub struct GBuffer {
-    pub width: u32,
-    pub height: u32,
-    pub position: wgpu::Texture,
-    pub normal: wgpu::Texture,
-    pub depth: wgpu::Texture,
-}
-
-impl GBuffer {
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> GBuffer {
-        let tex =
-            |label, format, usage| super::texture_2d(device, label, (width, height), format, usage);
-        let color = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        GBuffer {
-            width,
-            height,
-            position: tex("gbuffer position", GBUF_FORMAT, color),
-            normal: tex("gbuffer normal", GBUF_FORMAT, color),
-            depth: tex(
-                "gbuffer depth",
-                super::direct::DEPTH_FORMAT,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            ),
         }
     }
 }
@@ -351,8 +281,8 @@ pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> wgpu::Buffer
     })
 }
 
-/// Encodes the G-buffer pass and the volume pass (after the direct pass, which cleared the
-/// caustics layer); `globals` is the frame's camera uniform.
+/// Encodes the volume pass over the G-buffer `gbuf` (drawn before it, after the direct pass,
+/// which cleared the caustics layer); `globals` is the frame's camera uniform.
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
@@ -367,48 +297,7 @@ pub fn encode(
     targets: &Targets,
     timestamps: Option<&mut Timestamps>,
 ) {
-    let gbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("gbuffer"),
-        layout: &p.gbuffer_layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: scene.materials.as_entire_binding(),
-            },
-        ],
-    });
-    let pos_view = gbuf.position.create_view(&Default::default());
-    let nrm_view = gbuf.normal.create_view(&Default::default());
-    let depth_view = gbuf.depth.create_view(&Default::default());
-    let clear = super::cleared_attachment;
-    {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("gbuffer"),
-            color_attachments: &[clear(&pos_view), clear(&nrm_view)],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        if let Some((vb, ib)) = scene.geometry() {
-            pass.set_pipeline(&p.gbuffer);
-            pass.set_bind_group(0, &gbg, &[]);
-            pass.set_vertex_buffer(0, vb.slice(..));
-            pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..scene.index_count, 0, 0..1);
-        }
-    }
+    let (pos_view, nrm_view) = gbuf.views();
     let vbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("transport volumes"),
         layout: &p.volume_layout,

@@ -1,0 +1,271 @@
+// Pinhole caustics (Wand & Strasser 2003; render/pinhole/mod.rs): every sample point on the
+// reflectors is a reflecting pinhole camera. Per receiver pixel of the G-buffer and per point:
+// the vector d from the receiver to the point, reflected at the point's normal, looks up the
+// light arriving there; the contribution is weighted by <n_s,-d><n_d,d>/(<d,d>+eps) times the
+// area the point stands for, its reflectance (Fresnel for glass) and the receiver's BRDF.
+//
+// Anti-aliasing (section 3.3): the reflected direction varies over the point's area with its
+// principal curvatures (and with the direction to the receiver); the first-order spread J of
+// that variation over a disc of the point's area gives a footprint in direction space. The
+// environment map is read from its mip pyramid over that footprint (footprint assembly: taps
+// along the major axis at the minor axis' level), delta lights (directional, point, spot) are
+// Gaussian lobes of the footprint widened by their angular radius. Without filtering a map is
+// read bilinearly at level 0 and a delta light is a disc of its angular radius.
+
+#include "common.inc.wgsl"
+#include "occlusion.inc.wgsl"
+
+struct Sample {
+    // xyz: position; w: area the point stands for.
+    position: vec4<f32>,
+    // xyz: unit normal; w: eps.
+    normal: vec4<f32>,
+    // xyz: principal direction; w: its curvature.
+    dir1: vec4<f32>,
+    dir2: vec4<f32>,
+    // rgb: reflectance; w: ior of a glass part (0: mirror).
+    reflectance: vec4<f32>,
+}
+
+struct SampleLight {
+    // xyz: unit direction to the light; w: angular radius.
+    dir: vec4<f32>,
+    // rgb: irradiance facing the light (0 when shadowed); w: 1 / distance (0: directional).
+    irradiance: vec4<f32>,
+}
+
+struct Pinhole {
+    // x: points, y: delta lights per point, z: flags, w: mip levels.
+    counts: vec4<u32>,
+    // rgb: constant environment radiance; w: 1 when a map is bound.
+    env: vec4<f32>,
+    env_scale: vec4<f32>,
+    env_size: vec4<f32>,
+}
+
+const FLAG_FILTER: u32 = 1u;
+const FLAG_SHADOWS: u32 = 2u;
+const MAX_TAPS: f32 = 16.0;
+
+@group(0) @binding(0) var<uniform> g: Globals;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(10) var gbuf_position: texture_2d<f32>;
+@group(0) @binding(11) var gbuf_normal: texture_2d<f32>;
+@group(0) @binding(12) var<storage, read> samples: array<Sample>;
+@group(0) @binding(13) var<storage, read> sample_lights: array<SampleLight>;
+@group(0) @binding(14) var<uniform> ph: Pinhole;
+@group(0) @binding(15) var env_tex: texture_2d<f32>;
+@group(0) @binding(16) var env_sampler: sampler;
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    // One triangle over the whole target.
+    let x = f32((i << 1u) & 2u);
+    let y = f32(i & 2u);
+    return vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+}
+
+// Unpolarised Fresnel reflectance of a dielectric, light arriving from outside (eta = 1/ior).
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let sin2_t = eta * eta * (1.0 - c * c);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let rs = (eta * c - cos_t) / (eta * c + cos_t);
+    let rp = (c - eta * cos_t) / (c + eta * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// Orthonormal tangents of unit n (Duff et al. 2017), as sampling::frame.
+fn tangent(n: vec3<f32>) -> vec3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+}
+
+// Change of the reflected direction l = reflect(dn, n) for a step t (unit tangent) on the
+// reflector where the normal bends by k: through the normal (n + k t) and through the
+// direction to the receiver (dn moves by the step's part across it, over the distance).
+fn reflect_spread(dn: vec3<f32>, n: vec3<f32>, t: vec3<f32>, k: f32, dist: f32) -> vec3<f32> {
+    let ddn = (t - dn * dot(dn, t)) / dist;
+    let dnn = t * k;
+    return ddn - 2.0 * ((dot(ddn, n) + dot(dn, dnn)) * n + dot(dn, n) * dnn);
+}
+
+// The environment map along direction l (towards the light), bilinearly at level 0.
+fn env_point(l: vec3<f32>) -> vec3<f32> {
+    return textureSampleLevel(env_tex, env_sampler, env_uv(l), 0.0).rgb;
+}
+
+// The environment map averaged over the footprint spanned by the direction-space vectors f1,
+// f2 (one standard deviation each) around l.
+fn env_filtered(l: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>) -> vec3<f32> {
+    let size = ph.env_size.xy;
+    // Texels per unit change of direction: gradients of u = atan2(x, -z)/2pi, v = acos(y)/pi.
+    let rho2 = max(l.x * l.x + l.z * l.z, 1e-6);
+    let gu = vec3<f32>(-l.z, 0.0, l.x) / (2.0 * PI * rho2) * size.x;
+    let gv = vec3<f32>(0.0, -1.0 / (PI * sqrt(rho2)), 0.0) * size.y;
+    let a = vec2<f32>(dot(gu, f1), dot(gv, f1));
+    let b = vec2<f32>(dot(gu, f2), dot(gv, f2));
+    // Covariance in texels and its axes.
+    let sxx = a.x * a.x + b.x * b.x;
+    let syy = a.y * a.y + b.y * b.y;
+    let sxy = a.x * a.y + b.x * b.y;
+    let mean = 0.5 * (sxx + syy);
+    let r = sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+    let major = sqrt(max(mean + r, 0.0));
+    var minor = sqrt(max(mean - r, 0.0));
+    minor = max(max(minor, major / MAX_TAPS), 0.5);
+    let theta = 0.5 * atan2(2.0 * sxy, sxx - syy);
+    let axis = vec2<f32>(cos(theta), sin(theta));
+    let level = clamp(log2(2.0 * minor), 0.0, f32(ph.counts.w) - 1.0);
+    let uv0 = env_uv(l);
+    let n = u32(clamp(ceil(major / minor), 1.0, MAX_TAPS));
+    var sum = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var i = 0u; i < n; i++) {
+        // Taps spread over +-2 standard deviations of the major axis, Gaussian-weighted.
+        let x = select(0.0, (f32(i) + 0.5) / f32(n) * 4.0 - 2.0, n > 1u);
+        let w = exp(-0.5 * x * x);
+        let uv = uv0 + axis * (x * major) / size;
+        sum += w * textureSampleLevel(env_tex, env_sampler, uv, level).rgb;
+        wsum += w;
+    }
+    return sum / wsum;
+}
+
+// A delta light seen in direction l through the footprint (f1, f2): a Gaussian lobe around
+// its direction w, widened by the disc of angular radius r it appears as.
+fn delta_filtered(l: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>, w: vec3<f32>, r: f32) -> f32 {
+    if dot(w, l) <= 0.0 {
+        return 0.0;
+    }
+    let t = tangent(l);
+    let b = cross(l, t);
+    let disc = 0.25 * r * r;
+    let sxx = dot(t, f1) * dot(t, f1) + dot(t, f2) * dot(t, f2) + disc;
+    let syy = dot(b, f1) * dot(b, f1) + dot(b, f2) * dot(b, f2) + disc;
+    let sxy = dot(t, f1) * dot(b, f1) + dot(t, f2) * dot(b, f2);
+    let det = max(sxx * syy - sxy * sxy, 1e-30);
+    let x = vec2<f32>(dot(t, w), dot(b, w));
+    let q = (syy * x.x * x.x - 2.0 * sxy * x.x * x.y + sxx * x.y * x.y) / det;
+    if q > 40.0 {
+        return 0.0;
+    }
+    return exp(-0.5 * q) / (2.0 * PI * sqrt(det));
+}
+
+// A delta light as a disc of angular radius r around w, per steradian, seen along l.
+fn delta_disc(l: vec3<f32>, w: vec3<f32>, r: f32) -> f32 {
+    let c = cos(max(r, 1e-4));
+    return select(0.0, 1.0 / (2.0 * PI * (1.0 - c)), dot(l, w) >= c);
+}
+
+@fragment
+fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(frag.xy);
+    let gp = textureLoad(gbuf_position, px, 0);
+    if gp.w <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let gn = textureLoad(gbuf_normal, px, 0);
+    let p = gp.xyz;
+    let nd = normalize(gn.xyz);
+    let mat = materials[u32(gn.w)];
+    let v = normalize(g.eye.xyz - p);
+    let filtered = (ph.counts.z & FLAG_FILTER) != 0u;
+    let shadows = (ph.counts.z & FLAG_SHADOWS) != 0u;
+    let nl = ph.counts.y;
+    let has_env = ph.env.w > 0.5 || max(max(ph.env.r, ph.env.g), ph.env.b) > 0.0;
+    let lift_d = 0.5 * gp.w;
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < ph.counts.x; i++) {
+        let s = samples[i];
+        let ps = s.position.xyz;
+        let ns = s.normal.xyz;
+        let dv = ps - p;
+        let dist2 = dot(dv, dv);
+        let dist = sqrt(dist2);
+        let dn = dv / dist;
+        let cos_d = dot(nd, dn);
+        let cos_s = -dot(ns, dn);
+        if cos_d <= 0.0 || cos_s <= 0.0 {
+            continue;
+        }
+        var refl = s.reflectance.rgb;
+        if s.reflectance.w > 0.0 {
+            refl = vec3<f32>(fresnel_dielectric(cos_s, 1.0 / s.reflectance.w));
+        }
+        var f = mat.albedo.rgb / PI;
+        if mat.kind == MAT_GLOSSY {
+            f = glossy_brdf(nd, dn, v, mat.albedo.rgb, mat.specular.rgb, mat.roughness);
+        }
+        let weight = refl * f * (cos_s * cos_d / (dist2 + s.normal.w) * s.position.w);
+        if max(max(weight.r, weight.g), weight.b) <= 0.0 {
+            continue;
+        }
+        // Towards the light that the point sends to the receiver.
+        let l = dn + 2.0 * cos_s * ns;
+        // The footprint: a Gaussian of half the points' spacing, which tiles with its neighbours
+        // (a disc of the same area has a deviation of 0.28 spacings and leaves gaps).
+        let sigma = 0.5 * sqrt(s.position.w);
+        var f1 = vec3<f32>(0.0);
+        var f2 = vec3<f32>(0.0);
+        if filtered {
+            f1 = sigma * reflect_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist);
+            f2 = sigma * reflect_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist);
+        }
+        var radiance = vec3<f32>(0.0);
+        for (var k = 0u; k < nl; k++) {
+            let sl = sample_lights[i * nl + k];
+            let e = sl.irradiance.rgb;
+            if max(max(e.r, e.g), e.b) <= 0.0 {
+                continue;
+            }
+            let w = sl.dir.xyz;
+            if filtered {
+                // A near light's direction moves across the point's area too.
+                let inv = sl.irradiance.w;
+                let g1 = f1 + sigma * inv * (s.dir1.xyz - w * dot(w, s.dir1.xyz));
+                let g2 = f2 + sigma * inv * (s.dir2.xyz - w * dot(w, s.dir2.xyz));
+                radiance += e * delta_filtered(l, g1, g2, w, sl.dir.w);
+            } else {
+                radiance += e * delta_disc(l, w, sl.dir.w);
+            }
+        }
+        if has_env {
+            var le = ph.env.rgb;
+            if ph.env.w > 0.5 {
+                var m: vec3<f32>;
+                if filtered {
+                    m = env_filtered(l, f1, f2);
+                } else {
+                    m = env_point(l);
+                }
+                le += ph.env_scale.rgb * m;
+            }
+            if shadows && max(max(le.r, le.g), le.b) > 0.0 {
+                let lift_s = 1e-3 * sqrt(s.normal.w);
+                if occluded(ps + ns * lift_s, l, 1e30) {
+                    le = vec3<f32>(0.0);
+                }
+            }
+            radiance += le;
+        }
+        if max(max(radiance.r, radiance.g), radiance.b) <= 0.0 {
+            continue;
+        }
+        if shadows {
+            let o = p + nd * lift_d;
+            let to = ps - o;
+            let len = length(to);
+            if occluded(o, to / len, len * (1.0 - 1e-4) - 1e-3 * sqrt(s.normal.w)) {
+                continue;
+            }
+        }
+        sum += weight * radiance;
+    }
+    return vec4<f32>(sum, 1.0);
+}

@@ -1,0 +1,714 @@
+//! The pinhole pass (Wand and Straßer 2003, method `pinhole`): the specular surfaces are
+//! discretised into sample points ([`sampling`]), each a reflecting pinhole camera that
+//! projects the incoming light onto the receivers. Per frame, on the CPU: the points of every
+//! reflector part (mirrors, and glass by its Fresnel reflection), their normals, area and
+//! principal curvatures ([`crate::scene::curvature`]: Kalaiah and Varshney's 2001
+//! differential point samples), and for the delta lights the light each point receives
+//! (shadowed). On the GPU (`shaders/pinhole.wgsl`), per receiver pixel of the G-buffer and
+//! per point: the vector to the point reflected at its normal looks the light up (the
+//! environment map, prefiltered over the footprint its curvature spreads the reflected
+//! directions over; the delta lights as discs of `sun_radius` seen from the point), weighted
+//! by ⟨n_s,−d⟩⟨n_d,d⟩/(⟨d,d⟩+ε) · area/N, the reflector's reflectance and the receiver's BRDF.
+//!
+//! Beyond the paper: receiver-to-point segments and the points' view of the environment are
+//! tested against every object of the scene (`shadows`); point and spot lights are handled per
+//! point (each point has its own direction to them, the paper's "several environment maps");
+//! the reflectors receive too (self-caustics, the ε term keeping them free of hot spots).
+
+pub mod sampling;
+
+use super::direct::{HDR_FORMAT, Targets};
+use super::gbuffer::GBuffer;
+use super::scene::{BlockerBuffers, SceneBuffers};
+use super::shaders;
+use super::timestamps::Timestamps;
+use crate::render::transport::volumes::{Source, sources};
+use crate::scene::curvature::{principal, vertex_shape_operators};
+use crate::scene::{EnvMap, Light, Material, World};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Vec3};
+pub use sampling::Strategy;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use wgpu::util::DeviceExt;
+
+/// What a pinhole frame is asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinholeParams {
+    /// Sample points over all reflectors together (split by area).
+    pub samples: u32,
+    pub strategy: Strategy,
+    /// Curvature-based anti-aliasing (§3.3); off shows the paper's aliasing.
+    pub filter: bool,
+    /// Occlusion, on the GPU, of receiver-to-point segments and of the environment reaching
+    /// the points (the delta lights reaching the points are always shadowed, on the CPU).
+    pub shadows: bool,
+    /// Angular radius (radians) of the disc a delta light (directional, point, spot, line)
+    /// appears as from a point.
+    pub sun_radius: f32,
+    pub seed: u64,
+    /// Point lights a line light is split into.
+    pub line_points: u32,
+}
+
+pub const DEFAULT_SAMPLES: u32 = 2000;
+pub const MAX_SAMPLES: u32 = 100_000;
+/// The sun's angular radius (0.27°).
+pub const DEFAULT_SUN_RADIUS_DEG: f32 = 0.27;
+/// Delta light sources per point at most (a line light counts its points).
+pub const MAX_DELTA_SOURCES: usize = 64;
+
+impl Default for PinholeParams {
+    fn default() -> Self {
+        PinholeParams {
+            samples: DEFAULT_SAMPLES,
+            strategy: Strategy::default(),
+            filter: true,
+            shadows: false,
+            sun_radius: DEFAULT_SUN_RADIUS_DEG.to_radians(),
+            seed: 1,
+            line_points: 16,
+        }
+    }
+}
+
+/// `Sample` of pinhole.wgsl (layout checked against naga's in `render::shaders`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuSample {
+    /// xyz: position; w: area the point stands for (m²).
+    pub position: [f32; 4],
+    /// xyz: unit normal; w: ε, the squared diameter of that area.
+    pub normal: [f32; 4],
+    /// xyz: first principal direction; w: its curvature k1 (1/m).
+    pub dir1: [f32; 4],
+    /// xyz: second principal direction; w: k2.
+    pub dir2: [f32; 4],
+    /// rgb: reflectance (mirror); w: the index of refraction of a glass part (0 for a mirror),
+    /// whose reflectance is then Fresnel's.
+    pub reflectance: [f32; 4],
+}
+
+/// `SampleLight` of pinhole.wgsl: a delta light as one point receives it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuSampleLight {
+    /// xyz: unit direction towards the light; w: its angular radius (radians).
+    pub dir: [f32; 4],
+    /// rgb: irradiance facing the light at the point (W/m², 0 when shadowed); w: 1/distance to
+    /// the light (0 for a directional light).
+    pub irradiance: [f32; 4],
+}
+
+/// `Pinhole` of pinhole.wgsl: the pass's uniform.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuPinhole {
+    /// x: points, y: delta lights per point, z: flags (1 filter, 2 shadows), w: mip levels of
+    /// the environment map.
+    pub counts: [u32; 4],
+    /// rgb: constant environment radiance; w: 1 when a map is bound.
+    pub env: [f32; 4],
+    /// rgb: multiplier of the (normalised) map's texels.
+    pub env_scale: [f32; 4],
+    /// xy: map size in texels.
+    pub env_size: [f32; 4],
+}
+
+pub const FLAG_FILTER: u32 = 1;
+pub const FLAG_SHADOWS: u32 = 2;
+
+/// Figures of a frame's sampling.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PinholeStats {
+    pub samples: usize,
+    /// Total reflector area (m²).
+    pub area: f32,
+    /// Parts sampled.
+    pub parts: usize,
+    /// Delta light sources each point sees (line lights split).
+    pub delta_sources: usize,
+    /// Points with a delta light shadowed.
+    pub shadowed: usize,
+    pub time_sampling: Duration,
+    pub time_lights: Duration,
+}
+
+/// The caustics of a frame by pinhole projection.
+#[derive(Clone, Debug, Default)]
+pub struct PinholeLayer {
+    pub samples: Vec<GpuSample>,
+    /// `samples.len() × delta_count`, point-major.
+    pub lights: Vec<GpuSampleLight>,
+    pub delta_count: u32,
+    /// The sum of the constant environments.
+    pub env_constant: Vec3,
+    /// The first environment map and its multiplier (others are not reflected).
+    pub env_map: Option<(Arc<EnvMap>, Vec3)>,
+    pub filter: bool,
+    pub shadows: bool,
+    pub stats: PinholeStats,
+}
+
+/// A part that reflects: its object, part index and reflectance (rgb, ior).
+fn reflector(m: &Material) -> Option<[f32; 4]> {
+    match *m {
+        Material::Mirror { reflectance } => Some(reflectance.extend(0.0).to_array()),
+        Material::Dielectric { ior, .. } => Some([1.0, 1.0, 1.0, ior]),
+        _ => None,
+    }
+}
+
+/// Indices into `World::objects` of the objects with a reflecting part.
+pub fn reflecting_objects(world: &World) -> Vec<usize> {
+    world.objects_with(|m| reflector(m).is_some())
+}
+
+impl PinholeLayer {
+    /// The points of every reflector of `world` and what each receives, under `p`.
+    pub fn build(world: &World, p: &PinholeParams) -> Result<PinholeLayer, String> {
+        let t0 = Instant::now();
+        let mut stats = PinholeStats::default();
+        // Parts and their areas first: the points are split by area.
+        struct PartRef {
+            object: usize,
+            part: usize,
+            refl: [f32; 4],
+            area: f32,
+        }
+        let mut parts = Vec::new();
+        for (oi, o) in world.objects.iter().enumerate() {
+            let shape = o.rigid_transform().inverse() * o.transform;
+            for (pi, part) in o.parts.iter().enumerate() {
+                let Some(refl) = reflector(&world.materials[part.material as usize]) else {
+                    continue;
+                };
+                let m = &part.mesh;
+                let area: f32 = m
+                    .indices
+                    .iter()
+                    .map(|t| {
+                        let [a, b, c] = t.map(|i| shape.transform_point3(m.positions[i as usize]));
+                        0.5 * (b - a).cross(c - a).length()
+                    })
+                    .sum();
+                if area > 0.0 {
+                    parts.push(PartRef {
+                        object: oi,
+                        part: pi,
+                        refl,
+                        area,
+                    });
+                }
+            }
+        }
+        let total: f32 = parts.iter().map(|r| r.area).sum();
+        stats.area = total;
+        stats.parts = parts.len();
+        let mut samples = Vec::new();
+        for r in &parts {
+            let o = &world.objects[r.object];
+            let mesh = &o.parts[r.part].mesh;
+            let rigid = o.rigid_transform();
+            let shape = rigid.inverse() * o.transform;
+            let q: Vec<Vec3> = mesh
+                .positions
+                .iter()
+                .map(|v| shape.transform_point3(*v))
+                .collect();
+            let n = ((p.samples as f64 * f64::from(r.area / total)).round() as usize).max(1);
+            let pattern = sampling::pattern(&q, &mesh.indices, n, p.strategy, p.seed);
+            if pattern.points.is_empty() {
+                continue;
+            }
+            // The mesh in world space (original winding: the barycentrics refer to it).
+            let m = o.transform;
+            let nm = Mat3::from_mat4(m).inverse().transpose();
+            let pw: Vec<Vec3> = mesh
+                .positions
+                .iter()
+                .map(|v| m.transform_point3(*v))
+                .collect();
+            let nw: Vec<Vec3> = mesh
+                .normals
+                .iter()
+                .map(|v| (nm * *v).normalize_or_zero())
+                .collect();
+            let shape_ops = vertex_shape_operators(&pw, &nw, &mesh.indices);
+            let area = pattern.area / pattern.points.len() as f32;
+            let eps = 4.0 * area / std::f32::consts::PI;
+            for sp in &pattern.points {
+                let t = mesh.indices[sp.triangle as usize].map(|i| i as usize);
+                let w = [1.0 - sp.bary.x - sp.bary.y, sp.bary.x, sp.bary.y];
+                let pos = match sp.snapped {
+                    Some(c) => rigid.transform_point3(c),
+                    None => pw[t[0]] * w[0] + pw[t[1]] * w[1] + pw[t[2]] * w[2],
+                };
+                let nrm = (nw[t[0]] * w[0] + nw[t[1]] * w[1] + nw[t[2]] * w[2]).normalize_or_zero();
+                if nrm == Vec3::ZERO {
+                    continue;
+                }
+                let s = shape_ops[t[0]] * w[0] + shape_ops[t[1]] * w[1] + shape_ops[t[2]] * w[2];
+                let k = principal(s, nrm);
+                samples.push(GpuSample {
+                    position: pos.extend(area).to_array(),
+                    normal: nrm.extend(eps).to_array(),
+                    dir1: k.d1.extend(k.k1).to_array(),
+                    dir2: k.d2.extend(k.k2).to_array(),
+                    reflectance: r.refl,
+                });
+            }
+        }
+        stats.samples = samples.len();
+        stats.time_sampling = t0.elapsed();
+
+        // Delta lights, per point, shadowed by everything (the reflector included).
+        let t1 = Instant::now();
+        let srcs: Vec<Source> = sources(&world.lights, p.line_points);
+        if srcs.len() > MAX_DELTA_SOURCES {
+            return Err(format!(
+                "{} delta light sources (line lights count their points) over the pinhole \
+                 method's {MAX_DELTA_SOURCES}",
+                srcs.len()
+            ));
+        }
+        stats.delta_sources = srcs.len();
+        let mut lights = Vec::with_capacity(samples.len() * srcs.len());
+        if !srcs.is_empty() {
+            let accel = Some(crate::trace::Accel::build_with(
+                world,
+                |_| true,
+                obvhs::BvhBuildParams::fast_build(),
+            ));
+            for s in &samples {
+                let pos = Vec3::from_slice(&s.position);
+                let n = Vec3::from_slice(&s.normal);
+                let lift = 1e-3 * s.normal[3].sqrt();
+                let mut any_shadow = false;
+                for src in &srcs {
+                    let (travel, e) = src.at(pos).unwrap_or((Vec3::Y, Vec3::ZERO));
+                    let to_light = -travel;
+                    let dist = match *src {
+                        Source::Directional { .. } => f32::INFINITY,
+                        Source::Point { position, .. } => position.distance(pos),
+                    };
+                    let mut e = e;
+                    if to_light.dot(n) <= 0.0 {
+                        e = Vec3::ZERO;
+                    } else if let Some(a) = &accel
+                        && e.max_element() > 0.0
+                        && a.occluded(pos + n * lift, to_light, dist - 2.0 * lift)
+                    {
+                        e = Vec3::ZERO;
+                        any_shadow = true;
+                    }
+                    lights.push(GpuSampleLight {
+                        dir: to_light.extend(p.sun_radius).to_array(),
+                        irradiance: e
+                            .extend(if dist.is_finite() { 1.0 / dist } else { 0.0 })
+                            .to_array(),
+                    });
+                }
+                stats.shadowed += usize::from(any_shadow);
+            }
+        }
+        stats.time_lights = t1.elapsed();
+
+        let mut env_constant = Vec3::ZERO;
+        let mut env_map = None;
+        for l in &world.lights {
+            if let Light::Environment { map, radiance } = l {
+                match map {
+                    Some(m) if env_map.is_none() => env_map = Some((m.clone(), *radiance)),
+                    Some(_) => {}
+                    None => env_constant += *radiance,
+                }
+            }
+        }
+        Ok(PinholeLayer {
+            samples,
+            lights,
+            delta_count: srcs.len() as u32,
+            env_constant,
+            env_map,
+            filter: p.filter,
+            shadows: p.shadows,
+            stats,
+        })
+    }
+
+    /// The pass's uniform.
+    pub fn uniform(&self, env_levels: u32, env_norm: f32) -> GpuPinhole {
+        let flags = u32::from(self.filter) * FLAG_FILTER | u32::from(self.shadows) * FLAG_SHADOWS;
+        let (has, scale, size) = match &self.env_map {
+            Some((m, s)) => (1.0, *s * env_norm, [m.width as f32, m.height as f32]),
+            None => (0.0, Vec3::ZERO, [1.0, 1.0]),
+        };
+        GpuPinhole {
+            counts: [
+                self.samples.len() as u32,
+                self.delta_count,
+                flags,
+                env_levels,
+            ],
+            env: self.env_constant.extend(has).to_array(),
+            env_scale: scale.extend(0.0).to_array(),
+            env_size: [size[0], size[1], 0.0, 0.0],
+        }
+    }
+
+    /// Bytes of the storage buffers (checked against the adapter's binding limit).
+    pub fn storage_bytes(&self) -> u64 {
+        (self.samples.len() * std::mem::size_of::<GpuSample>())
+            .max(self.lights.len() * std::mem::size_of::<GpuSampleLight>()) as u64
+    }
+}
+
+/// The environment map as a mip pyramid (box filter, `Rgba16Float` so that every adapter
+/// filters it), texels divided by their largest component so that bright suns fit in half
+/// floats; the multiplier `norm` restores them.
+pub struct EnvPyramid {
+    /// Identity of the `EnvMap` (Arc pointer), or 0 for the placeholder.
+    pub key: usize,
+    pub texture: wgpu::Texture,
+    pub levels: u32,
+    pub norm: f32,
+}
+
+/// The mip levels of `map` (level 0 first), each a box-filtered halving of the one before.
+pub fn mip_chain(map: &EnvMap) -> Vec<(u32, u32, Vec<Vec3>)> {
+    let mut levels = vec![(map.width, map.height, map.texels.clone())];
+    loop {
+        let (w, h, t) = levels.last().expect("level 0");
+        if *w == 1 && *h == 1 {
+            break;
+        }
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let mut out = Vec::with_capacity((nw * nh) as usize);
+        for y in 0..nh {
+            for x in 0..nw {
+                let mut s = Vec3::ZERO;
+                let mut c = 0.0;
+                for dy in 0..2 {
+                    for dx in 0..2 {
+                        let (sx, sy) = ((2 * x + dx).min(w - 1), (2 * y + dy).min(h - 1));
+                        s += t[(sy * w + sx) as usize];
+                        c += 1.0;
+                    }
+                }
+                out.push(s / c);
+            }
+        }
+        levels.push((nw, nh, out));
+    }
+    levels
+}
+
+impl EnvPyramid {
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        map: Option<&EnvMap>,
+        key: usize,
+    ) -> EnvPyramid {
+        let chain = match map {
+            Some(m) => mip_chain(m),
+            None => vec![(1, 1, vec![Vec3::ZERO])],
+        };
+        let max = chain[0]
+            .2
+            .iter()
+            .map(|t| t.max_element())
+            .fold(0f32, f32::max)
+            .max(1e-30);
+        let (w, h) = (chain[0].0, chain[0].1);
+        let levels = chain.len() as u32;
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("pinhole environment"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: levels,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba16Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        for (level, (lw, lh, texels)) in chain.iter().enumerate() {
+            let data: Vec<u16> = texels
+                .iter()
+                .flat_map(|t| {
+                    let v = *t / max;
+                    [v.x, v.y, v.z, 1.0].map(|c| half::f16::from_f32(c).to_bits())
+                })
+                .collect();
+            queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: level as u32,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(&data),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(lw * 8),
+                    rows_per_image: Some(*lh),
+                },
+                wgpu::Extent3d {
+                    width: *lw,
+                    height: *lh,
+                    depth_or_array_layers: 1,
+                },
+            );
+        }
+        EnvPyramid {
+            key,
+            texture,
+            levels,
+            norm: max,
+        }
+    }
+}
+
+/// The pinhole pipeline and its sampler, created once per device; the environment pyramid
+/// kept per map.
+pub struct PinholePipeline {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    pub env: Option<EnvPyramid>,
+}
+
+impl PinholePipeline {
+    pub fn new(device: &wgpu::Device) -> PinholePipeline {
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty,
+            count: None,
+        };
+        let uniform = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let storage = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let texture = |filterable| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("pinhole"),
+            entries: &[
+                entry(0, uniform),
+                entry(2, storage),
+                entry(8, storage),
+                entry(9, storage),
+                entry(10, texture(false)),
+                entry(11, texture(false)),
+                entry(12, storage),
+                entry(13, storage),
+                entry(14, uniform),
+                entry(15, texture(true)),
+                entry(
+                    16,
+                    wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                ),
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("pinhole.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::source("pinhole.wgsl").into()),
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("pinhole"),
+            layout: Some(
+                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: None,
+                    bind_group_layouts: &[Some(&layout)],
+                    immediate_size: 0,
+                }),
+            ),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        // Equirectangular: u wraps, v stops at the poles.
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("pinhole environment"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        PinholePipeline {
+            pipeline,
+            layout,
+            sampler,
+            env: None,
+        }
+    }
+
+    /// Uploads the environment pyramid of `layer`'s map unless it is the one kept.
+    pub fn fit_env(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, layer: &PinholeLayer) {
+        let key = layer
+            .env_map
+            .as_ref()
+            .map_or(0, |(m, _)| Arc::as_ptr(m) as usize);
+        if self.env.as_ref().is_none_or(|e| e.key != key) {
+            let map = layer.env_map.as_ref().map(|(m, _)| m.as_ref());
+            self.env = Some(EnvPyramid::new(device, queue, map, key));
+        }
+    }
+}
+
+/// The buffers of one pinhole frame (never empty: a zero point that lights nothing keeps the
+/// bindings valid).
+pub struct PinholeBuffers {
+    samples: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+}
+
+impl PinholeBuffers {
+    pub fn upload(device: &wgpu::Device, layer: &PinholeLayer, env: &EnvPyramid) -> PinholeBuffers {
+        let buf = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let zero_s = [GpuSample::zeroed()];
+        let zero_l = [GpuSampleLight::zeroed()];
+        let s: &[GpuSample] = if layer.samples.is_empty() {
+            &zero_s
+        } else {
+            &layer.samples
+        };
+        let l: &[GpuSampleLight] = if layer.lights.is_empty() {
+            &zero_l
+        } else {
+            &layer.lights
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        PinholeBuffers {
+            samples: buf("pinhole samples", bytemuck::cast_slice(s), storage),
+            lights: buf("pinhole sample lights", bytemuck::cast_slice(l), storage),
+            uniform: buf(
+                "pinhole",
+                bytemuck::bytes_of(&layer.uniform(env.levels, env.norm)),
+                wgpu::BufferUsages::UNIFORM,
+            ),
+        }
+    }
+}
+
+/// Encodes the pinhole pass over the G-buffer `gbuf` (drawn before it, after the direct pass):
+/// it writes the caustics layer.
+#[allow(clippy::too_many_arguments)]
+pub fn encode(
+    device: &wgpu::Device,
+    enc: &mut wgpu::CommandEncoder,
+    p: &PinholePipeline,
+    gbuf: &GBuffer,
+    scene: &SceneBuffers,
+    globals: &wgpu::Buffer,
+    blockers: &BlockerBuffers,
+    buffers: &PinholeBuffers,
+    targets: &Targets,
+    timestamps: Option<&mut Timestamps>,
+) {
+    let env = p.env.as_ref().expect("fit_env before encode");
+    let env_view = env.texture.create_view(&Default::default());
+    let (pos_view, nrm_view) = gbuf.views();
+    let res = |binding, resource| wgpu::BindGroupEntry { binding, resource };
+    let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("pinhole"),
+        layout: &p.layout,
+        entries: &[
+            res(0, globals.as_entire_binding()),
+            res(2, scene.materials.as_entire_binding()),
+            res(8, blockers.nodes.as_entire_binding()),
+            res(9, blockers.triangles.as_entire_binding()),
+            res(10, wgpu::BindingResource::TextureView(&pos_view)),
+            res(11, wgpu::BindingResource::TextureView(&nrm_view)),
+            res(12, buffers.samples.as_entire_binding()),
+            res(13, buffers.lights.as_entire_binding()),
+            res(14, buffers.uniform.as_entire_binding()),
+            res(15, wgpu::BindingResource::TextureView(&env_view)),
+            res(16, wgpu::BindingResource::Sampler(&p.sampler)),
+        ],
+    });
+    let cv = targets.caustics.create_view(&Default::default());
+    let ts = timestamps.map(|t| {
+        let k = t.pass("pinhole");
+        (&*t, k)
+    });
+    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("pinhole"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &cv,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(&p.pipeline);
+    pass.set_bind_group(0, &bg, &[]);
+    pass.draw(0..3, 0..1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mip_chain_halves_down_to_one_texel_and_keeps_the_mean() {
+        let map = EnvMap {
+            width: 8,
+            height: 4,
+            texels: (0..32).map(|i| Vec3::splat(i as f32)).collect(),
+        };
+        let chain = mip_chain(&map);
+        let sizes: Vec<(u32, u32)> = chain.iter().map(|l| (l.0, l.1)).collect();
+        assert_eq!(sizes, [(8, 4), (4, 2), (2, 1), (1, 1)]);
+        assert_eq!(chain[3].2[0], Vec3::splat(15.5));
+    }
+}
