@@ -272,8 +272,8 @@ pub fn sh_project(m: &EnvMap) -> [Vec3; 9] {
         let (st, ct) = theta.sin_cos();
         let dw = (2.0 * PI / w as f32) * (PI / h as f32) * st;
         for x in 0..w {
-            // Inverse of env_uv: u = 0.5 + atan2(x, -z) / 2π.
-            let a = 2.0 * PI * ((x as f32 + 0.5) / w as f32 - 0.5);
+            // Inverse of env_uv: u = atan2(x, -z) / 2π.
+            let a = 2.0 * PI * (x as f32 + 0.5) / w as f32;
             let d = Vec3::new(st * a.sin(), ct, -st * a.cos());
             let l = m.texels[y * w + x] * dw;
             let basis = sh_basis(d);

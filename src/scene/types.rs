@@ -106,8 +106,10 @@ pub enum LightDesc {
         end: [f32; 3],
         intensity: Rgb,
     },
-    /// Distant light from all directions: an equirectangular HDR image (`path`, +Y up, u=0 at
-    /// -Z going towards +X) or a constant `radiance`, multiplied by `scale`. Radiance in W/(m²·sr).
+    /// Distant light from all directions: an equirectangular HDR image (`path`) or a constant
+    /// `radiance`, multiplied by `scale`. Radiance in W/(m²·sr). The image is read as Mitsuba 3's
+    /// `envmap`: the direction d towards the light is at u = atan2(d.x, -d.z)/2π (u = 0 at -Z,
+    /// 1/4 at +X), v = acos(d.y)/π (row 0 at +Y).
     Environment {
         #[serde(default)]
         path: Option<String>,

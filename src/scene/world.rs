@@ -124,10 +124,11 @@ impl EnvMap {
     }
 }
 
-/// Equirectangular coordinates in [0,1)² of direction `d`: u = 0 at -Z turning towards +X,
-/// v = 0 at +Y.
+/// Equirectangular coordinates in [0,1)² of the unit direction `d` towards the light, as
+/// Mitsuba 3's `envmap`: u = atan2(d.x, −d.z)/2π wrapped to [0, 1) (u = 0 at −Z, ¼ at +X, ½ at
+/// +Z, ¾ at −X), v = acos(d.y)/π (0 at +Y).
 pub fn env_uv(d: Vec3) -> (f32, f32) {
-    let u = 0.5 + d.x.atan2(-d.z) / (2.0 * std::f32::consts::PI);
+    let u = d.x.atan2(-d.z) / (2.0 * std::f32::consts::PI);
     let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
     (u.rem_euclid(1.0), v)
 }
@@ -388,5 +389,49 @@ mod tests {
         // The centre ray looks at the target; row 0 is the top.
         assert!((c.ray_dir(160.0, 100.0) - (c.target - c.eye).normalize()).length() < 1e-6);
         assert!(c.ray_dir(160.0, 0.0).y > c.ray_dir(160.0, 200.0).y);
+    }
+
+    /// The direction towards the light of texel (i, j)'s centre under Mitsuba 3's `envmap`
+    /// convention, written out from its `uv_to_direction`.
+    fn mitsuba_dir(u: f32, v: f32) -> Vec3 {
+        let (sp, cp) = (2.0 * std::f32::consts::PI * u).sin_cos();
+        let (st, ct) = (std::f32::consts::PI * v).sin_cos();
+        Vec3::new(sp * st, ct, -cp * st)
+    }
+
+    #[test]
+    fn env_uv_follows_mitsuba() {
+        let close = |(u, v): (f32, f32), (eu, ev): (f32, f32)| {
+            ((u - eu).abs() < 1e-6 || (u - eu).abs() > 1.0 - 1e-6) && (v - ev).abs() < 1e-6
+        };
+        assert!(close(env_uv(Vec3::NEG_Z), (0.0, 0.5)));
+        assert!(close(env_uv(Vec3::X), (0.25, 0.5)));
+        assert!(close(env_uv(Vec3::Z), (0.5, 0.5)));
+        assert!(close(env_uv(Vec3::NEG_X), (0.75, 0.5)));
+        assert!(env_uv(Vec3::Y).1 < 1e-6 && env_uv(Vec3::NEG_Y).1 > 1.0 - 1e-6);
+        for (u, v) in [(0.1, 0.3), (0.6, 0.8), (0.95, 0.5)] {
+            assert!(close(env_uv(mitsuba_dir(u, v)), (u, v)), "{u} {v}");
+        }
+    }
+
+    #[test]
+    fn one_bright_texel_is_seen_towards_its_direction() {
+        // 8 × 5 map, one bright texel at column 1, row 2: u = 1.5/8, v = 1/2 (towards +X, a
+        // little towards -Z).
+        let (w, h) = (8u32, 5u32);
+        let mut texels = vec![Vec3::ZERO; (w * h) as usize];
+        texels[(2 * w + 1) as usize] = Vec3::ONE;
+        let m = EnvMap {
+            width: w,
+            height: h,
+            texels,
+        };
+        let d = mitsuba_dir(1.5 / 8.0, 0.5);
+        assert!(d.x > 0.9 && d.z < -0.3 && d.y.abs() < 1e-6, "{d}");
+        assert!((m.lookup(d) - Vec3::ONE).abs().max_element() < 1e-4);
+        // Mirrored directions (the old 180° turn, and the other side) see nothing.
+        assert_eq!(m.lookup(Vec3::new(-d.x, d.y, -d.z)), Vec3::ZERO);
+        assert_eq!(m.lookup(Vec3::new(-d.x, d.y, d.z)), Vec3::ZERO);
+        assert_eq!(m.lookup(Vec3::Y), Vec3::ZERO);
     }
 }
