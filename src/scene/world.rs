@@ -106,7 +106,9 @@ impl RayGen {
     }
 }
 
-/// An equirectangular environment image, linear RGB, row 0 at +Y.
+/// An equirectangular environment image, linear RGB, row 0 at +Y, laid out as Mitsuba 3's
+/// `envmap` reads it: column i is centred on u = (i + 0.5)/W (u wraps), row j on
+/// v = j/(H − 1) (rows 0 and H − 1 lie on the poles, v clamps), see [`env_uv`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
     pub width: u32,
@@ -115,12 +117,36 @@ pub struct EnvMap {
 }
 
 impl EnvMap {
-    /// Radiance arriving *from* direction `d` (unit).
+    /// Radiance arriving *from* direction `d` (unit): bilinear between the four nearest texel
+    /// centres, as Mitsuba's `envmap` (`eval_spectrum`).
     pub fn lookup(&self, d: Vec3) -> Vec3 {
         let (u, v) = env_uv(d);
-        let x = ((u * self.width as f32) as u32).min(self.width - 1);
-        let y = ((v * self.height as f32) as u32).min(self.height - 1);
-        self.texels[(y * self.width + x) as usize]
+        self.lookup_uv(u, v)
+    }
+
+    /// Bilinear lookup at (u, v) ∈ [0, 1]² (u wraps, v clamps).
+    pub fn lookup_uv(&self, u: f32, v: f32) -> Vec3 {
+        let (w, h) = (self.width, self.height);
+        let x = (u - 0.5 / w as f32).rem_euclid(1.0) * w as f32;
+        let y = v.clamp(0.0, 1.0) * (h.max(2) - 1) as f32;
+        let x0 = (x as u32).min(w - 1);
+        let y0 = (y as u32).min(h.max(2) - 2);
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let x1 = (x0 + 1) % w;
+        let y1 = (y0 + 1).min(h - 1);
+        let y0 = y0.min(h - 1);
+        let t = |x: u32, y: u32| self.texels[(y * w + x) as usize];
+        let top = t(x0, y0) * (1.0 - fx) + t(x1, y0) * fx;
+        let bottom = t(x0, y1) * (1.0 - fx) + t(x1, y1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// The direction towards the light at (u, v), inverse of [`env_uv`] (Mitsuba's
+    /// `uv_to_direction`).
+    pub fn direction(u: f32, v: f32) -> Vec3 {
+        let (sp, cp) = (2.0 * std::f32::consts::PI * u).sin_cos();
+        let (st, ct) = (std::f32::consts::PI * v).sin_cos();
+        Vec3::new(sp * st, ct, -cp * st)
     }
 }
 
@@ -411,6 +437,36 @@ mod tests {
         assert!(env_uv(Vec3::Y).1 < 1e-6 && env_uv(Vec3::NEG_Y).1 > 1.0 - 1e-6);
         for (u, v) in [(0.1, 0.3), (0.6, 0.8), (0.95, 0.5)] {
             assert!(close(env_uv(mitsuba_dir(u, v)), (u, v)), "{u} {v}");
+        }
+    }
+
+    #[test]
+    fn lookup_is_bilinear_between_mitsuba_texel_centres() {
+        // 4 × 3 map: columns centred on u = 1/8, 3/8, 5/8, 7/8; rows on v = 0, 1/2, 1.
+        let (w, h) = (4u32, 3u32);
+        let texels = (0..w * h)
+            .map(|i| Vec3::new((i % w) as f32, (i / w) as f32, 1.0))
+            .collect();
+        let m = EnvMap {
+            width: w,
+            height: h,
+            texels,
+        };
+        let near = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-4;
+        // At a texel centre: that texel.
+        assert!(near(m.lookup_uv(3.0 / 8.0, 0.5), Vec3::new(1.0, 1.0, 1.0)));
+        // Half-way between columns 1 and 2, a quarter of the way from row 1 to row 2.
+        assert!(near(m.lookup_uv(0.5, 0.625), Vec3::new(1.5, 1.25, 1.0)));
+        // u wraps: half-way between the last column and the first.
+        assert!(near(m.lookup_uv(0.0, 0.0), Vec3::new(1.5, 0.0, 1.0)));
+        assert!(near(m.lookup_uv(0.999_999, 0.0), Vec3::new(1.5, 0.0, 1.0)));
+        // The poles are rows 0 and H - 1.
+        assert_eq!(m.lookup(Vec3::NEG_Y).y, 2.0);
+        assert_eq!(m.lookup(Vec3::Y).y, 0.0);
+        // direction() inverts env_uv.
+        for (u, v) in [(0.2, 0.3), (0.7, 0.9)] {
+            let (eu, ev) = env_uv(EnvMap::direction(u, v));
+            assert!((eu - u).abs() < 1e-5 && (ev - v).abs() < 1e-5);
         }
     }
 
