@@ -898,12 +898,12 @@ fn shade(
                 let power = |a: f32, b: f32| a * a / (a * a + b * b);
                 for _ in 0..m {
                     let u = rng.vec2();
-                    if let Some((wi, pdf_l)) = sampler.sample(u.x, u.y) {
-                        if visible(wi) {
-                            let cos = n.dot(wi);
-                            let w = power(pdf_l, cos / PI);
-                            sum += brdf(mat, n, wi, wo) * le(wi) * (cos * w / (pdf_l * m as f32));
-                        }
+                    if let Some((wi, pdf_l)) = sampler.sample(u.x, u.y)
+                        && visible(wi)
+                    {
+                        let cos = n.dot(wi);
+                        let w = power(pdf_l, cos / PI);
+                        sum += brdf(mat, n, wi, wo) * le(wi) * (cos * w / (pdf_l * m as f32));
                     }
                     let wi = cosine_hemisphere(n, rng.vec2());
                     if visible(wi) {
