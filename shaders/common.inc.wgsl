@@ -107,9 +107,10 @@ fn fresnel_schlick_ior(cos_i: f32, ior: f32) -> f32 {
     return f0 + (1.0 - f0) * pow(1.0 - clamp(cos_i, 0.0, 1.0), 5.0);
 }
 
-// Equirectangular coordinates in [0,1)²: u = 0 at -Z turning towards +X, v = 0 at +Y.
+// Equirectangular coordinates in [0,1)² of the direction d towards the light, as Mitsuba 3's
+// `envmap`: u = atan2(d.x, -d.z)/2π wrapped (0 at -Z, 1/4 at +X), v = acos(d.y)/π (0 at +Y).
 fn env_uv(d: vec3<f32>) -> vec2<f32> {
-    let u = 0.5 + atan2(d.x, -d.z) / (2.0 * PI);
+    let u = atan2(d.x, -d.z) / (2.0 * PI);
     let v = acos(clamp(d.y, -1.0, 1.0)) / PI;
     return vec2<f32>(fract(u), v);
 }

@@ -56,14 +56,29 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @lo
     return out;
 }
 
-// Radiance arriving from direction d (unit), as scene/world.rs EnvMap::lookup (nearest texel).
+// Radiance arriving from direction d (unit), as scene/world.rs EnvMap::lookup: bilinear as
+// Mitsuba's `envmap`, column i centred on u = (i + 0.5)/W (u wraps), row j on v = j/(H - 1).
 fn env_radiance(d: vec3<f32>) -> vec3<f32> {
     var l = g.env_radiance.rgb;
     if g.env_map_scale.w > 0.5 {
         let uv = env_uv(d);
-        let size = vec2<f32>(f32(g.counts.y), f32(g.counts.z));
-        let texel = min(vec2<u32>(uv * size), vec2<u32>(g.counts.y - 1u, g.counts.z - 1u));
-        l += g.env_map_scale.rgb * textureLoad(env_map, texel, 0).rgb;
+        let w = g.counts.y;
+        let h = g.counts.z;
+        let hm = max(h, 2u);
+        let x = fract(uv.x - 0.5 / f32(w)) * f32(w);
+        let y = clamp(uv.y, 0.0, 1.0) * f32(hm - 1u);
+        let x0 = min(u32(x), w - 1u);
+        let y0 = min(u32(y), hm - 2u);
+        let fx = x - f32(x0);
+        let fy = y - f32(y0);
+        let x1 = (x0 + 1u) % w;
+        let y1 = min(y0 + 1u, h - 1u);
+        let yt = min(y0, h - 1u);
+        let top = mix(textureLoad(env_map, vec2<u32>(x0, yt), 0).rgb,
+                      textureLoad(env_map, vec2<u32>(x1, yt), 0).rgb, fx);
+        let bottom = mix(textureLoad(env_map, vec2<u32>(x0, y1), 0).rgb,
+                         textureLoad(env_map, vec2<u32>(x1, y1), 0).rgb, fx);
+        l += g.env_map_scale.rgb * mix(top, bottom, fy);
     }
     return l;
 }

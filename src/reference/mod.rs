@@ -33,11 +33,12 @@ pub mod compare;
 
 use crate::frame::Frame;
 use crate::sampling::*;
-use crate::scene::{Light, Material, World};
+use crate::scene::{EnvSampler, Light, Material, World};
 use crate::trace::optics::{brdf, sample_specular, segment_transmittance};
 use crate::trace::{Accel, Hit};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::f32::consts::PI;
 use std::time::{Duration, Instant};
 
 /// Reference render settings.
@@ -162,6 +163,17 @@ pub fn render(
     let (w, h) = (cam.width, cam.height);
     let t0 = Instant::now();
 
+    // Importance sampling of each environment map (None: constant, or not an environment).
+    let env: Vec<Option<EnvSampler>> = world
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Environment { map: Some(m), .. } => EnvSampler::new(m),
+            _ => None,
+        })
+        .collect();
+    let env = env.as_slice();
+
     // --- Photon pass -----------------------------------------------------------------------
     let pops = populations(world, params.photons);
     let mut caustics = vec![Vec3::ZERO; (w * h) as usize];
@@ -203,7 +215,9 @@ pub fn render(
         let end = (done + batch).min(chunks.len());
         let results: Vec<(Vec<Splat>, Vec<Photon>)> = chunks[done..end]
             .par_iter()
-            .map(|&(pi, first, n)| trace_photon_chunk(world, accel, params, &pops, pi, first, n))
+            .map(|&(pi, first, n)| {
+                trace_photon_chunk(world, accel, params, env, &pops, pi, first, n)
+            })
             .collect();
         for (&(pi, _, n), (splats, ph)) in chunks[done..end].iter().zip(results) {
             emitted[pi] += n;
@@ -277,7 +291,7 @@ pub fn render(
         .into_par_iter()
         .map(|y| {
             (0..w)
-                .map(|x| camera_pixel(world, accel, params, &pmap, x, y))
+                .map(|x| camera_pixel(world, accel, params, env, &pmap, x, y))
                 .collect()
         })
         .collect();
@@ -431,7 +445,12 @@ fn populations(world: &World, photons: u64) -> Vec<Population> {
 }
 
 /// Emit one photon of a population: origin, unit direction and flux (not divided by the count).
-fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, Vec3)> {
+fn emit(
+    world: &World,
+    env: &[Option<EnvSampler>],
+    pop: &Population,
+    rng: &mut Pcg,
+) -> Option<(Vec3, Vec3, Vec3)> {
     let light = &world.lights[pop.light];
     let towards = |p: Vec3, rng: &mut Pcg| -> (Vec3, f32) {
         let cos_max = cone_cos(p, pop.centre, pop.radius);
@@ -493,11 +512,20 @@ fn emit(world: &World, pop: &Population, rng: &mut Pcg) -> Option<(Vec3, Vec3, V
             Some((p, d, *intensity * omega))
         }
         Light::Environment { map, radiance } => {
-            // Light arriving from direction `from` travels along -from.
-            let from = uniform_sphere(rng.vec2());
+            // Light arriving from direction `from` travels along -from. A map's directions are
+            // importance-sampled (its luminance × sin θ), a constant sky's uniformly; the
+            // origin is uniform on the disc facing `from` that covers the target's sphere, so
+            // the flux is L · A_disc / pdf(from) (Mitsuba's `envmap` `sample_ray`).
+            let (from, pdf) = match (&env[pop.light], map) {
+                (Some(s), _) => {
+                    let u = rng.vec2();
+                    s.sample(u.x, u.y)?
+                }
+                _ => (uniform_sphere(rng.vec2()), 1.0 / SPHERE_SOLID_ANGLE),
+            };
             let l = *radiance * map.as_ref().map_or(Vec3::ONE, |m| m.lookup(from));
             let d = -from;
-            Some((from_far(d, rng), d, l * (SPHERE_SOLID_ANGLE * disk_area)))
+            Some((from_far(d, rng), d, l * (disk_area / pdf)))
         }
     }
 }
@@ -507,6 +535,7 @@ fn trace_photon_chunk(
     world: &World,
     accel: &Accel,
     params: &ReferenceParams,
+    env: &[Option<EnvSampler>],
     pops: &[Population],
     pi: usize,
     first: u64,
@@ -519,7 +548,7 @@ fn trace_photon_chunk(
     let mut splats = Vec::new();
     let mut stored = Vec::new();
     for _ in 0..n {
-        let Some((mut o, mut d, mut flux)) = emit(world, pop, &mut rng) else {
+        let Some((mut o, mut d, mut flux)) = emit(world, env, pop, &mut rng) else {
             continue;
         };
         let mut specular_seen = false;
@@ -696,6 +725,7 @@ fn camera_pixel(
     world: &World,
     accel: &Accel,
     params: &ReferenceParams,
+    env: &[Option<EnvSampler>],
     pmap: &PhotonMap,
     x: u32,
     y: u32,
@@ -720,7 +750,7 @@ fn camera_pixel(
         };
         let mat = accel.material(&hit);
         if !mat.is_specular() {
-            direct += shade(world, accel, params, &hit, mat, -d, &mut rng);
+            direct += shade(world, accel, params, env, &hit, mat, -d, &mut rng);
             continue;
         }
         // Specular chain.
@@ -731,7 +761,7 @@ fn camera_pixel(
             throughput *= segment_transmittance(&h, m);
             if !m.is_specular() {
                 spec += throughput
-                    * (shade(world, accel, params, &h, m, -dir, &mut rng)
+                    * (shade(world, accel, params, env, &h, m, -dir, &mut rng)
                         + pmap.radiance(&h, m, -dir));
                 break;
             }
@@ -769,10 +799,12 @@ fn background(world: &World, d: Vec3) -> Vec3 {
 
 /// Reflected radiance at a non-specular hit towards `wo` from every light, shadowed by all
 /// geometry (specular objects included).
+#[allow(clippy::too_many_arguments)]
 fn shade(
     world: &World,
     accel: &Accel,
     params: &ReferenceParams,
+    env: &[Option<EnvSampler>],
     hit: &Hit,
     mat: &Material,
     wo: Vec3,
@@ -794,7 +826,7 @@ fn shade(
         }
         Some((wi, dist))
     };
-    for l in &world.lights {
+    for (li, l) in world.lights.iter().enumerate() {
         match l {
             Light::Directional {
                 direction,
@@ -845,16 +877,40 @@ fn shade(
             }
             Light::Environment { map, radiance } => {
                 let m = params.area_light_samples.max(1);
-                for _ in 0..m {
-                    let wi = cosine_hemisphere(n, rng.vec2());
-                    if wi.dot(hit.geo_normal) <= 0.0
-                        || accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
-                    {
-                        continue;
+                let le = |wi: Vec3| *radiance * map.as_ref().map_or(Vec3::ONE, |e| e.lookup(wi));
+                let visible = |wi: Vec3| {
+                    wi.dot(hit.geo_normal) > 0.0
+                        && n.dot(wi) > 0.0
+                        && !accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
+                };
+                let Some(sampler) = &env[li] else {
+                    // Constant sky: cosine-sampled shadow rays, f·L·cos / pdf with pdf = cos/π.
+                    for _ in 0..m {
+                        let wi = cosine_hemisphere(n, rng.vec2());
+                        if visible(wi) {
+                            sum += brdf(mat, n, wi, wo) * le(wi) * (PI / m as f32);
+                        }
                     }
-                    let le = *radiance * map.as_ref().map_or(Vec3::ONE, |e| e.lookup(wi));
-                    // f·L·cos / pdf with pdf = cos/π.
-                    sum += brdf(mat, n, wi, wo) * le * (std::f32::consts::PI / m as f32);
+                    continue;
+                };
+                // A map: one direction from the map's distribution and one cosine-sampled
+                // direction per sample, combined by the power heuristic (Veach & Guibas 1995).
+                let power = |a: f32, b: f32| a * a / (a * a + b * b);
+                for _ in 0..m {
+                    let u = rng.vec2();
+                    if let Some((wi, pdf_l)) = sampler.sample(u.x, u.y)
+                        && visible(wi)
+                    {
+                        let cos = n.dot(wi);
+                        let w = power(pdf_l, cos / PI);
+                        sum += brdf(mat, n, wi, wo) * le(wi) * (cos * w / (pdf_l * m as f32));
+                    }
+                    let wi = cosine_hemisphere(n, rng.vec2());
+                    if visible(wi) {
+                        let pdf_b = n.dot(wi) / PI;
+                        let w = power(pdf_b, sampler.pdf(wi));
+                        sum += brdf(mat, n, wi, wo) * le(wi) * (PI * w / m as f32);
+                    }
                 }
             }
         }

@@ -267,14 +267,14 @@ pub fn sh_project(m: &EnvMap) -> [Vec3; 9] {
     use std::f32::consts::PI;
     let mut c = [Vec3::ZERO; 9];
     let (w, h) = (m.width as usize, m.height as usize);
+    // Texel (x, y) stands for the band of half a row either side of its centre
+    // v = y/(H − 1) (EnvMap's layout), clamped to the poles.
+    let rows = h.max(2) - 1;
     for y in 0..h {
-        let theta = PI * (y as f32 + 0.5) / h as f32;
-        let (st, ct) = theta.sin_cos();
-        let dw = (2.0 * PI / w as f32) * (PI / h as f32) * st;
+        let band = |t: f32| (PI * t.clamp(0.0, rows as f32) / rows as f32).cos();
+        let dw = (2.0 * PI / w as f32) * (band(y as f32 - 0.5) - band(y as f32 + 0.5));
         for x in 0..w {
-            // Inverse of env_uv: u = 0.5 + atan2(x, -z) / 2π.
-            let a = 2.0 * PI * ((x as f32 + 0.5) / w as f32 - 0.5);
-            let d = Vec3::new(st * a.sin(), ct, -st * a.cos());
+            let d = EnvMap::direction((x as f32 + 0.5) / w as f32, y as f32 / rows as f32);
             let l = m.texels[y * w + x] * dw;
             let basis = sh_basis(d);
             for (ci, b) in c.iter_mut().zip(basis) {

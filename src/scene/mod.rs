@@ -15,4 +15,4 @@ pub use load::{
     parse_scene, resolve,
 };
 pub use types::SceneDesc;
-pub use world::{Camera, EnvMap, Light, Material, Mesh, Object, Part, World};
+pub use world::{Camera, EnvMap, EnvSampler, Light, Material, Mesh, Object, Part, World};

@@ -106,8 +106,11 @@ pub enum LightDesc {
         end: [f32; 3],
         intensity: Rgb,
     },
-    /// Distant light from all directions: an equirectangular HDR image (`path`, +Y up, u=0 at
-    /// -Z going towards +X) or a constant `radiance`, multiplied by `scale`. Radiance in W/(m²·sr).
+    /// Distant light from all directions: an equirectangular HDR image (`path`) or a constant
+    /// `radiance`, multiplied by `scale`. Radiance in W/(m²·sr). The image is read as Mitsuba 3's
+    /// `envmap`: the direction d towards the light is at u = atan2(d.x, -d.z)/2π (u = 0 at -Z,
+    /// 1/4 at +X), v = acos(d.y)/π, looked up bilinearly between texel centres at u = (i + 0.5)/W
+    /// and v = j/(H - 1) (rows 0 and H - 1 on the poles).
     Environment {
         #[serde(default)]
         path: Option<String>,

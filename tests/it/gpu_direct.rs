@@ -525,6 +525,80 @@ fn constant_environment_and_mirror() {
     assert!(only.specular.pixels.iter().all(|p| *p == Vec3::ZERO));
 }
 
+/// Sum of the red channel over the left and the right half of a frame.
+fn halves(f: &Frame) -> (f32, f32) {
+    let (mut l, mut r) = (0.0, 0.0);
+    for y in 0..f.height {
+        for x in 0..f.width {
+            let v = f.at(x, y).x;
+            if x < f.width / 2 {
+                l += v;
+            } else {
+                r += v;
+            }
+        }
+    }
+    (l, r)
+}
+
+#[test]
+fn environment_map_orientation_follows_mitsuba() {
+    // One bright texel of a 16 × 9 map at column 3 (u = 3.5/16 ≈ 0.22), row 4 (v = 1/2, the
+    // horizon): under Mitsuba's `envmap` convention the direction towards it is
+    // (sin 2πu, 0, −cos 2πu) ≈ (0.98, 0, −0.20): +X, the right of a camera at +Z looking at −Z.
+    // A mirror sphere must show it on its right, a diffuse sphere must be lit on its right.
+    let (mw, mh) = (16u32, 9u32);
+    let mut texels = vec![Vec3::ZERO; (mw * mh) as usize];
+    texels[(4 * mw + 3) as usize] = Vec3::splat(100.0);
+    let map = Arc::new(caustica::scene::EnvMap {
+        width: mw,
+        height: mh,
+        texels,
+    });
+    let mut r = gpu::renderer();
+    for (label, material, layer) in [
+        (
+            "mirror",
+            Material::Mirror {
+                reflectance: Vec3::ONE,
+            },
+            0,
+        ),
+        ("diffuse", Material::Diffuse { albedo: Vec3::ONE }, 1),
+    ] {
+        let w = World {
+            name: "env-orientation".into(),
+            camera: Camera {
+                eye: Vec3::new(0.0, 0.0, 3.0),
+                target: Vec3::ZERO,
+                up: Vec3::Y,
+                fov_y: 30.0,
+                width: 64,
+                height: 64,
+            },
+            lights: vec![Light::Environment {
+                map: Some(map.clone()),
+                radiance: Vec3::ONE,
+            }],
+            materials: vec![material],
+            objects: vec![object("ball", shapes::sphere(0.5, 64), 0, Mat4::IDENTITY)],
+            warnings: vec![],
+        };
+        let out = r.render(&w, &RenderOptions::default()).unwrap();
+        let f = if layer == 0 {
+            &out.specular
+        } else {
+            &out.direct
+        };
+        let (left, right) = halves(f);
+        eprintln!("{label}: left half {left}, right half {right}");
+        assert!(
+            right > 0.0 && right > 5.0 * left,
+            "{label}: {left} vs {right}"
+        );
+    }
+}
+
 #[test]
 fn wide_spot_uses_cube_shadows_and_matches_cpu() {
     // A cutoff above 75° cannot use one perspective map: the renderer switches to six faces.
