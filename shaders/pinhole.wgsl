@@ -117,12 +117,13 @@ fn env_filtered(l: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>) -> vec3<f32> {
     let r = sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
     let major = sqrt(max(mean + r, 0.0));
     var minor = sqrt(max(mean - r, 0.0));
-    minor = max(max(minor, major / MAX_TAPS), 0.5);
+    // Taps 2 minor axes apart, each filtered over that width, so that they leave no gaps.
+    minor = max(max(minor, 2.0 * major / MAX_TAPS), 0.5);
     let theta = 0.5 * atan2(2.0 * sxy, sxx - syy);
     let axis = vec2<f32>(cos(theta), sin(theta));
     let level = clamp(log2(2.0 * minor), 0.0, f32(ph.counts.w) - 1.0);
     let uv0 = env_uv(l);
-    let n = u32(clamp(ceil(major / minor), 1.0, MAX_TAPS));
+    let n = u32(clamp(ceil(2.0 * major / minor), 1.0, MAX_TAPS));
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var i = 0u; i < n; i++) {

@@ -20,6 +20,7 @@ mod http_no_gpu;
 mod http_openapi;
 mod http_render;
 mod http_restart;
+mod pinhole;
 mod reference;
 mod schema;
 mod shaders_naga;

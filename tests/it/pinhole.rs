@@ -1,0 +1,179 @@
+//! Method `pinhole` (Wand and Straßer 2003): against the stored reference on the mirror ring
+//! under the sun-and-sky map and under the sky alone, the four sampling strategies with and
+//! without curvature filtering, a ring moved rigidly (the same pattern, the caustic moved with
+//! it), the reflecting cup's caustics on itself, and bad parameters.
+//!
+//! Sized for CI: 96 × 96 frames on lavapipe; the stored references were rendered with
+//! `--photons 8000000 --spp 8` at that size (tests/data/reference/README.md).
+
+use crate::support::{caustica, gpu, images, scenes};
+use caustica::frame::Frame;
+use caustica::reference::compare;
+use caustica::render::PinholeLayer;
+use caustica::render::pinhole::{PinholeParams, Strategy};
+use caustica::scene::World;
+use caustica::trace::Accel;
+use glam::{Mat4, Vec3};
+
+const SIZE: u32 = 96;
+
+fn sized(name: &str) -> World {
+    let mut w = scenes::load(name);
+    w.camera.width = SIZE;
+    w.camera.height = SIZE;
+    w
+}
+
+fn caustics(world: &World, p: &PinholeParams) -> Frame {
+    let layer = PinholeLayer::build(world, p).unwrap();
+    let out = gpu::renderer()
+        .render_pinhole(world, &Default::default(), &layer)
+        .unwrap();
+    out.caustics.expect("a caustics layer")
+}
+
+/// Relative L1 (3×3 blur) and flux ratio of `a` against `b` on the floor.
+fn error(world: &World, a: &Frame, b: &Frame) -> (f32, f32) {
+    let mask = compare::object_mask(world, &Accel::build(world), "floor");
+    let e = compare::compare(a, b, &mask);
+    (e.rel_l1, e.flux_ratio)
+}
+
+#[test]
+fn both_ring_scenes_agree_with_the_reference_at_the_default_settings() {
+    for (scene, stored, max_l1) in [
+        ("mirror-ring-env", "mirror-ring-env.caustics.8M.exr", 0.35),
+        ("mirror-ring-sky", "mirror-ring-sky.caustics.8M.exr", 0.15),
+    ] {
+        let w = sized(scene);
+        let img = caustics(&w, &PinholeParams::default());
+        let (l1, flux) = error(&w, &img, &images::stored_reference(stored));
+        eprintln!("{scene}: rel L1 {l1:.4}, flux ratio {flux:.4}");
+        assert!(l1 < max_l1, "{scene}: rel L1 {l1}");
+        assert!((0.85..1.1).contains(&flux), "{scene}: flux ratio {flux}");
+    }
+}
+
+#[test]
+fn every_strategy_renders_and_filtering_removes_the_aliasing() {
+    // The sun covers 1/8000 of the map: without filtering 300 points give a scatter of spots,
+    // with it a caustic much closer to the reference.
+    let w = sized("mirror-ring-env");
+    let reference = images::stored_reference("mirror-ring-env.caustics.8M.exr");
+    for s in Strategy::ALL {
+        let p = |filter| PinholeParams {
+            samples: 300,
+            strategy: s,
+            filter,
+            ..Default::default()
+        };
+        let (filtered, _) = error(&w, &caustics(&w, &p(true)), &reference);
+        let (aliased, _) = error(&w, &caustics(&w, &p(false)), &reference);
+        eprintln!("{s:?}: rel L1 filtered {filtered:.3}, not filtered {aliased:.3}");
+        assert!(
+            filtered < 0.6 && aliased > 1.5 * filtered,
+            "{s:?}: {filtered} vs {aliased}"
+        );
+    }
+}
+
+#[test]
+fn a_moved_ring_carries_its_pattern_and_its_caustic() {
+    // Ring and camera moved together over the uniform table, the ring also turned about its
+    // axis: its points are the same points of its surface, and the frame is the same frame.
+    let w = sized("mirror-ring-sky");
+    let mut moved = w.clone();
+    let shift = Vec3::new(0.3, 0.0, -0.2);
+    let m = Mat4::from_translation(shift);
+    let ring = scenes::object_index(&w, "ring");
+    moved.objects[ring].transform = m * w.objects[ring].transform;
+    moved.camera.eye += shift;
+    moved.camera.target += shift;
+    let p = PinholeParams::default();
+    let a = PinholeLayer::build(&w, &p).unwrap();
+    let b = PinholeLayer::build(&moved, &p).unwrap();
+    assert_eq!(a.samples.len(), b.samples.len());
+    for (x, y) in a.samples.iter().zip(&b.samples) {
+        let (px, py) = (Vec3::from_slice(&x.position), Vec3::from_slice(&y.position));
+        assert!((px + shift - py).length() < 1e-5, "{px} + {shift} vs {py}");
+        assert_eq!(x.normal, y.normal);
+    }
+    let (fa, fb) = (caustics(&w, &p), caustics(&moved, &p));
+    let (l1, flux) = error(&w, &fb, &fa);
+    assert!(
+        l1 < 0.02 && (flux - 1.0).abs() < 0.01,
+        "moved frame: {l1} {flux}"
+    );
+}
+
+#[test]
+fn the_cup_focuses_light_into_itself_without_hot_spots() {
+    let w = sized("reflecting-cup");
+    let img = caustics(&w, &PinholeParams::default());
+    let reference = images::stored_reference("reflecting-cup.caustics.8M.exr");
+    let mask = compare::object_mask(&w, &Accel::build(&w), "cup");
+    let lit: Vec<f32> = img
+        .pixels
+        .iter()
+        .zip(&mask)
+        .filter(|(_, m)| **m)
+        .map(|(p, _)| p.x)
+        .collect();
+    let peak = |f: &Frame| {
+        f.pixels
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(p, _)| p.x)
+            .fold(0.0f32, f32::max)
+    };
+    let e = compare::compare(&img, &reference, &mask);
+    eprintln!(
+        "cup: rel L1 {:.3}, flux {:.3}, peak {} vs {}",
+        e.rel_l1,
+        e.flux_ratio,
+        peak(&img),
+        peak(&reference)
+    );
+    assert!(
+        lit.iter().any(|v| *v > 0.0),
+        "the cup's floor gets caustics"
+    );
+    // No hot spot: the brightest pixel is not far above the reference's (3×3 blurred there).
+    assert!(
+        peak(&img) < 2.0 * peak(&reference),
+        "{} vs {}",
+        peak(&img),
+        peak(&reference)
+    );
+    assert!(
+        (0.5..1.5).contains(&e.flux_ratio),
+        "flux ratio {}",
+        e.flux_ratio
+    );
+}
+
+#[test]
+fn bad_parameters_are_refused_with_the_field_named() {
+    let scene = scenes::path("mirror-ring-sky").display().to_string();
+    for (args, needle) in [
+        (&["--samples", "0"][..], "pinhole.samples"),
+        (&["--samples", "1000000000"][..], "pinhole.samples"),
+        (&["--sampling", "hexagonal"][..], "hexagonal"),
+        (&["--sun-radius", "90"][..], "pinhole.sun_radius"),
+    ] {
+        let mut all = vec![
+            "render",
+            &scene,
+            "--method",
+            "pinhole",
+            "--out",
+            "/dev/null",
+        ];
+        all.extend_from_slice(args);
+        let out = caustica(&all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
