@@ -339,7 +339,8 @@ impl PinholeLayer {
 
     /// The pass's uniform.
     pub fn uniform(&self, env_levels: u32, env_norm: f32) -> GpuPinhole {
-        let flags = u32::from(self.filter) * FLAG_FILTER | u32::from(self.shadows) * FLAG_SHADOWS;
+        let flags =
+            (u32::from(self.filter) * FLAG_FILTER) | (u32::from(self.shadows) * FLAG_SHADOWS);
         let (has, scale, size) = match &self.env_map {
             Some((m, s)) => (1.0, *s * env_norm, [m.width as f32, m.height as f32]),
             None => (0.0, Vec3::ZERO, [1.0, 1.0]),

@@ -100,7 +100,7 @@ pub fn make_pattern(
             spacing: 0.0,
         };
     }
-    let mut rng = Pcg::new(seed, 0x5eed_0f_91);
+    let mut rng = Pcg::new(seed, 0x5eed_0f91);
     let m = match strategy {
         Strategy::Random => n,
         _ => (n * OVERSAMPLING).clamp(n, MAX_CANDIDATES.max(n)),
