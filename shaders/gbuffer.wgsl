@@ -1,6 +1,6 @@
-// G-buffer of the transport caustics pass (render/transport.rs): per pixel, the visible
-// surface's world position and shading normal, for receivers only. `position.w` is 1 on a
-// receiver seen from its front (the side Mitsuba-like one-sided BSDFs answer), 0 elsewhere
+// G-buffer of the per-pixel caustics passes (render/gbuffer.rs; transport and pinhole read it):
+// per pixel, the visible surface's world position and shading normal, for receivers only.
+// `position.w` is the pixel's reach (> 0) on a receiver seen from its front (the side Mitsuba-like one-sided BSDFs answer), 0 elsewhere
 // (specular objects, back faces, background); `normal.w` is the material index.
 
 #include "common.inc.wgsl"

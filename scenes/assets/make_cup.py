@@ -5,7 +5,7 @@ Units: metres, +Y up, the cup standing on y = 0. Inner radius 0.4, outer 0.43, h
 the inner bottom at y = 0.03. Two materials: "chrome" (metallic 1, roughness 0: a mirror for
 Caustica) on the inner wall, "ceramic" (metallic 0, roughness 1: diffuse) elsewhere. The inner
 wall's normals point towards the axis (the reflecting side)."""
-import json, math, struct
+import json, math, os, struct
 
 SEG = 192
 R_IN, R_OUT, H, FLOOR = 0.4, 0.43, 0.36, 0.03
@@ -123,5 +123,5 @@ while len(bin_) % 4:
 out = bytearray(b'glTF' + struct.pack('<II', 2, 12 + 8 + len(js) + 8 + len(bin_)))
 out += struct.pack('<I', len(js)) + b'JSON' + js
 out += struct.pack('<I', len(bin_)) + b'BIN\x00' + bin_
-open(__file__.rsplit('/', 1)[0] + '/cup.glb' if '/' in __file__ else 'cup.glb', 'wb').write(out)
+open(os.path.join(os.path.dirname(os.path.abspath(__file__)), 'cup.glb'), 'wb').write(out)
 print(f'cup.glb: {len(out)} bytes')

@@ -11,8 +11,7 @@ use super::{
 };
 use crate::render::RenderOptions;
 use crate::render::pinhole::{
-    DEFAULT_SAMPLES, DEFAULT_SUN_RADIUS_DEG, MAX_SAMPLES, PinholeLayer, PinholeParams, Strategy,
-    reflecting_objects,
+    MAX_SAMPLES, PinholeLayer, PinholeParams, Strategy, reflecting_objects,
 };
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
@@ -92,11 +91,11 @@ impl MethodImpl for Pinhole {
         let d = PinholeParams::default();
         Ok(Box::new(Plan {
             params: PinholeParams {
-                samples: a.samples.unwrap_or(DEFAULT_SAMPLES),
-                strategy: a.sampling.unwrap_or_default(),
-                filter: a.filter.unwrap_or(true),
-                shadows: a.shadows.unwrap_or(false),
-                sun_radius: a.sun_radius.unwrap_or(DEFAULT_SUN_RADIUS_DEG).to_radians(),
+                samples: a.samples.unwrap_or(d.samples),
+                strategy: a.sampling.unwrap_or(d.strategy),
+                filter: a.filter.unwrap_or(d.filter),
+                shadows: a.shadows.unwrap_or(d.shadows),
+                sun_radius: a.sun_radius.map_or(d.sun_radius, f32::to_radians),
                 seed: args.seed.unwrap_or(d.seed),
                 line_points: args.line_points.unwrap_or(d.line_points),
             },

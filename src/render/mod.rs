@@ -7,7 +7,8 @@
 //!   its caustic spot lights per pixel in the direct pass ([`csl`], [`Renderer::render_csl`]);
 //!   method `transport` draws the illumination volumes of its light transport tables over a
 //!   G-buffer of the receivers in a pass after it ([`transport`],
-//!   [`Renderer::render_transport`]).
+//!   [`Renderer::render_transport`]); method `pinhole` projects the light its reflector points
+//!   receive onto the same G-buffer ([`pinhole`], [`Renderer::render_pinhole`]).
 //!
 //! The frame is `direct + caustics + specular` ([`RenderOutput::total`]). A frame is first a
 //! [`FramePlan`] (every check and limit, no device), then passes encoded into one command
@@ -523,6 +524,37 @@ fn texture_2d(
         format,
         usage,
         view_formats: &[],
+    })
+}
+
+/// A render pass that adds to (or overwrites) the caustics layer `view` as it stands after the
+/// direct pass, timed as pass `name` when the adapter has timestamps: how the per-pixel caustics
+/// passes (transport, pinhole) draw.
+fn caustics_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    name: &'static str,
+    timestamps: Option<&mut timestamps::Timestamps>,
+) -> wgpu::RenderPass<'e> {
+    let ts = timestamps.map(|t| {
+        let k = t.pass(name);
+        (&*t, k)
+    });
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(name),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
+        occlusion_query_set: None,
+        multiview_mask: None,
     })
 }
 

@@ -79,8 +79,8 @@ fn every_strategy_renders_and_filtering_removes_the_aliasing() {
 
 #[test]
 fn a_moved_ring_carries_its_pattern_and_its_caustic() {
-    // Ring and camera moved together over the uniform table, the ring also turned about its
-    // axis: its points are the same points of its surface, and the frame is the same frame.
+    // Ring and camera moved together over the uniform table: the ring's points are the same
+    // points of its surface, and the frame is the same frame.
     let w = sized("mirror-ring-sky");
     let mut moved = w.clone();
     let shift = Vec3::new(0.3, 0.0, -0.2);

@@ -150,7 +150,7 @@ pub struct PinholeLayer {
     pub stats: PinholeStats,
 }
 
-/// A part that reflects: its object, part index and reflectance (rgb, ior).
+/// The reflectance (rgb, ior; ior 0 for a mirror) of a material that reflects, None otherwise.
 fn reflector(m: &Material) -> Option<[f32; 4]> {
     match *m {
         Material::Mirror { reflectance } => Some(reflectance.extend(0.0).to_array()),
@@ -174,6 +174,9 @@ impl PinholeLayer {
             object: usize,
             part: usize,
             refl: [f32; 4],
+            /// The mesh's vertices in the object's shape frame (its transform without the
+            /// rotation and translation), where its pattern is made.
+            q: Vec<Vec3>,
             area: f32,
         }
         let mut parts = Vec::new();
@@ -184,11 +187,16 @@ impl PinholeLayer {
                     continue;
                 };
                 let m = &part.mesh;
+                let q: Vec<Vec3> = m
+                    .positions
+                    .iter()
+                    .map(|v| shape.transform_point3(*v))
+                    .collect();
                 let area: f32 = m
                     .indices
                     .iter()
                     .map(|t| {
-                        let [a, b, c] = t.map(|i| shape.transform_point3(m.positions[i as usize]));
+                        let [a, b, c] = t.map(|i| q[i as usize]);
                         0.5 * (b - a).cross(c - a).length()
                     })
                     .sum();
@@ -197,6 +205,7 @@ impl PinholeLayer {
                         object: oi,
                         part: pi,
                         refl,
+                        q,
                         area,
                     });
                 }
@@ -210,14 +219,8 @@ impl PinholeLayer {
             let o = &world.objects[r.object];
             let mesh = &o.parts[r.part].mesh;
             let rigid = o.rigid_transform();
-            let shape = rigid.inverse() * o.transform;
-            let q: Vec<Vec3> = mesh
-                .positions
-                .iter()
-                .map(|v| shape.transform_point3(*v))
-                .collect();
             let n = ((p.samples as f64 * f64::from(r.area / total)).round() as usize).max(1);
-            let pattern = sampling::pattern(&q, &mesh.indices, n, p.strategy, p.seed);
+            let pattern = sampling::pattern(&r.q, &mesh.indices, n, p.strategy, p.seed);
             if pattern.points.is_empty() {
                 continue;
             }
@@ -275,11 +278,11 @@ impl PinholeLayer {
         stats.delta_sources = srcs.len();
         let mut lights = Vec::with_capacity(samples.len() * srcs.len());
         if !srcs.is_empty() {
-            let accel = Some(crate::trace::Accel::build_with(
+            let accel = crate::trace::Accel::build_with(
                 world,
                 |_| true,
                 obvhs::BvhBuildParams::fast_build(),
-            ));
+            );
             for s in &samples {
                 let pos = Vec3::from_slice(&s.position);
                 let n = Vec3::from_slice(&s.normal);
@@ -295,9 +298,8 @@ impl PinholeLayer {
                     let mut e = e;
                     if to_light.dot(n) <= 0.0 {
                         e = Vec3::ZERO;
-                    } else if let Some(a) = &accel
-                        && e.max_element() > 0.0
-                        && a.occluded(pos + n * lift, to_light, dist - 2.0 * lift)
+                    } else if e.max_element() > 0.0
+                        && accel.occluded(pos + n * lift, to_light, dist - 2.0 * lift)
                     {
                         e = Vec3::ZERO;
                         any_shadow = true;
@@ -671,26 +673,7 @@ pub fn encode(
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
-    let ts = timestamps.map(|t| {
-        let k = t.pass("pinhole");
-        (&*t, k)
-    });
-    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("pinhole"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &cv,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+    let mut pass = super::caustics_pass(enc, &cv, "pinhole", timestamps);
     pass.set_pipeline(&p.pipeline);
     pass.set_bind_group(0, &bg, &[]);
     pass.draw(0..3, 0..1);

@@ -333,26 +333,7 @@ pub fn encode(
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
-    let ts = timestamps.map(|t| {
-        let k = t.pass("transport");
-        (&*t, k)
-    });
-    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("transport volumes"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &cv,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+    let mut pass = super::caustics_pass(enc, &cv, "transport", timestamps);
     if count > 0 {
         pass.set_pipeline(&p.volume);
         pass.set_bind_group(0, &vbg, &[]);
