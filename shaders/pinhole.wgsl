@@ -41,6 +41,9 @@ struct Pinhole {
     env: vec4<f32>,
     env_scale: vec4<f32>,
     env_size: vec4<f32>,
+    // x: points per draw: the pass is split into draws (instance index: the first point of
+    // the draw) that add up, each under llvmpipe's limit on loop iterations per invocation.
+    draw: vec4<u32>,
 }
 
 const FLAG_FILTER: u32 = 1u;
@@ -56,12 +59,18 @@ const MAX_TAPS: f32 = 16.0;
 @group(0) @binding(14) var<uniform> ph: Pinhole;
 @group(0) @binding(15) var env_tex: texture_2d<f32>;
 @group(0) @binding(16) var env_sampler: sampler;
+struct VsOut {
+    @builtin(position) position: vec4<f32>,
+    // The draw's first point.
+    @location(0) @interpolate(flat) first: u32,
+}
+
 @vertex
-fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+fn vs_main(@builtin(vertex_index) i: u32, @builtin(instance_index) first: u32) -> VsOut {
     // One triangle over the whole target.
     let x = f32((i << 1u) & 2u);
     let y = f32(i & 2u);
-    return vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+    return VsOut(vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0), first);
 }
 
 // Unpolarised Fresnel reflectance of a dielectric, light arriving from outside (eta = 1/ior).
@@ -165,8 +174,8 @@ fn delta_disc(l: vec3<f32>, w: vec3<f32>, r: f32) -> f32 {
 }
 
 @fragment
-fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
-    let px = vec2<i32>(frag.xy);
+fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(vin.position.xy);
     let gp = textureLoad(gbuf_position, px, 0);
     if gp.w <= 0.0 {
         return vec4<f32>(0.0);
@@ -182,7 +191,8 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let has_env = ph.env.w > 0.5 || max(max(ph.env.r, ph.env.g), ph.env.b) > 0.0;
     let lift_d = 0.5 * gp.w;
     var sum = vec3<f32>(0.0);
-    for (var i = 0u; i < ph.counts.x; i++) {
+    let last = min(ph.counts.x, vin.first + ph.draw.x);
+    for (var i = vin.first; i < last; i++) {
         let s = samples[i];
         let ps = s.position.xyz;
         let ns = s.normal.xyz;

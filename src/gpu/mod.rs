@@ -78,6 +78,9 @@ pub enum GpuError {
     Unsupported(String),
 }
 
+/// Mesa's `LP_MAX_TGSI_LOOP_ITERATIONS`: see [`GpuContext::loop_budget`].
+pub const LLVMPIPE_LOOP_ITERATIONS: u32 = 65535;
+
 /// What the service reports about the adapter in use.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AdapterSummary {
@@ -279,6 +282,22 @@ impl GpuContext {
     /// Optional features the device was created with.
     pub fn features(&self) -> wgpu::Features {
         self.features
+    }
+
+    /// The loop iterations one shader invocation may make, all its loops together, before
+    /// the driver ends them: llvmpipe (lavapipe) stops every loop of an invocation after 65535
+    /// iterations in all (Mesa's `LP_MAX_TGSI_LOOP_ITERATIONS`) and reports nothing; other
+    /// adapters have no such limit (`u32::MAX`). Passes with long per-pixel loops split their
+    /// work into draws that stay under it.
+    pub fn loop_budget(&self) -> u32 {
+        let s = &self.summary;
+        if s.name.to_lowercase().contains("llvmpipe")
+            || s.driver.to_lowercase().contains("llvmpipe")
+        {
+            LLVMPIPE_LOOP_ITERATIONS
+        } else {
+            u32::MAX
+        }
     }
 
     pub fn has_timestamps(&self) -> bool {

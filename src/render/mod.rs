@@ -361,6 +361,7 @@ impl Renderer {
             // Shadow maps, direct, transport or pinhole.
             timestamps::Timestamps::new(&self.ctx, dev, 3)
         })?;
+        let loop_budget = self.ctx.loop_budget();
         let (frame, volumes, pinhole_buffers, generation) = self.ctx.scoped(dev, || {
             let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
             (
@@ -368,7 +369,8 @@ impl Renderer {
                 plan.transport
                     .map(|l| transport::upload_volumes(dev, &l.volumes)),
                 plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
-                    pinhole::PinholeBuffers::upload(dev, l, p.env.as_ref().expect("fitted"))
+                    let env = p.env.as_ref().expect("fitted");
+                    pinhole::PinholeBuffers::upload(dev, l, env, loop_budget)
                 }),
                 generation,
             )

@@ -256,6 +256,7 @@ mod tests {
                 ("env", offset_of!(GpuPinhole, env)),
                 ("env_scale", offset_of!(GpuPinhole, env_scale)),
                 ("env_size", offset_of!(GpuPinhole, env_size)),
+                ("draw", offset_of!(GpuPinhole, draw)),
             ],
         );
     }

@@ -78,7 +78,7 @@ impl Default for PinholeParams {
 pub struct GpuSample {
     /// xyz: position; w: area the point stands for (m²).
     pub position: [f32; 4],
-    /// xyz: unit normal; w: ε, the squared diameter of that area.
+    /// xyz: unit normal; w: ε, the squared radius of a disc of that area.
     pub normal: [f32; 4],
     /// xyz: first principal direction; w: its curvature k1 (1/m).
     pub dir1: [f32; 4],
@@ -113,6 +113,8 @@ pub struct GpuPinhole {
     pub env_scale: [f32; 4],
     /// xy: map size in texels.
     pub env_size: [f32; 4],
+    /// x: points per draw (the pass is split into draws of that many points each).
+    pub draw: [u32; 4],
 }
 
 pub const FLAG_FILTER: u32 = 1;
@@ -239,7 +241,10 @@ impl PinholeLayer {
                 .collect();
             let shape_ops = vertex_shape_operators(&pw, &nw, &mesh.indices);
             let area = pattern.area / pattern.points.len() as f32;
-            let eps = 4.0 * area / std::f32::consts::PI;
+            // ε = r² of the disc of the point's area: a disc of radius r facing a receiver at distance
+            // h on its axis subtends exactly the form factor r²/(h² + r²), so the point's
+            // A/(d² + ε) is exact there and finite as d → 0.
+            let eps = area / std::f32::consts::PI;
             for sp in &pattern.points {
                 let t = mesh.indices[sp.triangle as usize].map(|i| i as usize);
                 let w = [1.0 - sp.bary.x - sp.bary.y, sp.bary.x, sp.bary.y];
@@ -340,7 +345,7 @@ impl PinholeLayer {
     }
 
     /// The pass's uniform.
-    pub fn uniform(&self, env_levels: u32, env_norm: f32) -> GpuPinhole {
+    pub fn uniform(&self, env_levels: u32, env_norm: f32, per_draw: u32) -> GpuPinhole {
         let flags =
             (u32::from(self.filter) * FLAG_FILTER) | (u32::from(self.shadows) * FLAG_SHADOWS);
         let (has, scale, size) = match &self.env_map {
@@ -357,7 +362,19 @@ impl PinholeLayer {
             env: self.env_constant.extend(has).to_array(),
             env_scale: scale.extend(0.0).to_array(),
             env_size: [size[0], size[1], 0.0, 0.0],
+            draw: [per_draw, 0, 0, 0],
         }
+    }
+
+    /// Points per draw where a shader invocation may iterate its loops `budget` times in all.
+    /// llvmpipe (lavapipe) ends every loop of an invocation once their iterations together
+    /// reach 65535 (Mesa's `LP_MAX_TGSI_LOOP_ITERATIONS`, shared by all loops of a shader), which
+    /// would silently drop the remaining points; each point costs up to 2 + lights + 16 taps,
+    /// and with shadows two traversals of the occluder hierarchy (counted as 256 each).
+    pub fn points_per_draw(&self, budget: u32) -> u32 {
+        let per_point =
+            (2 + 16 + if self.shadows { 2 * 256 } else { 0u32 }).saturating_add(self.delta_count);
+        (budget / per_point).max(1)
     }
 
     /// Bytes of the storage buffers (checked against the adapter's binding limit).
@@ -556,7 +573,15 @@ impl PinholePipeline {
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: HDR_FORMAT,
-                    blend: None,
+                    // The draws add up (the direct pass cleared the layer).
+                    blend: Some(wgpu::BlendState {
+                        color: wgpu::BlendComponent {
+                            src_factor: wgpu::BlendFactor::One,
+                            dst_factor: wgpu::BlendFactor::One,
+                            operation: wgpu::BlendOperation::Add,
+                        },
+                        alpha: wgpu::BlendComponent::REPLACE,
+                    }),
                     write_mask: wgpu::ColorWrites::ALL,
                 })],
             }),
@@ -600,10 +625,19 @@ pub struct PinholeBuffers {
     samples: wgpu::Buffer,
     lights: wgpu::Buffer,
     uniform: wgpu::Buffer,
+    points: u32,
+    per_draw: u32,
 }
 
 impl PinholeBuffers {
-    pub fn upload(device: &wgpu::Device, layer: &PinholeLayer, env: &EnvPyramid) -> PinholeBuffers {
+    /// `loop_budget`: the loop iterations a shader invocation may make on this adapter (see
+    /// [`PinholeLayer::points_per_draw`]; `u32::MAX` where there is no such limit).
+    pub fn upload(
+        device: &wgpu::Device,
+        layer: &PinholeLayer,
+        env: &EnvPyramid,
+        loop_budget: u32,
+    ) -> PinholeBuffers {
         let buf = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -624,14 +658,18 @@ impl PinholeBuffers {
             &layer.lights
         };
         let storage = wgpu::BufferUsages::STORAGE;
+        let per_draw = layer.points_per_draw(loop_budget);
+        let uniform = layer.uniform(env.levels, env.norm, per_draw);
         PinholeBuffers {
             samples: buf("pinhole samples", bytemuck::cast_slice(s), storage),
             lights: buf("pinhole sample lights", bytemuck::cast_slice(l), storage),
             uniform: buf(
                 "pinhole",
-                bytemuck::bytes_of(&layer.uniform(env.levels, env.norm)),
+                bytemuck::bytes_of(&uniform),
                 wgpu::BufferUsages::UNIFORM,
             ),
+            points: layer.samples.len() as u32,
+            per_draw,
         }
     }
 }
@@ -652,6 +690,7 @@ pub fn encode(
     timestamps: Option<&mut Timestamps>,
 ) {
     let env = p.env.as_ref().expect("fit_env before encode");
+    let (points, per_draw) = (buffers.points, buffers.per_draw);
     let env_view = env.texture.create_view(&Default::default());
     let (pos_view, nrm_view) = gbuf.views();
     let res = |binding, resource| wgpu::BindGroupEntry { binding, resource };
@@ -676,12 +715,33 @@ pub fn encode(
     let mut pass = super::caustics_pass(enc, &cv, "pinhole", timestamps);
     pass.set_pipeline(&p.pipeline);
     pass.set_bind_group(0, &bg, &[]);
-    pass.draw(0..3, 0..1);
+    // One draw per `per_draw` points (instance index: the draw's first point); they add up.
+    for first in (0..points.max(1)).step_by(per_draw.max(1) as usize) {
+        pass.draw(0..3, first..first + 1);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn draws_stay_under_the_loop_budget() {
+        let mut layer = PinholeLayer {
+            samples: vec![GpuSample::zeroed(); 10_000],
+            delta_count: 3,
+            ..Default::default()
+        };
+        for shadows in [false, true] {
+            layer.shadows = shadows;
+            let n = layer.points_per_draw(crate::gpu::LLVMPIPE_LOOP_ITERATIONS);
+            let per_point = 2 + 3 + 16 + if shadows { 512 } else { 0 };
+            assert!(n * per_point <= 65535 && (n + 1) * per_point > 65535, "{n}");
+            assert_eq!(layer.points_per_draw(u32::MAX), u32::MAX / per_point);
+        }
+        layer.delta_count = u32::MAX / 2;
+        assert_eq!(layer.points_per_draw(100), 1);
+    }
 
     #[test]
     fn mip_chain_halves_down_to_one_texel_and_keeps_the_mean() {
