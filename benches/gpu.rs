@@ -3,7 +3,9 @@
 //! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), and
 //! at 640×480 the transport-table caustics (method `transport`: per frame the illumination
 //! volumes and view refraction on the CPU, then the G-buffer and volume passes; a paper-settings
-//! table baked once before timing), on
+//! table baked once before timing), and at 512×512 the pinhole caustics of the mirror ring under
+//! the sun-and-sky map (method `pinhole`, default strategy and filtering: the points chosen on
+//! the CPU, then the G-buffer and the pinhole pass) with 1 000 and 10 000 points, on
 //! whatever adapter `GpuContext` picks (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The
 //! adapter name is printed: quote it with the median.
 
@@ -145,5 +147,46 @@ fn bench_transport(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_direct, bench_transport);
+fn bench_pinhole(c: &mut Criterion) {
+    use caustica::render::PinholeLayer;
+    use caustica::render::pinhole::PinholeParams;
+    let ctx = Arc::new(GpuContext::new(&GpuConfig::default()).expect("no GPU adapter"));
+    println!("adapter: {}", ctx.adapter_info());
+    // 10 000 points at 512² take minutes a frame on a CPU adapter: there only 1 000 are timed.
+    let cpu = ctx.adapter_info().device_type == "Cpu";
+    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/mirror-ring-env.json");
+    let mut world =
+        caustica::scene::load_scene_file(&path, &Default::default()).expect("mirror-ring-env");
+    world.camera.width = 512;
+    world.camera.height = 512;
+    let opts = RenderOptions::default();
+    let mut g = c.benchmark_group("gpu");
+    g.sample_size(10).measurement_time(Duration::from_secs(60));
+    for samples in [1_000, 10_000] {
+        if cpu && samples > 1_000 {
+            continue;
+        }
+        let p = PinholeParams {
+            samples,
+            ..Default::default()
+        };
+        let frame = |r: &mut Renderer| {
+            let layer = PinholeLayer::build(&world, &p).expect("points");
+            r.render_pinhole(&world, &opts, &layer).expect("render")
+        };
+        let first = frame(&mut renderer);
+        println!(
+            "one pinhole frame's stages ({samples} points): {:?}",
+            first.timings
+        );
+        g.bench_function(
+            format!("pinhole_frame_512x512_mirror_ring_env_{samples}"),
+            |b| b.iter(|| frame(&mut renderer)),
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_direct, bench_transport, bench_pinhole);
 criterion_main!(benches);

@@ -220,6 +220,40 @@ async fn limits_media_types_and_fields() {
     )
     .await;
     assert_eq!(p["field"], "method", "{p}");
+    // Method parameters: pinhole's point count, strategy and sun radius.
+    for (pinhole, field, needle) in [
+        (serde_json::json!({"samples": 0}), "pinhole.samples", "1"),
+        (
+            serde_json::json!({"samples": 1_000_000_000}),
+            "pinhole.samples",
+            "100000",
+        ),
+        (
+            serde_json::json!({"sampling": "hexagonal"}),
+            "pinhole",
+            "hexagonal",
+        ),
+        (
+            serde_json::json!({"sun_radius": 90}),
+            "pinhole.sun_radius",
+            "degrees",
+        ),
+    ] {
+        let p = problem(
+            srv.post_json(
+                "/v1/renders",
+                &serde_json::json!({"scene": scene_sized(8, 8), "method": "pinhole", "pinhole": pinhole}),
+            )
+            .await,
+            422,
+        )
+        .await;
+        assert!(
+            p["field"].as_str().unwrap().starts_with(field)
+                && p["detail"].as_str().unwrap().contains(needle),
+            "{pinhole}: {p}"
+        );
+    }
     let mut bad = scene_sized(8, 8);
     bad["lights"][0]["irradiance"] = serde_json::json!([1, -2, 3]);
     let p = problem(
