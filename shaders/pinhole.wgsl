@@ -35,7 +35,7 @@ struct SampleLight {
 }
 
 struct Pinhole {
-    // x: points, y: delta lights per point, z: flags, w: mip levels.
+    // x: points, y: delta lights per point, z: unused, w: mip levels.
     counts: vec4<u32>,
     // rgb: constant environment radiance; w: 1 when a map is bound.
     env: vec4<f32>,
@@ -46,9 +46,15 @@ struct Pinhole {
     draw: vec4<u32>,
 }
 
-const FLAG_FILTER: u32 = 1u;
-const FLAG_SHADOWS: u32 = 2u;
-const MAX_TAPS: f32 = 16.0;
+// The pipeline is specialised on what a frame uses (PinholePipeline::fit): llvmpipe pays for
+// code in the loop over points even where a uniform flag skips it (about half the time).
+override FILTER: bool = true;
+override SHADOWS: bool = false;
+// Delta lights per point (directional, point, spot, line points) are bound.
+override DELTA: bool = true;
+// An environment (map or constant) is bound.
+override ENV: bool = true;
+const MAX_TAPS: f32 = 8.0;
 
 @group(0) @binding(0) var<uniform> g: Globals;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
@@ -185,10 +191,9 @@ fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
     let nd = normalize(gn.xyz);
     let mat = materials[u32(gn.w)];
     let v = normalize(g.eye.xyz - p);
-    let filtered = (ph.counts.z & FLAG_FILTER) != 0u;
-    let shadows = (ph.counts.z & FLAG_SHADOWS) != 0u;
-    let nl = ph.counts.y;
-    let has_env = ph.env.w > 0.5 || max(max(ph.env.r, ph.env.g), ph.env.b) > 0.0;
+    let filtered = FILTER;
+    let shadows = SHADOWS;
+    let nl = select(0u, ph.counts.y, DELTA);
     let lift_d = 0.5 * gp.w;
     var sum = vec3<f32>(0.0);
     let last = min(ph.counts.x, vin.first + ph.draw.x);
@@ -246,7 +251,7 @@ fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
                 radiance += e * delta_disc(l, w, sl.dir.w);
             }
         }
-        if has_env {
+        if ENV {
             var le = ph.env.rgb;
             if ph.env.w > 0.5 {
                 var m: vec3<f32>;

@@ -208,7 +208,7 @@ impl DeviceCache {
         if let Some(layer) = plan.pinhole {
             self.pinhole
                 .get_or_insert_with(|| pinhole::PinholePipeline::new(dev))
-                .fit_env(dev, queue, layer);
+                .fit(dev, queue, layer);
         }
         if plan.transport.is_some() || plan.pinhole.is_some() {
             if self.gbuffer_pipeline.is_none() {

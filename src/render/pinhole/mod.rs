@@ -28,6 +28,7 @@ use crate::scene::{EnvMap, Light, Material, World};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
 pub use sampling::Strategy;
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
@@ -104,8 +105,8 @@ pub struct GpuSampleLight {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuPinhole {
-    /// x: points, y: delta lights per point, z: flags (1 filter, 2 shadows), w: mip levels of
-    /// the environment map.
+    /// x: points, y: delta lights per point, z: unused (0), w: mip levels of the environment
+    /// map.
     pub counts: [u32; 4],
     /// rgb: constant environment radiance; w: 1 when a map is bound.
     pub env: [f32; 4],
@@ -117,8 +118,17 @@ pub struct GpuPinhole {
     pub draw: [u32; 4],
 }
 
-pub const FLAG_FILTER: u32 = 1;
-pub const FLAG_SHADOWS: u32 = 2;
+/// What a frame's pinhole pass uses, as the override constants its pipeline is specialised on
+/// (pinhole.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Variant {
+    pub filter: bool,
+    pub shadows: bool,
+    /// Delta lights per point are bound.
+    pub delta: bool,
+    /// An environment (map or constant) is bound.
+    pub env: bool,
+}
 
 /// Figures of a frame's sampling.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -344,21 +354,24 @@ impl PinholeLayer {
         })
     }
 
+    /// The pipeline variant this layer needs.
+    pub fn variant(&self) -> Variant {
+        Variant {
+            filter: self.filter,
+            shadows: self.shadows,
+            delta: self.delta_count > 0,
+            env: self.env_map.is_some() || self.env_constant.max_element() > 0.0,
+        }
+    }
+
     /// The pass's uniform.
     pub fn uniform(&self, env_levels: u32, env_norm: f32, per_draw: u32) -> GpuPinhole {
-        let flags =
-            (u32::from(self.filter) * FLAG_FILTER) | (u32::from(self.shadows) * FLAG_SHADOWS);
         let (has, scale, size) = match &self.env_map {
             Some((m, s)) => (1.0, *s * env_norm, [m.width as f32, m.height as f32]),
             None => (0.0, Vec3::ZERO, [1.0, 1.0]),
         };
         GpuPinhole {
-            counts: [
-                self.samples.len() as u32,
-                self.delta_count,
-                flags,
-                env_levels,
-            ],
+            counts: [self.samples.len() as u32, self.delta_count, 0, env_levels],
             env: self.env_constant.extend(has).to_array(),
             env_scale: scale.extend(0.0).to_array(),
             env_size: [size[0], size[1], 0.0, 0.0],
@@ -494,10 +507,12 @@ impl EnvPyramid {
     }
 }
 
-/// The pinhole pipeline and its sampler, created once per device; the environment pyramid
-/// kept per map.
+/// The pinhole pipelines (one per [`Variant`] used, made on first use) and their sampler,
+/// created once per device; the environment pyramid kept per map.
 pub struct PinholePipeline {
-    pipeline: wgpu::RenderPipeline,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    variants: HashMap<Variant, wgpu::RenderPipeline>,
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     pub env: Option<EnvPyramid>,
@@ -549,17 +564,44 @@ impl PinholePipeline {
             label: Some("pinhole.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shaders::source("pinhole.wgsl").into()),
         });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        // Equirectangular: u wraps, v stops at the poles.
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("pinhole environment"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        PinholePipeline {
+            module,
+            pipeline_layout,
+            variants: HashMap::new(),
+            layout,
+            sampler,
+            env: None,
+        }
+    }
+
+    fn make_variant(&self, device: &wgpu::Device, v: Variant) -> wgpu::RenderPipeline {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let constants = [
+            ("FILTER", flag(v.filter)),
+            ("SHADOWS", flag(v.shadows)),
+            ("DELTA", flag(v.delta)),
+            ("ENV", flag(v.env)),
+        ];
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("pinhole"),
-            layout: Some(
-                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: None,
-                    bind_group_layouts: &[Some(&layout)],
-                    immediate_size: 0,
-                }),
-            ),
+            layout: Some(&self.pipeline_layout),
             vertex: wgpu::VertexState {
-                module: &module,
+                module: &self.module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
                 buffers: &[],
@@ -568,9 +610,12 @@ impl PinholePipeline {
             depth_stencil: None,
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
-                module: &module,
+                module: &self.module,
                 entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
                 targets: &[Some(wgpu::ColorTargetState {
                     format: HDR_FORMAT,
                     // The draws add up (the direct pass cleared the layer).
@@ -587,27 +632,17 @@ impl PinholePipeline {
             }),
             multiview_mask: None,
             cache: None,
-        });
-        // Equirectangular: u wraps, v stops at the poles.
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("pinhole environment"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::ClampToEdge,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
-        PinholePipeline {
-            pipeline,
-            layout,
-            sampler,
-            env: None,
-        }
+        })
     }
 
-    /// Uploads the environment pyramid of `layer`'s map unless it is the one kept.
-    pub fn fit_env(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, layer: &PinholeLayer) {
+    /// Makes the pipeline variant `layer` needs unless made, and uploads the environment
+    /// pyramid of its map unless it is the one kept.
+    pub fn fit(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, layer: &PinholeLayer) {
+        let v = layer.variant();
+        if !self.variants.contains_key(&v) {
+            let pipeline = self.make_variant(device, v);
+            self.variants.insert(v, pipeline);
+        }
         let key = layer
             .env_map
             .as_ref()
@@ -627,6 +662,7 @@ pub struct PinholeBuffers {
     uniform: wgpu::Buffer,
     points: u32,
     per_draw: u32,
+    variant: Variant,
 }
 
 impl PinholeBuffers {
@@ -670,6 +706,7 @@ impl PinholeBuffers {
             ),
             points: layer.samples.len() as u32,
             per_draw,
+            variant: layer.variant(),
         }
     }
 }
@@ -689,7 +726,8 @@ pub fn encode(
     targets: &Targets,
     timestamps: Option<&mut Timestamps>,
 ) {
-    let env = p.env.as_ref().expect("fit_env before encode");
+    let env = p.env.as_ref().expect("fit before encode");
+    let pipeline = &p.variants[&buffers.variant];
     let (points, per_draw) = (buffers.points, buffers.per_draw);
     let env_view = env.texture.create_view(&Default::default());
     let (pos_view, nrm_view) = gbuf.views();
@@ -713,7 +751,7 @@ pub fn encode(
     });
     let cv = targets.caustics.create_view(&Default::default());
     let mut pass = super::caustics_pass(enc, &cv, "pinhole", timestamps);
-    pass.set_pipeline(&p.pipeline);
+    pass.set_pipeline(pipeline);
     pass.set_bind_group(0, &bg, &[]);
     // One draw per `per_draw` points (instance index: the draw's first point); they add up.
     for first in (0..points.max(1)).step_by(per_draw.max(1) as usize) {
