@@ -1,5 +1,5 @@
 //! Method `pinhole` (Wand and Straßer 2003): against the stored reference on the mirror ring
-//! under the sun-and-sky map and under the sky alone, the four sampling strategies with and
+//! under the sun-and-sky map, under the sky alone, under a directional and a spot light, the four sampling strategies with and
 //! without curvature filtering, a ring moved rigidly (the same pattern, the caustic moved with
 //! it), the reflecting cup's caustics on itself, chrome Suzanne (glTF) with and without
 //! shadows, and bad parameters.
@@ -52,6 +52,23 @@ fn both_ring_scenes_agree_with_the_reference_at_the_default_settings() {
         eprintln!("{scene}: rel L1 {l1:.4}, flux ratio {flux:.4}");
         assert!(l1 < max_l1, "{scene}: rel L1 {l1}");
         assert!((0.95..1.05).contains(&flux), "{scene}: flux ratio {flux}");
+    }
+}
+
+#[test]
+fn delta_lights_far_and_near_agree_with_the_reference() {
+    // The directional light as a sun disc in the map; the spot light 1 m from the ring per
+    // point (its own direction, distance and irradiance at each point).
+    for (scene, stored) in [
+        ("mirror-ring", "mirror-ring.caustics.8M.exr"),
+        ("mirror-ring-spot", "mirror-ring-spot.caustics.8M.exr"),
+    ] {
+        let w = sized(scene);
+        let img = caustics(&w, &PinholeParams::default());
+        let (l1, flux) = error(&w, &img, &images::stored_reference(stored));
+        eprintln!("{scene}: rel L1 {l1:.4}, flux ratio {flux:.4}");
+        assert!(l1 < 0.25, "{scene}: rel L1 {l1}");
+        assert!((0.85..1.05).contains(&flux), "{scene}: flux ratio {flux}");
     }
 }
 
