@@ -23,7 +23,8 @@ struct Sample {
     // xyz: principal direction; w: its curvature.
     dir1: vec4<f32>,
     dir2: vec4<f32>,
-    // rgb: reflectance; w: ior of a glass part (0: mirror).
+    // Mirror: rgb reflectance, w 0. Glass: w its ior (reflectance by Fresnel), x 1 when the
+    // part is an open surface that also transmits.
     reflectance: vec4<f32>,
 }
 
@@ -54,6 +55,9 @@ override SHADOWS: bool = false;
 override DELTA: bool = true;
 // An environment (map or constant) is bound.
 override ENV: bool = true;
+// Some points lie on an open glass surface (a single interface, section 5) and also send light
+// they refract to receivers behind them.
+override TRANSMIT: bool = false;
 const MAX_TAPS: f32 = 8.0;
 
 @group(0) @binding(0) var<uniform> g: Globals;
@@ -107,6 +111,28 @@ fn reflect_spread(dn: vec3<f32>, n: vec3<f32>, t: vec3<f32>, k: f32, dist: f32) 
     let ddn = (t - dn * dot(dn, t)) / dist;
     let dnn = t * k;
     return ddn - 2.0 * ((dot(ddn, n) + dot(dn, dnn)) * n + dot(dn, n) * dnn);
+}
+
+// The same for the direction l = refract(dn, -n, ior) on the air side of an interface seen from
+// inside it (section 5): a finite difference over a step that turns the normal and the
+// direction to the receiver by at most 1e-3 radians.
+fn refract_spread(
+    dn: vec3<f32>,
+    n: vec3<f32>,
+    t: vec3<f32>,
+    k: f32,
+    dist: f32,
+    ior: f32,
+    l: vec3<f32>,
+) -> vec3<f32> {
+    let h = 1e-3 / max(max(abs(k), 1.0 / dist), 1.0);
+    let d2 = normalize(dn + (t - dn * dot(dn, t)) * (h / dist));
+    let n2 = normalize(n + t * (k * h));
+    let l2 = refract(d2, -n2, ior);
+    if dot(l2, l2) == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return (l2 - l) / h;
 }
 
 // The environment map along direction l (towards the light), bilinearly at level 0.
@@ -206,13 +232,32 @@ fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
         let dist = sqrt(dist2);
         let dn = dv / dist;
         let cos_d = dot(nd, dn);
-        let cos_s = -dot(ns, dn);
-        if cos_d <= 0.0 || cos_s <= 0.0 {
+        var cos_s = -dot(ns, dn);
+        if cos_d <= 0.0 {
             continue;
         }
+        let ior = s.reflectance.w;
+        // Towards the light that the point sends to the receiver: reflected, or (an open glass
+        // surface seen from behind) refracted out of the glass.
+        var l = dn + 2.0 * cos_s * ns;
         var refl = s.reflectance.rgb;
-        if s.reflectance.w > 0.0 {
-            refl = vec3<f32>(fresnel_dielectric(cos_s, 1.0 / s.reflectance.w));
+        var transmitted = false;
+        if cos_s > 0.0 {
+            if ior > 0.0 {
+                refl = vec3<f32>(fresnel_dielectric(cos_s, 1.0 / ior));
+            }
+        } else if TRANSMIT && cos_s < 0.0 && ior > 0.0 && s.reflectance.x > 0.5 {
+            l = refract(dn, -ns, ior);
+            if dot(l, l) == 0.0 {
+                continue;
+            }
+            // Fresnel transmittance (the same both ways) and the radiance's gain of ior² on
+            // entering the denser medium.
+            refl = vec3<f32>((1.0 - fresnel_dielectric(dot(l, ns), 1.0 / ior)) * ior * ior);
+            cos_s = -cos_s;
+            transmitted = true;
+        } else {
+            continue;
         }
         var f = mat.albedo.rgb / PI;
         if mat.kind == MAT_GLOSSY {
@@ -222,14 +267,15 @@ fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
         if max(max(weight.r, weight.g), weight.b) <= 0.0 {
             continue;
         }
-        // Towards the light that the point sends to the receiver.
-        let l = dn + 2.0 * cos_s * ns;
         // The footprint: a Gaussian of half the points' spacing, which tiles with its neighbours
         // (a disc of the same area has a deviation of 0.28 spacings and leaves gaps).
         let sigma = 0.5 * sqrt(s.position.w);
         var f1 = vec3<f32>(0.0);
         var f2 = vec3<f32>(0.0);
-        if filtered {
+        if filtered && transmitted {
+            f1 = sigma * refract_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist, ior, l);
+            f2 = sigma * refract_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist, ior, l);
+        } else if filtered {
             f1 = sigma * reflect_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist);
             f2 = sigma * reflect_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist);
         }

@@ -29,7 +29,7 @@ pub static INFO: MethodInfo = MethodInfo {
 pub struct Pinhole;
 
 /// The `pinhole` field of a render request (the CLI's `--samples`, `--sampling`,
-/// `--no-filter`, `--no-shadows`, `--sun-radius`).
+/// `--no-filter`, `--shadows`, `--transmit`, `--sun-radius`).
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PinholeArgs {
@@ -42,10 +42,16 @@ pub struct PinholeArgs {
     /// Curvature-based anti-aliasing (default true).
     #[serde(default)]
     pub filter: Option<bool>,
-    /// Occlusion of the reflected light by the scene's objects (default false: see
-    /// docs/methods/pinhole.md, it loses light on lavapipe).
+    /// Occlusion of the reflected light by the scene's objects (default false: 12–19× the
+    /// time on lavapipe; needed where a mirror faces the table or itself, see
+    /// docs/methods/pinhole.md).
     #[serde(default)]
     pub shadows: Option<bool>,
+    /// Open glass surfaces (meshes with a boundary: a water surface, a sheet) also transmit,
+    /// as one refracting interface (the paper's §5; default false, since a glass solid whose
+    /// mesh has holes would count as open too).
+    #[serde(default)]
+    pub transmit: Option<bool>,
     /// Angular radius in degrees of the disc a directional, point or spot light appears as,
     /// 0.01..=10 (default 0.27, the sun's).
     #[serde(default)]
@@ -95,6 +101,7 @@ impl MethodImpl for Pinhole {
                 strategy: a.sampling.unwrap_or(d.strategy),
                 filter: a.filter.unwrap_or(d.filter),
                 shadows: a.shadows.unwrap_or(d.shadows),
+                transmit: a.transmit.unwrap_or(d.transmit),
                 sun_radius: a.sun_radius.map_or(d.sun_radius, f32::to_radians),
                 seed: args.seed.unwrap_or(d.seed),
                 line_points: args.line_points.unwrap_or(d.line_points),
@@ -133,19 +140,23 @@ impl RenderPlan for Plan {
             "sampling": p.strategy.name(),
             "filter": p.filter,
             "shadows": p.shadows,
+            "transmit": p.transmit,
             "reflector_area_m2": s.area,
             "reflector_parts": s.parts,
+            "transmitting_parts": s.transmitting_parts,
             "delta_sources": s.delta_sources,
             "samples_shadowed": s.shadowed,
             "time_sampling_ms": s.time_sampling.as_secs_f64() * 1e3,
             "time_lights_ms": s.time_lights.as_secs_f64() * 1e3,
         }));
         frames.notes.push(format!(
-            "{} points ({}, {}filtered) on {} reflector parts of {:.3} m², {} delta sources",
+            "{} points ({}, {}filtered) on {} reflector parts ({} transmitting) of {:.3} m², {} \
+             delta sources",
             s.samples,
             p.strategy.name(),
             if p.filter { "" } else { "not " },
             s.parts,
+            s.transmitting_parts,
             s.area,
             s.delta_sources,
         ));

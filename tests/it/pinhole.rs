@@ -1,8 +1,9 @@
 //! Method `pinhole` (Wand and Straßer 2003): against the stored reference on the mirror ring
-//! under the sun-and-sky map, under the sky alone, under a directional and a spot light, the four sampling strategies with and
-//! without curvature filtering, a ring moved rigidly (the same pattern, the caustic moved with
-//! it), the reflecting cup's caustics on itself, chrome Suzanne (glTF) with and without
-//! shadows, and bad parameters.
+//! under the sun-and-sky map, under the sky alone, under a directional and a spot light, the
+//! four sampling strategies with and without curvature filtering, a ring moved rigidly (the
+//! same pattern, the caustic moved with it), the reflecting cup's caustics on itself, chrome
+//! Suzanne (glTF) with and without shadows, light refracted by an open wavy glass sheet (one
+//! interface, the paper's §5) against a reference rendered in the test, and bad parameters.
 //!
 //! Sized for CI: 96 × 96 frames on lavapipe; the stored references were rendered with
 //! `--photons 8000000 --spp 8` at that size (tests/data/reference/README.md).
@@ -10,11 +11,13 @@
 use crate::support::{caustica, gpu, images, scenes};
 use caustica::frame::Frame;
 use caustica::reference::compare;
+use caustica::reference::{self, ReferenceParams};
 use caustica::render::PinholeLayer;
 use caustica::render::pinhole::{PinholeParams, Strategy};
-use caustica::scene::World;
+use caustica::scene::{Camera, Light, Material, Mesh, Object, Part, World, shapes};
 use caustica::trace::Accel;
 use glam::{Mat4, Vec3};
+use std::sync::Arc;
 
 const SIZE: u32 = 96;
 
@@ -142,6 +145,121 @@ fn a_gltf_chrome_object_needs_its_shadows() {
         shadowed.rel_l1 < 0.2 && (0.88..1.05).contains(&shadowed.flux_ratio),
         "shadowed {shadowed:?}"
     );
+}
+
+/// A floor under a wavy glass sheet 0.6 m above it (open: one interface, ior 1.33, as a water
+/// surface), a sun 20° off the vertical, the camera under the sheet looking at the floor.
+fn wave_sheet_world() -> World {
+    let (n, size, height) = (96u32, 2.4f32, 0.6f32);
+    // Height a·sin(2πx/λx)·cos(2πz/λz) + a/2·sin(2π(x + z)/λd) and its gradient.
+    let (a, lx, lz, ld) = (0.012f32, 0.45f32, 0.6f32, 0.33f32);
+    let tau = std::f32::consts::TAU;
+    let h = |x: f32, z: f32| {
+        a * (tau * x / lx).sin() * (tau * z / lz).cos() + 0.5 * a * (tau * (x + z) / ld).sin()
+    };
+    let grad = |x: f32, z: f32| {
+        let d = 0.5 * a * tau / ld * (tau * (x + z) / ld).cos();
+        (
+            a * tau / lx * (tau * x / lx).cos() * (tau * z / lz).cos() + d,
+            -a * tau / lz * (tau * x / lx).sin() * (tau * z / lz).sin() + d,
+        )
+    };
+    let mut sheet = Mesh::default();
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = size * (i as f32 / n as f32 - 0.5);
+            let z = size * (j as f32 / n as f32 - 0.5);
+            let (gx, gz) = grad(x, z);
+            sheet.positions.push(Vec3::new(x, height + h(x, z), z));
+            sheet.normals.push(Vec3::new(-gx, 1.0, -gz).normalize());
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let v = j * (n + 1) + i;
+            // Counter-clockwise seen from above (+Y): the normals face up.
+            sheet.indices.push([v, v + n + 1, v + 1]);
+            sheet.indices.push([v + 1, v + n + 1, v + n + 2]);
+        }
+    }
+    let part = |mesh, material| Part {
+        mesh: Arc::new(mesh),
+        material,
+    };
+    World {
+        name: "wave sheet".into(),
+        camera: Camera {
+            eye: Vec3::new(0.0, 0.42, 1.0),
+            target: Vec3::new(0.0, 0.0, -0.1),
+            up: Vec3::Y,
+            fov_y: 50.0,
+            width: SIZE,
+            height: SIZE,
+        },
+        lights: vec![Light::Directional {
+            direction: Vec3::new(0.34, -1.0, 0.1).normalize(),
+            irradiance: Vec3::splat(3.0),
+        }],
+        materials: vec![
+            Material::Diffuse {
+                albedo: Vec3::splat(0.6),
+            },
+            Material::Dielectric {
+                ior: 1.33,
+                absorption: Vec3::ZERO,
+            },
+        ],
+        objects: vec![
+            Object {
+                name: "floor".into(),
+                parts: vec![part(shapes::plane(8.0, 8.0), 0)],
+                transform: Mat4::IDENTITY,
+            },
+            Object {
+                name: "sheet".into(),
+                parts: vec![part(sheet, 1)],
+                transform: Mat4::IDENTITY,
+            },
+        ],
+        warnings: vec![],
+    }
+}
+
+#[test]
+fn an_open_glass_surface_refracts_its_caustic_onto_the_floor() {
+    let w = wave_sheet_world();
+    let accel = Accel::build(&w);
+    let params = ReferenceParams {
+        photons: 4_000_000,
+        spp: 2,
+        ..Default::default()
+    };
+    let (reference, _) = reference::render(&w, &accel, &params, &|_| true).unwrap();
+    let p = PinholeParams {
+        transmit: true,
+        ..Default::default()
+    };
+    let layer = PinholeLayer::build(&w, &p).unwrap();
+    assert_eq!(layer.stats.transmitting_parts, 1, "the sheet is open");
+    let img = caustics(&w, &p);
+    let (l1, flux) = error(&w, &img, &reference.caustics);
+    eprintln!("wave sheet: rel L1 {l1:.4}, flux ratio {flux:.4}");
+    assert!(
+        l1 < 0.3 && (0.9..1.1).contains(&flux),
+        "wave sheet: {l1} {flux}"
+    );
+    // The same sheet closed into a slab would have a second interface: only reflection then.
+    let mut closed = w.clone();
+    closed.objects[1].parts[0] = Part {
+        mesh: Arc::new(shapes::cuboid(Vec3::new(2.4, 0.05, 2.4))),
+        material: 1,
+    };
+    let slab = PinholeLayer::build(&closed, &p).unwrap();
+    assert_eq!(slab.stats.transmitting_parts, 0);
+    // Without `transmit` the open sheet only reflects: no light under it.
+    let off = caustics(&w, &PinholeParams::default());
+    let (_, kept) = error(&w, &off, &reference.caustics);
+    assert!(kept < 0.1, "reflection alone: {kept}");
 }
 
 #[test]

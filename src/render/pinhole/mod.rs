@@ -13,7 +13,9 @@
 //! Beyond the paper: receiver-to-point segments and the points' view of the environment are
 //! tested against every object of the scene (`shadows`); point and spot lights are handled per
 //! point (each point has its own direction to them, the paper's "several environment maps");
-//! the reflectors receive too (self-caustics, the ε term keeping them free of hot spots).
+//! the reflectors receive too (self-caustics, the ε term keeping them free of hot spots); with
+//! `transmit`, an open glass surface (one interface, the paper's §5) also sends the light it
+//! refracts to receivers behind it.
 
 pub mod sampling;
 
@@ -44,6 +46,8 @@ pub struct PinholeParams {
     /// Occlusion, on the GPU, of receiver-to-point segments and of the environment reaching
     /// the points (the delta lights reaching the points are always shadowed, on the CPU).
     pub shadows: bool,
+    /// Open glass surfaces also transmit (one refracting interface, §5).
+    pub transmit: bool,
     /// Angular radius (radians) of the disc a delta light (directional, point, spot, line)
     /// appears as from a point.
     pub sun_radius: f32,
@@ -66,6 +70,7 @@ impl Default for PinholeParams {
             strategy: Strategy::default(),
             filter: true,
             shadows: false,
+            transmit: false,
             sun_radius: DEFAULT_SUN_RADIUS_DEG.to_radians(),
             seed: 1,
             line_points: 16,
@@ -85,8 +90,9 @@ pub struct GpuSample {
     pub dir1: [f32; 4],
     /// xyz: second principal direction; w: k2.
     pub dir2: [f32; 4],
-    /// rgb: reflectance (mirror); w: the index of refraction of a glass part (0 for a mirror),
-    /// whose reflectance is then Fresnel's.
+    /// Mirror: rgb its reflectance, w 0. Glass: w its index of refraction (the reflectance is
+    /// then Fresnel's), x 1 when the part is an open surface (a single interface: it also
+    /// transmits, paper §5), else 0.
     pub reflectance: [f32; 4],
 }
 
@@ -128,6 +134,60 @@ pub struct Variant {
     pub delta: bool,
     /// An environment (map or constant) is bound.
     pub env: bool,
+    /// Some points lie on an open glass surface and transmit.
+    pub transmit: bool,
+}
+
+/// Whether a mesh has a boundary: an edge that only one triangle uses, between positions
+/// welded within 10⁻⁵ of the mesh's size (vertices split for normals, seams and poles count as
+/// one). Glass with a boundary is a single interface (a water surface, a sheet), whose
+/// transmitted light the pinhole points carry; a closed glass solid has a second interface
+/// they cannot, and only reflects.
+pub fn is_open(positions: &[Vec3], indices: &[[u32; 3]]) -> bool {
+    let (lo, hi) = positions
+        .iter()
+        .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let tol = (hi - lo).length().max(f32::MIN_POSITIVE) * 1e-5;
+    let cell = |p: Vec3| (p / tol).floor().as_ivec3();
+    // Weld: each position to the first earlier one within tol (found in its 27 cells).
+    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
+    let mut weld = Vec::with_capacity(positions.len());
+    for (i, p) in positions.iter().enumerate() {
+        let c = cell(*p);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for &j in grid
+                        .get(&(c + glam::IVec3::new(dx, dy, dz)))
+                        .into_iter()
+                        .flatten()
+                    {
+                        if positions[j as usize].distance(*p) <= tol {
+                            found = Some(j);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        weld.push(found.unwrap_or_else(|| {
+            grid.entry(c).or_default().push(i as u32);
+            i as u32
+        }));
+    }
+    let mut uses: HashMap<(u32, u32), i32> = HashMap::with_capacity(indices.len() * 2);
+    for t in indices {
+        let w = t.map(|i| weld.get(i as usize).copied().unwrap_or(i));
+        for (a, b) in [(w[0], w[1]), (w[1], w[2]), (w[2], w[0])] {
+            if a != b {
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+    }
+    uses.values().any(|&n| n == 1)
 }
 
 /// Figures of a frame's sampling.
@@ -138,6 +198,8 @@ pub struct PinholeStats {
     pub area: f32,
     /// Parts sampled.
     pub parts: usize,
+    /// Of them, open glass surfaces that also transmit.
+    pub transmitting_parts: usize,
     /// Delta light sources each point sees (line lights split).
     pub delta_sources: usize,
     /// Points with a delta light shadowed.
@@ -166,7 +228,7 @@ pub struct PinholeLayer {
 fn reflector(m: &Material) -> Option<[f32; 4]> {
     match *m {
         Material::Mirror { reflectance } => Some(reflectance.extend(0.0).to_array()),
-        Material::Dielectric { ior, .. } => Some([1.0, 1.0, 1.0, ior]),
+        Material::Dielectric { ior, .. } => Some([0.0, 0.0, 0.0, ior]),
         _ => None,
     }
 }
@@ -195,10 +257,14 @@ impl PinholeLayer {
         for (oi, o) in world.objects.iter().enumerate() {
             let shape = o.rigid_transform().inverse() * o.transform;
             for (pi, part) in o.parts.iter().enumerate() {
-                let Some(refl) = reflector(&world.materials[part.material as usize]) else {
+                let Some(mut refl) = reflector(&world.materials[part.material as usize]) else {
                     continue;
                 };
                 let m = &part.mesh;
+                if p.transmit && refl[3] > 0.0 && is_open(&m.positions, &m.indices) {
+                    refl[0] = 1.0;
+                    stats.transmitting_parts += 1;
+                }
                 let q: Vec<Vec3> = m
                     .positions
                     .iter()
@@ -361,6 +427,10 @@ impl PinholeLayer {
             shadows: self.shadows,
             delta: self.delta_count > 0,
             env: self.env_map.is_some() || self.env_constant.max_element() > 0.0,
+            transmit: self
+                .samples
+                .iter()
+                .any(|s| s.reflectance[3] > 0.0 && s.reflectance[0] > 0.5),
         }
     }
 
@@ -598,6 +668,7 @@ impl PinholePipeline {
             ("SHADOWS", flag(v.shadows)),
             ("DELTA", flag(v.delta)),
             ("ENV", flag(v.env)),
+            ("TRANSMIT", flag(v.transmit)),
         ];
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("pinhole"),
@@ -764,6 +835,28 @@ pub fn encode(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn open_surfaces_are_told_from_closed_solids() {
+        use crate::scene::shapes;
+        let m = shapes::plane(1.0, 1.0);
+        assert!(is_open(&m.positions, &m.indices), "a plane has a rim");
+        for (name, m) in [
+            ("sphere", shapes::sphere(0.5, 32)),
+            ("torus", shapes::torus(0.6, 0.1, 48)),
+            ("box", shapes::cuboid(Vec3::ONE)),
+            ("cylinder", shapes::cylinder(0.3, 1.0, 24)),
+        ] {
+            // Seams, poles and flat-shaded faces repeat positions: edges are between positions.
+            assert!(!is_open(&m.positions, &m.indices), "{name} is closed");
+            let mut cut = m.clone();
+            cut.indices.pop();
+            assert!(
+                is_open(&cut.positions, &cut.indices),
+                "{name} less a triangle"
+            );
+        }
+    }
 
     #[test]
     fn draws_stay_under_the_loop_budget() {
