@@ -229,6 +229,16 @@ impl DeviceCache {
 pub struct Renderer {
     ctx: Arc<GpuContext>,
     cache: DeviceCache,
+    /// Replaces the adapter's loop budget ([`GpuContext::loop_budget`]) when set.
+    loop_budget: Option<u32>,
+}
+
+/// How a pinhole pass was drawn and how many pixels report a draw whose loop over points the
+/// adapter ended early.
+#[derive(Clone, Copy, Debug)]
+struct PinholeDraws {
+    per_draw: u32,
+    cut_pixels: usize,
 }
 
 impl Renderer {
@@ -236,7 +246,11 @@ impl Renderer {
     pub fn new(ctx: Arc<GpuContext>) -> Result<Renderer, RenderError> {
         let h = ctx.ensure_device()?;
         let cache = Self::build(&ctx, &h)?;
-        Ok(Renderer { ctx, cache })
+        Ok(Renderer {
+            ctx,
+            cache,
+            loop_budget: None,
+        })
     }
 
     fn build(ctx: &GpuContext, h: &crate::gpu::DeviceHandle) -> Result<DeviceCache, RenderError> {
@@ -315,18 +329,62 @@ impl Renderer {
         self.render_with(world, opts, Caustics::Pinhole(layer))
     }
 
-    /// Renders `world` with the caustics method `caustics`.
+    /// Replaces the loop iterations one shader invocation is taken to be allowed
+    /// ([`GpuContext::loop_budget`]; `None`: the adapter's). Tests use it to make llvmpipe end
+    /// a pinhole pass's loops early and check that the frame is redrawn.
+    pub fn set_loop_budget(&mut self, budget: Option<u32>) {
+        self.loop_budget = budget;
+    }
+
+    /// Renders `world` with the caustics method `caustics`. A pinhole frame in which the
+    /// adapter ended the loop over points early (llvmpipe's cap on loop iterations, when a
+    /// draw's estimate of its iterations falls short) is drawn again with a quarter of the
+    /// points a draw, down to one.
     pub fn render_with(
         &mut self,
         world: &World,
         opts: &RenderOptions,
         caustics: Caustics,
     ) -> Result<RenderOutput, RenderError> {
-        match self.render_once(world, opts, caustics) {
+        let mut cap = u32::MAX;
+        loop {
+            let (out, draws) = self.render_on_a_live_device(world, opts, caustics, cap)?;
+            match draws {
+                Some(d) if d.cut_pixels > 0 && d.per_draw > 1 => {
+                    tracing::warn!(
+                        pixels = d.cut_pixels,
+                        points_per_draw = d.per_draw,
+                        "the adapter ended the pinhole pass's loop over points early; \
+                         drawing again with fewer points a draw"
+                    );
+                    cap = (d.per_draw / 4).max(1);
+                }
+                Some(d) if d.cut_pixels > 0 => {
+                    return Err(RenderError::Limit(format!(
+                        "the adapter ends the pinhole pass's loops early in {} pixels even one \
+                         point a draw (llvmpipe's cap of {} loop iterations per invocation); \
+                         render without shadows or on another adapter",
+                        d.cut_pixels,
+                        crate::gpu::LLVMPIPE_LOOP_ITERATIONS
+                    )));
+                }
+                _ => return Ok(out),
+            }
+        }
+    }
+
+    fn render_on_a_live_device(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        caustics: Caustics,
+        cap: u32,
+    ) -> Result<(RenderOutput, Option<PinholeDraws>), RenderError> {
+        match self.render_once(world, opts, caustics, cap) {
             Err(RenderError::Gpu(e)) if matches!(e, GpuError::Lost(_)) || self.ctx.is_lost() => {
                 tracing::warn!(error = %e, "render failed on a lost device; retrying on a new one");
                 self.ctx.mark_lost();
-                self.render_once(world, opts, caustics)
+                self.render_once(world, opts, caustics, cap)
             }
             r => r,
         }
@@ -337,7 +395,8 @@ impl Renderer {
         world: &World,
         opts: &RenderOptions,
         caustics: Caustics,
-    ) -> Result<RenderOutput, RenderError> {
+        cap: u32,
+    ) -> Result<(RenderOutput, Option<PinholeDraws>), RenderError> {
         let t0 = Instant::now();
         let mut timings = Vec::new();
         let h = self.ctx.ensure_device()?;
@@ -361,7 +420,7 @@ impl Renderer {
             // Shadow maps, direct, transport or pinhole.
             timestamps::Timestamps::new(&self.ctx, dev, 3)
         })?;
-        let loop_budget = self.ctx.loop_budget();
+        let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
         let (frame, volumes, pinhole_buffers, generation) = self.ctx.scoped(dev, || {
             let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
             (
@@ -370,7 +429,7 @@ impl Renderer {
                     .map(|l| transport::upload_volumes(dev, &l.volumes)),
                 plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
                     let env = p.env.as_ref().expect("fitted");
-                    pinhole::PinholeBuffers::upload(dev, l, env, loop_budget)
+                    pinhole::PinholeBuffers::upload(dev, l, env, loop_budget, cap)
                 }),
                 generation,
             )
@@ -469,39 +528,52 @@ impl Renderer {
         }
 
         let t3 = Instant::now();
-        let read = |on: bool, t: &wgpu::Texture| -> Result<Frame, RenderError> {
+        // A frame, and the pixels whose alpha is above 1.5 (the direct pass leaves 1 in every
+        // pixel; each pinhole draw whose loop over points was ended early adds 1).
+        let read = |on: bool, t: &wgpu::Texture| -> Result<(Frame, usize), RenderError> {
             if !on {
-                return Ok(Frame::new(width, height));
+                return Ok((Frame::new(width, height), 0));
             }
             let px = self.ctx.readback_rgba32f(t)?;
-            Ok(Frame {
+            let flagged = px.iter().filter(|p| p[3] > 1.5).count();
+            let frame = Frame {
                 width,
                 height,
                 pixels: px
                     .into_iter()
                     .map(|p| Vec3::new(p[0], p[1], p[2]))
                     .collect(),
-            })
+            };
+            Ok((frame, flagged))
         };
-        let direct_frame = read(opts.components.direct, &targets.direct)?;
-        let specular_frame = read(opts.components.specular, &targets.specular)?;
-        let caustics_frame = if plan.has_caustics() {
-            Some(read(true, &targets.caustics)?)
+        let (direct_frame, _) = read(opts.components.direct, &targets.direct)?;
+        let (specular_frame, _) = read(opts.components.specular, &targets.specular)?;
+        let (caustics_frame, draws) = if plan.has_caustics() {
+            let (f, flagged) = read(true, &targets.caustics)?;
+            // The pinhole pass reports loops ended early in the layer's alpha.
+            let draws = pinhole_buffers.as_ref().map(|b| PinholeDraws {
+                per_draw: b.per_draw,
+                cut_pixels: flagged,
+            });
+            (Some(f), draws)
         } else {
-            None
+            (None, None)
         };
         timings.push(("readback".to_string(), t3.elapsed()));
         timings.push(("total".to_string(), t0.elapsed()));
         for e in self.ctx.take_uncaptured_errors() {
             tracing::error!(error = %e, "uncaptured GPU error during the frame");
         }
-        Ok(RenderOutput {
-            direct: direct_frame,
-            specular: specular_frame,
-            caustics: caustics_frame,
-            timings,
-            adapter: self.ctx.adapter_info().to_string(),
-        })
+        Ok((
+            RenderOutput {
+                direct: direct_frame,
+                specular: specular_frame,
+                caustics: caustics_frame,
+                timings,
+                adapter: self.ctx.adapter_info().to_string(),
+            },
+            draws,
+        ))
     }
 }
 

@@ -101,6 +101,45 @@ fn shadows_take_the_light_the_ring_and_table_block_and_no_more() {
 }
 
 #[test]
+fn a_pass_the_adapter_ends_early_is_drawn_again() {
+    // Told that the adapter has no cap on loop iterations, the renderer draws all 1000 shadowed
+    // points at once, which llvmpipe ends early (40 % of the light lost at 48²); the alpha
+    // the pass reports that in makes the renderer draw the frame again in smaller draws.
+    let mut w = sized("mirror-ring-env");
+    w.camera.width = 48;
+    w.camera.height = 48;
+    let p = PinholeParams {
+        samples: 1000,
+        shadows: true,
+        ..Default::default()
+    };
+    let layer = PinholeLayer::build(&w, &p).unwrap();
+    let ctx = gpu::context();
+    assert!(
+        ctx.loop_budget() < u32::MAX,
+        "this test needs llvmpipe (lavapipe), as CI has"
+    );
+    let mut r = caustica::render::Renderer::new(ctx).unwrap();
+    let opts = Default::default();
+    let normal = r
+        .render_pinhole(&w, &opts, &layer)
+        .unwrap()
+        .caustics
+        .unwrap();
+    r.set_loop_budget(Some(u32::MAX));
+    let redrawn = r
+        .render_pinhole(&w, &opts, &layer)
+        .unwrap()
+        .caustics
+        .unwrap();
+    let (l1, flux) = error(&w, &redrawn, &normal);
+    assert!(
+        l1 < 1e-3 && (flux - 1.0).abs() < 1e-3,
+        "redrawn: {l1} {flux}"
+    );
+}
+
+#[test]
 fn every_strategy_renders_and_filtering_removes_the_aliasing() {
     // The sun covers 1/8000 of the map: without filtering 300 points give a scatter of spots,
     // with it a caustic much closer to the reference.

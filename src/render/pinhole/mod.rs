@@ -691,14 +691,20 @@ impl PinholePipeline {
                 },
                 targets: &[Some(wgpu::ColorTargetState {
                     format: HDR_FORMAT,
-                    // The draws add up (the direct pass cleared the layer).
+                    // The draws add up (the direct pass cleared the layer's colour and left alpha
+                    // 1), and so do their alphas: 1 where a draw's loop over points was ended
+                    // early (Renderer::render_with draws such a frame again).
                     blend: Some(wgpu::BlendState {
                         color: wgpu::BlendComponent {
                             src_factor: wgpu::BlendFactor::One,
                             dst_factor: wgpu::BlendFactor::One,
                             operation: wgpu::BlendOperation::Add,
                         },
-                        alpha: wgpu::BlendComponent::REPLACE,
+                        alpha: wgpu::BlendComponent {
+                            src_factor: wgpu::BlendFactor::One,
+                            dst_factor: wgpu::BlendFactor::One,
+                            operation: wgpu::BlendOperation::Add,
+                        },
                     }),
                     write_mask: wgpu::ColorWrites::ALL,
                 })],
@@ -734,18 +740,20 @@ pub struct PinholeBuffers {
     lights: wgpu::Buffer,
     uniform: wgpu::Buffer,
     points: u32,
-    per_draw: u32,
+    pub per_draw: u32,
     variant: Variant,
 }
 
 impl PinholeBuffers {
     /// `loop_budget`: the loop iterations a shader invocation may make on this adapter (see
-    /// [`PinholeLayer::points_per_draw`]; `u32::MAX` where there is no such limit).
+    /// [`PinholeLayer::points_per_draw`]; `u32::MAX` where there is no such limit); at most
+    /// `cap` points a draw.
     pub fn upload(
         device: &wgpu::Device,
         layer: &PinholeLayer,
         env: &EnvPyramid,
         loop_budget: u32,
+        cap: u32,
     ) -> PinholeBuffers {
         let buf = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -767,7 +775,7 @@ impl PinholeBuffers {
             &layer.lights
         };
         let storage = wgpu::BufferUsages::STORAGE;
-        let per_draw = layer.points_per_draw(loop_budget);
+        let per_draw = layer.points_per_draw(loop_budget).min(cap).max(1);
         let uniform = layer.uniform(env.levels, env.norm, per_draw);
         PinholeBuffers {
             samples: buf("pinhole samples", bytemuck::cast_slice(s), storage),
