@@ -1,7 +1,7 @@
 //! `POST /v1/renders` end to end on a real server: the canonical scene rendered by the
 //! reference at 64×64 gives the same image as the library call (so the caustic is where the
-//! reference puts it), `direct` gives a PNG from the GPU worker, and the record, image and
-//! `Server-Timing` say what happened.
+//! reference puts it), `direct` gives a PNG from the GPU worker, `pinhole` the library's
+//! frame, and the record, image and `Server-Timing` say what happened.
 
 use crate::support::scenes::{self, SCENE, scene_sized};
 use crate::support::server::*;
@@ -457,4 +457,45 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
     let p = problem(r, 422).await;
     assert!(p["detail"].as_str().unwrap().contains("glass"), "{p}");
     srv.stop().await;
+}
+
+/// `method: pinhole` through the service: the canonical scene with its sphere made a mirror,
+/// shadowed points, as an EXR: the same frame as the library call (with caustics in it), and
+/// the record gives the points' figures.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pinhole_render_matches_the_library_and_reports_its_points() {
+    use caustica::render::PinholeLayer;
+    use caustica::render::pinhole::PinholeParams;
+    let srv = Server::start("render-pinhole", |_, _| {}).await;
+    let mut scene = scene_sized(32, 32);
+    scene["materials"]["glass"] = serde_json::json!({"type": "mirror", "reflectance": 0.9});
+    let req = serde_json::json!({"scene": scene, "method": "pinhole", "format": "exr",
+        "pinhole": {"samples": 400, "shadows": true}});
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let served = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    let stats = &rec["info"]["statistics"];
+    assert_eq!(stats["samples_asked"], 400, "{rec}");
+    assert_eq!(stats["shadows"], true, "{rec}");
+    assert_eq!(stats["reflector_parts"], 1, "{rec}");
+    srv.stop().await;
+
+    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let p = PinholeParams {
+        samples: 400,
+        shadows: true,
+        ..Default::default()
+    };
+    let layer = PinholeLayer::build(&world, &p).unwrap();
+    let out = gpu::renderer()
+        .render_pinhole(&world, &Default::default(), &layer)
+        .unwrap();
+    let caustics = out.caustics.as_ref().unwrap();
+    assert!(
+        caustics.pixels.iter().any(|p| p.x > 0.0),
+        "the mirror casts light"
+    );
+    assert_eq!(served, out.total());
 }
