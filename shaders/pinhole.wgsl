@@ -28,6 +28,20 @@ struct Sample {
     reflectance: vec4<f32>,
 }
 
+// A run of points close together (render/pinhole/mod.rs, Morton order within a part): a
+// receiver farther than FAR radii from it takes it as one pinhole, its representative point
+// standing for their summed area; a nearer one takes every point.
+struct Cluster {
+    // xyz: the representative's position; w: the radius around it that holds every point.
+    centre: vec4<f32>,
+    // x: the representative point, y: the first point, z: the points; w: unused.
+    range: vec4<u32>,
+    // x: the points' summed area; y: its eps; zw: unused.
+    area: vec4<f32>,
+}
+
+const FAR: f32 = 6.0;
+
 struct SampleLight {
     // xyz: unit direction to the light; w: angular radius.
     dir: vec4<f32>,
@@ -36,14 +50,14 @@ struct SampleLight {
 }
 
 struct Pinhole {
-    // x: points, y: delta lights per point, z: unused, w: mip levels.
+    // x: points, y: delta lights per point, z: clusters, w: mip levels.
     counts: vec4<u32>,
     // rgb: constant environment radiance; w: 1 when a map is bound.
     env: vec4<f32>,
     env_scale: vec4<f32>,
     env_size: vec4<f32>,
-    // x: points per draw: the pass is split into draws (instance index: the first point of
-    // the draw) that add up, each under llvmpipe's limit on loop iterations per invocation.
+    // x: clusters per draw: the pass is split into draws (instance index: the first cluster
+    // of the draw) that add up, each under llvmpipe's limit on loop iterations per invocation.
     draw: vec4<u32>,
 }
 
@@ -69,9 +83,10 @@ const MAX_TAPS: f32 = 8.0;
 @group(0) @binding(14) var<uniform> ph: Pinhole;
 @group(0) @binding(15) var env_tex: texture_2d<f32>;
 @group(0) @binding(16) var env_sampler: sampler;
+@group(0) @binding(17) var<storage, read> clusters: array<Cluster>;
 struct VsOut {
     @builtin(position) position: vec4<f32>,
-    // The draw's first point.
+    // The draw's first cluster.
     @location(0) @interpolate(flat) first: u32,
 }
 
@@ -205,6 +220,127 @@ fn delta_disc(l: vec3<f32>, w: vec3<f32>, r: f32) -> f32 {
     return select(0.0, 1.0 / (2.0 * PI * (1.0 - c)), dot(l, w) >= c);
 }
 
+// The light point i, standing for `area` (with its eps), sends to the receiver at p (normal
+// nd, towards the eye v, material mat; lift_d: its offset for shadow rays).
+fn point_light(
+    i: u32,
+    area: f32,
+    eps: f32,
+    p: vec3<f32>,
+    nd: vec3<f32>,
+    v: vec3<f32>,
+    mat: Material,
+    lift_d: f32,
+) -> vec3<f32> {
+    let filtered = FILTER;
+    let shadows = SHADOWS;
+    let nl = select(0u, ph.counts.y, DELTA);
+    let s = samples[i];
+    let ps = s.position.xyz;
+    let ns = s.normal.xyz;
+    let dv = ps - p;
+    let dist2 = dot(dv, dv);
+    let dist = sqrt(dist2);
+    let dn = dv / dist;
+    let cos_d = dot(nd, dn);
+    var cos_s = -dot(ns, dn);
+    if cos_d <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let ior = s.reflectance.w;
+    // Towards the light that the point sends to the receiver: reflected, or (an open glass
+    // surface seen from behind) refracted out of the glass.
+    var l = dn + 2.0 * cos_s * ns;
+    var refl = s.reflectance.rgb;
+    var transmitted = false;
+    if cos_s > 0.0 {
+        if ior > 0.0 {
+            refl = vec3<f32>(fresnel_dielectric(cos_s, 1.0 / ior));
+        }
+    } else if TRANSMIT && cos_s < 0.0 && ior > 0.0 && s.reflectance.x > 0.5 {
+        l = refract(dn, -ns, ior);
+        if dot(l, l) == 0.0 {
+            return vec3<f32>(0.0);
+        }
+        // Fresnel transmittance (the same both ways) and the radiance's gain of ior² on
+        // entering the denser medium.
+        refl = vec3<f32>((1.0 - fresnel_dielectric(dot(l, ns), 1.0 / ior)) * ior * ior);
+        cos_s = -cos_s;
+        transmitted = true;
+    } else {
+        return vec3<f32>(0.0);
+    }
+    var f = mat.albedo.rgb / PI;
+    if mat.kind == MAT_GLOSSY {
+        f = glossy_brdf(nd, dn, v, mat.albedo.rgb, mat.specular.rgb, mat.roughness);
+    }
+    let weight = refl * f * (cos_s * cos_d / (dist2 + eps) * area);
+    if max(max(weight.r, weight.g), weight.b) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    // The footprint: a Gaussian of half the points' spacing, which tiles with its neighbours
+    // (a disc of the same area has a deviation of 0.28 spacings and leaves gaps).
+    let sigma = 0.5 * sqrt(area);
+    var f1 = vec3<f32>(0.0);
+    var f2 = vec3<f32>(0.0);
+    if filtered && transmitted {
+        f1 = sigma * refract_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist, ior, l);
+        f2 = sigma * refract_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist, ior, l);
+    } else if filtered {
+        f1 = sigma * reflect_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist);
+        f2 = sigma * reflect_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist);
+    }
+    var radiance = vec3<f32>(0.0);
+    for (var k = 0u; k < nl; k++) {
+        let sl = sample_lights[i * nl + k];
+        let e = sl.irradiance.rgb;
+        if max(max(e.r, e.g), e.b) <= 0.0 {
+            continue;
+        }
+        let w = sl.dir.xyz;
+        if filtered {
+            // A near light's direction moves across the point's area too.
+            let inv = sl.irradiance.w;
+            let g1 = f1 + sigma * inv * (s.dir1.xyz - w * dot(w, s.dir1.xyz));
+            let g2 = f2 + sigma * inv * (s.dir2.xyz - w * dot(w, s.dir2.xyz));
+            radiance += e * delta_filtered(l, g1, g2, w, sl.dir.w);
+        } else {
+            radiance += e * delta_disc(l, w, sl.dir.w);
+        }
+    }
+    if ENV {
+        var le = ph.env.rgb;
+        if ph.env.w > 0.5 {
+            var m: vec3<f32>;
+            if filtered {
+                m = env_filtered(l, f1, f2);
+            } else {
+                m = env_point(l);
+            }
+            le += ph.env_scale.rgb * m;
+        }
+        if shadows && max(max(le.r, le.g), le.b) > 0.0 {
+            let lift_s = 1e-3 * sqrt(eps);
+            if occluded(ps + ns * lift_s, l, 1e30) {
+                le = vec3<f32>(0.0);
+            }
+        }
+        radiance += le;
+    }
+    if max(max(radiance.r, radiance.g), radiance.b) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if shadows {
+        let o = p + nd * lift_d;
+        let to = ps - o;
+        let len = length(to);
+        if occluded(o, to / len, len * (1.0 - 1e-4) - 1e-3 * sqrt(eps)) {
+            return vec3<f32>(0.0);
+        }
+    }
+    return weight * radiance;
+}
+
 @fragment
 fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
     let px = vec2<i32>(vin.position.xy);
@@ -217,122 +353,24 @@ fn fs_main(vin: VsOut) -> @location(0) vec4<f32> {
     let nd = normalize(gn.xyz);
     let mat = materials[u32(gn.w)];
     let v = normalize(g.eye.xyz - p);
-    let filtered = FILTER;
-    let shadows = SHADOWS;
-    let nl = select(0u, ph.counts.y, DELTA);
     let lift_d = 0.5 * gp.w;
     var sum = vec3<f32>(0.0);
-    let last = min(ph.counts.x, vin.first + ph.draw.x);
-    // The point after the last one begun: short of `last` when the adapter ended the loop early
-    // (llvmpipe's cap on loop iterations). Alpha reports it: the draws add their alphas to the
-    // 1 the direct pass left, and the renderer draws again with fewer points a draw.
+    let last = min(ph.counts.z, vin.first + ph.draw.x);
+    // The cluster after the last one begun: short of `last` when the adapter ended the loop
+    // early (llvmpipe's cap on loop iterations). Alpha reports it: the draws add their alphas to
+    // the 1 the direct pass left, and the renderer draws again with fewer clusters a draw.
     var next = vin.first;
-    for (var i = vin.first; i < last; i++) {
-        next = i + 1u;
-        let s = samples[i];
-        let ps = s.position.xyz;
-        let ns = s.normal.xyz;
-        let dv = ps - p;
-        let dist2 = dot(dv, dv);
-        let dist = sqrt(dist2);
-        let dn = dv / dist;
-        let cos_d = dot(nd, dn);
-        var cos_s = -dot(ns, dn);
-        if cos_d <= 0.0 {
-            continue;
-        }
-        let ior = s.reflectance.w;
-        // Towards the light that the point sends to the receiver: reflected, or (an open glass
-        // surface seen from behind) refracted out of the glass.
-        var l = dn + 2.0 * cos_s * ns;
-        var refl = s.reflectance.rgb;
-        var transmitted = false;
-        if cos_s > 0.0 {
-            if ior > 0.0 {
-                refl = vec3<f32>(fresnel_dielectric(cos_s, 1.0 / ior));
-            }
-        } else if TRANSMIT && cos_s < 0.0 && ior > 0.0 && s.reflectance.x > 0.5 {
-            l = refract(dn, -ns, ior);
-            if dot(l, l) == 0.0 {
-                continue;
-            }
-            // Fresnel transmittance (the same both ways) and the radiance's gain of ior² on
-            // entering the denser medium.
-            refl = vec3<f32>((1.0 - fresnel_dielectric(dot(l, ns), 1.0 / ior)) * ior * ior);
-            cos_s = -cos_s;
-            transmitted = true;
+    for (var c = vin.first; c < last; c++) {
+        next = c + 1u;
+        let cl = clusters[c];
+        if distance(p, cl.centre.xyz) > FAR * cl.centre.w {
+            sum += point_light(cl.range.x, cl.area.x, cl.area.y, p, nd, v, mat, lift_d);
         } else {
-            continue;
-        }
-        var f = mat.albedo.rgb / PI;
-        if mat.kind == MAT_GLOSSY {
-            f = glossy_brdf(nd, dn, v, mat.albedo.rgb, mat.specular.rgb, mat.roughness);
-        }
-        let weight = refl * f * (cos_s * cos_d / (dist2 + s.normal.w) * s.position.w);
-        if max(max(weight.r, weight.g), weight.b) <= 0.0 {
-            continue;
-        }
-        // The footprint: a Gaussian of half the points' spacing, which tiles with its neighbours
-        // (a disc of the same area has a deviation of 0.28 spacings and leaves gaps).
-        let sigma = 0.5 * sqrt(s.position.w);
-        var f1 = vec3<f32>(0.0);
-        var f2 = vec3<f32>(0.0);
-        if filtered && transmitted {
-            f1 = sigma * refract_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist, ior, l);
-            f2 = sigma * refract_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist, ior, l);
-        } else if filtered {
-            f1 = sigma * reflect_spread(dn, ns, s.dir1.xyz, s.dir1.w, dist);
-            f2 = sigma * reflect_spread(dn, ns, s.dir2.xyz, s.dir2.w, dist);
-        }
-        var radiance = vec3<f32>(0.0);
-        for (var k = 0u; k < nl; k++) {
-            let sl = sample_lights[i * nl + k];
-            let e = sl.irradiance.rgb;
-            if max(max(e.r, e.g), e.b) <= 0.0 {
-                continue;
-            }
-            let w = sl.dir.xyz;
-            if filtered {
-                // A near light's direction moves across the point's area too.
-                let inv = sl.irradiance.w;
-                let g1 = f1 + sigma * inv * (s.dir1.xyz - w * dot(w, s.dir1.xyz));
-                let g2 = f2 + sigma * inv * (s.dir2.xyz - w * dot(w, s.dir2.xyz));
-                radiance += e * delta_filtered(l, g1, g2, w, sl.dir.w);
-            } else {
-                radiance += e * delta_disc(l, w, sl.dir.w);
+            for (var i = cl.range.y; i < cl.range.y + cl.range.z; i++) {
+                let s = samples[i];
+                sum += point_light(i, s.position.w, s.normal.w, p, nd, v, mat, lift_d);
             }
         }
-        if ENV {
-            var le = ph.env.rgb;
-            if ph.env.w > 0.5 {
-                var m: vec3<f32>;
-                if filtered {
-                    m = env_filtered(l, f1, f2);
-                } else {
-                    m = env_point(l);
-                }
-                le += ph.env_scale.rgb * m;
-            }
-            if shadows && max(max(le.r, le.g), le.b) > 0.0 {
-                let lift_s = 1e-3 * sqrt(s.normal.w);
-                if occluded(ps + ns * lift_s, l, 1e30) {
-                    le = vec3<f32>(0.0);
-                }
-            }
-            radiance += le;
-        }
-        if max(max(radiance.r, radiance.g), radiance.b) <= 0.0 {
-            continue;
-        }
-        if shadows {
-            let o = p + nd * lift_d;
-            let to = ps - o;
-            let len = length(to);
-            if occluded(o, to / len, len * (1.0 - 1e-4) - 1e-3 * sqrt(s.normal.w)) {
-                continue;
-            }
-        }
-        sum += weight * radiance;
     }
     return vec4<f32>(sum, select(0.0, 1.0, next < last));
 }

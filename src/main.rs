@@ -95,6 +95,10 @@ enum Cmd {
         /// refracting interface (paper §5).
         #[arg(long)]
         transmit: bool,
+        /// Pinhole: points per cluster, 1..=64 (default 16; 1: every pixel takes every point).
+        /// A receiver farther than 6 cluster radii takes a cluster as one pinhole.
+        #[arg(long)]
+        cluster: Option<u32>,
         /// Pinhole: angular radius in degrees of the disc a directional, point or spot light
         /// appears as (default 0.27, the sun's).
         #[arg(long)]
@@ -217,6 +221,7 @@ fn main() -> Result<()> {
             no_filter,
             shadows,
             transmit,
+            cluster,
             sun_radius,
         } => {
             let pinhole_given = samples.is_some()
@@ -224,6 +229,7 @@ fn main() -> Result<()> {
                 || no_filter
                 || shadows
                 || transmit
+                || cluster.is_some()
                 || sun_radius.is_some();
             let pinhole = pinhole_given.then(|| {
                 serde_json::to_value(caustica::methods::pinhole::PinholeArgs {
@@ -232,6 +238,7 @@ fn main() -> Result<()> {
                     filter: no_filter.then_some(false),
                     shadows: shadows.then_some(true),
                     transmit: transmit.then_some(true),
+                    cluster,
                     sun_radius,
                 })
                 .expect("pinhole arguments serialise")

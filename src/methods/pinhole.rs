@@ -11,7 +11,7 @@ use super::{
 };
 use crate::render::RenderOptions;
 use crate::render::pinhole::{
-    MAX_SAMPLES, PinholeLayer, PinholeParams, Strategy, reflecting_objects,
+    MAX_CLUSTER, MAX_SAMPLES, PinholeLayer, PinholeParams, Strategy, reflecting_objects,
 };
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
@@ -29,7 +29,7 @@ pub static INFO: MethodInfo = MethodInfo {
 pub struct Pinhole;
 
 /// The `pinhole` field of a render request (the CLI's `--samples`, `--sampling`,
-/// `--no-filter`, `--shadows`, `--transmit`, `--sun-radius`).
+/// `--no-filter`, `--shadows`, `--transmit`, `--cluster`, `--sun-radius`).
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PinholeArgs {
@@ -47,6 +47,10 @@ pub struct PinholeArgs {
     /// docs/methods/pinhole.md).
     #[serde(default)]
     pub shadows: Option<bool>,
+    /// Points per cluster, 1..=64 (default 16; 1: every pixel takes every point): a receiver
+    /// farther than 6 cluster radii takes a cluster as one pinhole.
+    #[serde(default)]
+    pub cluster: Option<u32>,
     /// Open glass surfaces (meshes with a boundary: a water surface, a sheet) also transmit,
     /// as one refracting interface (the paper's §5; default false, since a glass solid whose
     /// mesh has holes would count as open too).
@@ -64,6 +68,9 @@ impl PinholeArgs {
         let a: PinholeArgs = from_value(v, at)?;
         if let Some(n) = a.samples {
             ParamError::range(&format!("{at}.samples"), n, 1, MAX_SAMPLES)?;
+        }
+        if let Some(n) = a.cluster {
+            ParamError::range(&format!("{at}.cluster"), n, 1, MAX_CLUSTER)?;
         }
         if let Some(r) = a.sun_radius
             && !(r.is_finite() && (0.01..=10.0).contains(&r))
@@ -105,6 +112,7 @@ impl MethodImpl for Pinhole {
                 sun_radius: a.sun_radius.map_or(d.sun_radius, f32::to_radians),
                 seed: args.seed.unwrap_or(d.seed),
                 line_points: args.line_points.unwrap_or(d.line_points),
+                cluster: a.cluster.unwrap_or(d.cluster),
             },
         }))
     }
@@ -141,6 +149,7 @@ impl RenderPlan for Plan {
             "filter": p.filter,
             "shadows": p.shadows,
             "transmit": p.transmit,
+            "cluster": p.cluster,
             "reflector_area_m2": s.area,
             "reflector_parts": s.parts,
             "transmitting_parts": s.transmitting_parts,

@@ -225,7 +225,7 @@ mod tests {
 
     #[test]
     fn pinhole_structs_have_the_wgsl_layout() {
-        use crate::render::pinhole::{GpuPinhole, GpuSample, GpuSampleLight};
+        use crate::render::pinhole::{GpuCluster, GpuPinhole, GpuSample, GpuSampleLight};
         mirror(
             "pinhole.wgsl",
             "Sample",
@@ -245,6 +245,16 @@ mod tests {
             &[
                 ("dir", offset_of!(GpuSampleLight, dir)),
                 ("irradiance", offset_of!(GpuSampleLight, irradiance)),
+            ],
+        );
+        mirror(
+            "pinhole.wgsl",
+            "Cluster",
+            size_of::<GpuCluster>(),
+            &[
+                ("centre", offset_of!(GpuCluster, centre)),
+                ("range", offset_of!(GpuCluster, range)),
+                ("area", offset_of!(GpuCluster, area)),
             ],
         );
         mirror(

@@ -54,9 +54,15 @@ pub struct PinholeParams {
     pub seed: u64,
     /// Point lights a line light is split into.
     pub line_points: u32,
+    /// Points per cluster (1: none; none either without filtering). A receiver farther than 6
+    /// radii from a cluster takes it as one pinhole (beyond the paper: a two-level hierarchy of
+    /// the points).
+    pub cluster: u32,
 }
 
 pub const DEFAULT_SAMPLES: u32 = 2000;
+pub const DEFAULT_CLUSTER: u32 = 16;
+pub const MAX_CLUSTER: u32 = 64;
 pub const MAX_SAMPLES: u32 = 100_000;
 /// The sun's angular radius (0.27°).
 pub const DEFAULT_SUN_RADIUS_DEG: f32 = 0.27;
@@ -71,6 +77,7 @@ impl Default for PinholeParams {
             filter: true,
             shadows: false,
             transmit: false,
+            cluster: DEFAULT_CLUSTER,
             sun_radius: DEFAULT_SUN_RADIUS_DEG.to_radians(),
             seed: 1,
             line_points: 16,
@@ -107,12 +114,23 @@ pub struct GpuSampleLight {
     pub irradiance: [f32; 4],
 }
 
+/// `Cluster` of pinhole.wgsl: a run of points close together.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuCluster {
+    /// xyz: the representative point's position; w: the radius around it holding every point.
+    pub centre: [f32; 4],
+    /// x: the representative point, y: the first point, z: the points, w: 0.
+    pub range: [u32; 4],
+    /// x: the points' summed area (m²), y: ε of that area, zw: 0.
+    pub area: [f32; 4],
+}
+
 /// `Pinhole` of pinhole.wgsl: the pass's uniform.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuPinhole {
-    /// x: points, y: delta lights per point, z: unused (0), w: mip levels of the environment
-    /// map.
+    /// x: points, y: delta lights per point, z: clusters, w: mip levels of the environment map.
     pub counts: [u32; 4],
     /// rgb: constant environment radiance; w: 1 when a map is bound.
     pub env: [f32; 4],
@@ -120,7 +138,7 @@ pub struct GpuPinhole {
     pub env_scale: [f32; 4],
     /// xy: map size in texels.
     pub env_size: [f32; 4],
-    /// x: points per draw (the pass is split into draws of that many points each).
+    /// x: clusters per draw (the pass is split into draws of that many clusters each).
     pub draw: [u32; 4],
 }
 
@@ -211,7 +229,11 @@ pub struct PinholeStats {
 /// The caustics of a frame by pinhole projection.
 #[derive(Clone, Debug, Default)]
 pub struct PinholeLayer {
+    /// Ordered cluster by cluster.
     pub samples: Vec<GpuSample>,
+    pub clusters: Vec<GpuCluster>,
+    /// The most points in a cluster.
+    pub cluster_size: u32,
     /// `samples.len() × delta_count`, point-major.
     pub lights: Vec<GpuSampleLight>,
     pub delta_count: u32,
@@ -236,6 +258,61 @@ fn reflector(m: &Material) -> Option<[f32; 4]> {
 /// Indices into `World::objects` of the objects with a reflecting part.
 pub fn reflecting_objects(world: &World) -> Vec<usize> {
     world.objects_with(|m| reflector(m).is_some())
+}
+
+/// Orders the points of each part (`ranges` of `samples`) along a Morton curve and cuts them
+/// into runs of `size`: the clusters. A cluster's representative is its point nearest the
+/// area-weighted centroid, its radius the farthest of its points from it, its area theirs
+/// summed (ε from it as for a point).
+fn cluster_points(
+    samples: &mut [GpuSample],
+    ranges: &[std::ops::Range<usize>],
+    size: usize,
+) -> Vec<GpuCluster> {
+    let pos = |s: &GpuSample| Vec3::from_slice(&s.position);
+    let mut clusters = Vec::new();
+    for r in ranges {
+        let part = &mut samples[r.clone()];
+        let (lo, hi) = part.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), s| {
+            (lo.min(pos(s)), hi.max(pos(s)))
+        });
+        let scale = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+        let morton = |s: &GpuSample| {
+            let q = ((pos(s) - lo) / scale * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+            // 10 bits to every third of 30 (the usual bit interleave).
+            let spread = |v: f32| {
+                let mut x = (v as u32 & 0x3ff) as u64;
+                x = (x | (x << 16)) & 0x0300_00ff;
+                x = (x | (x << 8)) & 0x0300_f00f;
+                x = (x | (x << 4)) & 0x030c_30c3;
+                x = (x | (x << 2)) & 0x0924_9249;
+                x
+            };
+            spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
+        };
+        part.sort_by_key(|s| morton(s));
+        for (k, chunk) in part.chunks(size).enumerate() {
+            let first = r.start + k * size;
+            let area: f32 = chunk.iter().map(|s| s.position[3]).sum();
+            let centroid = chunk.iter().map(|s| pos(s) * s.position[3]).sum::<Vec3>()
+                / area.max(f32::MIN_POSITIVE);
+            let (rep, _) = chunk
+                .iter()
+                .enumerate()
+                .fold((0, f32::MAX), |best, (i, s)| {
+                    let d = pos(s).distance_squared(centroid);
+                    if d < best.1 { (i, d) } else { best }
+                });
+            let c = pos(&chunk[rep]);
+            let radius = chunk.iter().map(|s| pos(s).distance(c)).fold(0.0, f32::max);
+            clusters.push(GpuCluster {
+                centre: c.extend(radius).to_array(),
+                range: [(first + rep) as u32, first as u32, chunk.len() as u32, 0],
+                area: [area, area / std::f32::consts::PI, 0.0, 0.0],
+            });
+        }
+    }
+    clusters
 }
 
 impl PinholeLayer {
@@ -293,7 +370,9 @@ impl PinholeLayer {
         stats.area = total;
         stats.parts = parts.len();
         let mut samples = Vec::new();
+        let mut part_ranges = Vec::new();
         for r in &parts {
+            let first = samples.len();
             let o = &world.objects[r.object];
             let mesh = &o.parts[r.part].mesh;
             let rigid = o.rigid_transform();
@@ -342,7 +421,11 @@ impl PinholeLayer {
                     reflectance: r.refl,
                 });
             }
+            part_ranges.push(first..samples.len());
         }
+        // Unfiltered, a representative would alias for 16 points: no clusters then.
+        let cluster_size = if p.filter { p.cluster.max(1) } else { 1 };
+        let clusters = cluster_points(&mut samples, &part_ranges, cluster_size as usize);
         stats.samples = samples.len();
         stats.time_sampling = t0.elapsed();
 
@@ -410,6 +493,8 @@ impl PinholeLayer {
         }
         Ok(PinholeLayer {
             samples,
+            clusters,
+            cluster_size,
             lights,
             delta_count: srcs.len() as u32,
             env_constant,
@@ -441,7 +526,12 @@ impl PinholeLayer {
             None => (0.0, Vec3::ZERO, [1.0, 1.0]),
         };
         GpuPinhole {
-            counts: [self.samples.len() as u32, self.delta_count, 0, env_levels],
+            counts: [
+                self.samples.len() as u32,
+                self.delta_count,
+                self.clusters.len() as u32,
+                env_levels,
+            ],
             env: self.env_constant.extend(has).to_array(),
             env_scale: scale.extend(0.0).to_array(),
             env_size: [size[0], size[1], 0.0, 0.0],
@@ -449,23 +539,28 @@ impl PinholeLayer {
         }
     }
 
-    /// Points per draw where a shader invocation may iterate its loops `budget` times in all.
+    /// Clusters per draw where a shader invocation may iterate its loops `budget` times in all.
     /// llvmpipe (lavapipe) ends every loop of an invocation once their iterations together
     /// reach 65535 (Mesa's `LP_MAX_TGSI_LOOP_ITERATIONS`, shared by all loops of a shader), which
-    /// would silently drop the remaining points. Each point costs 2 + its delta lights + at most
-    /// 8 footprint taps (counted as 16), and with shadows two traversals of the occluder
-    /// hierarchy, counted as 1024 iterations each (nodes and triangles visited; the ring's
-    /// shadowed frame is the same with 256, and no slower with 1024: 31 points a draw).
+    /// would silently drop the remaining points. A cluster costs 2 + its points (at most
+    /// `cluster_size`) times a point's cost: 2 + its delta lights + at most 8 footprint taps
+    /// (counted as 16), and with shadows two traversals of the occluder hierarchy, counted as
+    /// 1024 iterations each (nodes and triangles visited). Where the estimate falls short the
+    /// pass says so and the renderer draws again with fewer ([`super::Renderer::render_with`]).
     pub fn points_per_draw(&self, budget: u32) -> u32 {
         let per_point =
             (2 + 16 + if self.shadows { 2 * 1024 } else { 0u32 }).saturating_add(self.delta_count);
-        (budget / per_point).max(1)
+        let per_cluster = per_point
+            .saturating_mul(self.cluster_size.max(1))
+            .saturating_add(2);
+        (budget / per_cluster).max(1)
     }
 
     /// Bytes of the storage buffers (checked against the adapter's binding limit).
     pub fn storage_bytes(&self) -> u64 {
         (self.samples.len() * std::mem::size_of::<GpuSample>())
-            .max(self.lights.len() * std::mem::size_of::<GpuSampleLight>()) as u64
+            .max(self.lights.len() * std::mem::size_of::<GpuSampleLight>())
+            .max(self.clusters.len() * std::mem::size_of::<GpuCluster>()) as u64
     }
 }
 
@@ -630,6 +725,7 @@ impl PinholePipeline {
                     16,
                     wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 ),
+                entry(17, storage),
             ],
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -738,8 +834,10 @@ impl PinholePipeline {
 pub struct PinholeBuffers {
     samples: wgpu::Buffer,
     lights: wgpu::Buffer,
+    clusters: wgpu::Buffer,
     uniform: wgpu::Buffer,
-    points: u32,
+    clusters_count: u32,
+    /// Clusters a draw.
     pub per_draw: u32,
     variant: Variant,
 }
@@ -764,6 +862,12 @@ impl PinholeBuffers {
         };
         let zero_s = [GpuSample::zeroed()];
         let zero_l = [GpuSampleLight::zeroed()];
+        let zero_c = [GpuCluster::zeroed()];
+        let c: &[GpuCluster] = if layer.clusters.is_empty() {
+            &zero_c
+        } else {
+            &layer.clusters
+        };
         let s: &[GpuSample] = if layer.samples.is_empty() {
             &zero_s
         } else {
@@ -780,12 +884,13 @@ impl PinholeBuffers {
         PinholeBuffers {
             samples: buf("pinhole samples", bytemuck::cast_slice(s), storage),
             lights: buf("pinhole sample lights", bytemuck::cast_slice(l), storage),
+            clusters: buf("pinhole clusters", bytemuck::cast_slice(c), storage),
             uniform: buf(
                 "pinhole",
                 bytemuck::bytes_of(&uniform),
                 wgpu::BufferUsages::UNIFORM,
             ),
-            points: layer.samples.len() as u32,
+            clusters_count: layer.clusters.len() as u32,
             per_draw,
             variant: layer.variant(),
         }
@@ -809,7 +914,7 @@ pub fn encode(
 ) {
     let env = p.env.as_ref().expect("fit before encode");
     let pipeline = &p.variants[&buffers.variant];
-    let (points, per_draw) = (buffers.points, buffers.per_draw);
+    let (clusters, per_draw) = (buffers.clusters_count, buffers.per_draw);
     let env_view = env.texture.create_view(&Default::default());
     let (pos_view, nrm_view) = gbuf.views();
     let res = |binding, resource| wgpu::BindGroupEntry { binding, resource };
@@ -828,14 +933,15 @@ pub fn encode(
             res(14, buffers.uniform.as_entire_binding()),
             res(15, wgpu::BindingResource::TextureView(&env_view)),
             res(16, wgpu::BindingResource::Sampler(&p.sampler)),
+            res(17, buffers.clusters.as_entire_binding()),
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
     let mut pass = super::caustics_pass(enc, &cv, "pinhole", timestamps);
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, &bg, &[]);
-    // One draw per `per_draw` points (instance index: the draw's first point); they add up.
-    for first in (0..points.max(1)).step_by(per_draw.max(1) as usize) {
+    // One draw per `per_draw` clusters (instance index: the draw's first cluster); they add up.
+    for first in (0..clusters.max(1)).step_by(per_draw.max(1) as usize) {
         pass.draw(0..3, first..first + 1);
     }
 }
@@ -873,15 +979,55 @@ mod tests {
             delta_count: 3,
             ..Default::default()
         };
-        for shadows in [false, true] {
+        for (shadows, size) in [(false, 1), (true, 1), (false, 16), (true, 16)] {
             layer.shadows = shadows;
+            layer.cluster_size = size;
             let n = layer.points_per_draw(crate::gpu::LLVMPIPE_LOOP_ITERATIONS);
-            let per_point = 2 + 3 + 16 + if shadows { 2048 } else { 0 };
-            assert!(n * per_point <= 65535 && (n + 1) * per_point > 65535, "{n}");
-            assert_eq!(layer.points_per_draw(u32::MAX), u32::MAX / per_point);
+            let per_cluster = (2 + 3 + 16 + if shadows { 2048 } else { 0 }) * size + 2;
+            let fits = n * per_cluster <= 65535 && (n + 1) * per_cluster > 65535;
+            assert!(fits || n == 1, "{shadows} {size}: {n}");
+            assert_eq!(layer.points_per_draw(u32::MAX), u32::MAX / per_cluster);
         }
         layer.delta_count = u32::MAX / 2;
         assert_eq!(layer.points_per_draw(100), 1);
+    }
+
+    #[test]
+    fn clusters_cover_each_part_once_and_hold_their_points() {
+        let mk = |x: f32, refl: f32| GpuSample {
+            position: [x, (x * 7.0).sin(), 0.0, 0.5],
+            reflectance: [refl, 0.0, 0.0, 0.0],
+            ..GpuSample::zeroed()
+        };
+        // Two parts of 37 and 20 points.
+        let mut samples: Vec<GpuSample> = (0..37)
+            .map(|i| mk(i as f32 * 0.1, 1.0))
+            .chain((0..20).map(|i| mk(10.0 + i as f32 * 0.1, 2.0)))
+            .collect();
+        let clusters = cluster_points(&mut samples, &[0..37, 37..57], 16);
+        assert_eq!(clusters.len(), 3 + 2);
+        let mut covered = vec![0; samples.len()];
+        for c in &clusters {
+            let [rep, first, count, _] = c.range;
+            let run = first as usize..(first + count) as usize;
+            assert!(run.contains(&(rep as usize)));
+            // One part per cluster, its area summed, every point within the radius.
+            let part = samples[first as usize].reflectance[0];
+            assert!(
+                samples[run.clone()]
+                    .iter()
+                    .all(|s| s.reflectance[0] == part)
+            );
+            assert_eq!(c.area[0], 0.5 * count as f32);
+            let centre = Vec3::from_slice(&c.centre);
+            for s in &samples[run.clone()] {
+                assert!(Vec3::from_slice(&s.position).distance(centre) <= c.centre[3] + 1e-6);
+            }
+            for i in run {
+                covered[i] += 1;
+            }
+        }
+        assert!(covered.iter().all(|&n| n == 1));
     }
 
     #[test]
