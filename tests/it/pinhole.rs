@@ -324,6 +324,19 @@ fn a_moved_ring_carries_its_pattern_and_its_caustic() {
         assert!((px + shift - py).length() < 1e-5, "{px} + {shift} vs {py}");
         assert_eq!(x.normal, y.normal);
     }
+    // Turned as well, the ring keeps its clusters: the same points, the same representatives.
+    let mut turned = moved.clone();
+    turned.objects[ring].transform = Mat4::from_rotation_y(0.7) * moved.objects[ring].transform;
+    let c = PinholeLayer::build(&turned, &p).unwrap();
+    assert!(a.clusters.len() > 1);
+    let ranges = |l: &PinholeLayer| l.clusters.iter().map(|c| c.range).collect::<Vec<_>>();
+    assert_eq!(ranges(&a), ranges(&c));
+    for (x, y) in a.samples.iter().zip(&c.samples) {
+        assert_eq!(
+            x.position[3], y.position[3],
+            "the same point in the same place"
+        );
+    }
     let (fa, fb) = (caustics(&w, &p), caustics(&moved, &p));
     let (l1, flux) = error(&w, &fb, &fa);
     assert!(

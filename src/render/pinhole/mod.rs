@@ -28,7 +28,7 @@ use crate::render::transport::volumes::{Source, sources};
 use crate::scene::curvature::{principal, vertex_shape_operators};
 use crate::scene::{EnvMap, Light, Material, World};
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Mat4, Vec3};
 pub use sampling::Strategy;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -260,25 +260,27 @@ pub fn reflecting_objects(world: &World) -> Vec<usize> {
     world.objects_with(|m| reflector(m).is_some())
 }
 
-/// Orders the points of each part (`ranges` of `samples`) along a Morton curve and cuts them
-/// into runs of `size`: the clusters. A cluster's representative is its point nearest the
-/// area-weighted centroid, its radius the farthest of its points from it, its area theirs
-/// summed (ε from it as for a point).
+/// Orders the points of each part (`ranges` of `samples`, each with the inverse of its
+/// object's rigid motion) along a Morton curve in the part's own frame, so that a moving
+/// object keeps its clusters, and cuts them into runs of `size`: the clusters. A cluster's
+/// representative is its point nearest the area-weighted centroid, its radius the farthest of
+/// its points from it, its area theirs summed (ε from it as for a point).
 fn cluster_points(
     samples: &mut [GpuSample],
-    ranges: &[std::ops::Range<usize>],
+    ranges: &[(std::ops::Range<usize>, Mat4)],
     size: usize,
 ) -> Vec<GpuCluster> {
     let pos = |s: &GpuSample| Vec3::from_slice(&s.position);
     let mut clusters = Vec::new();
-    for r in ranges {
+    for (r, to_part) in ranges {
+        let local = |s: &GpuSample| to_part.transform_point3(pos(s));
         let part = &mut samples[r.clone()];
         let (lo, hi) = part.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), s| {
-            (lo.min(pos(s)), hi.max(pos(s)))
+            (lo.min(local(s)), hi.max(local(s)))
         });
         let scale = (hi - lo).max_element().max(f32::MIN_POSITIVE);
         let morton = |s: &GpuSample| {
-            let q = ((pos(s) - lo) / scale * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+            let q = ((local(s) - lo) / scale * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
             // 10 bits to every third of 30 (the usual bit interleave).
             let spread = |v: f32| {
                 let mut x = (v as u32 & 0x3ff) as u64;
@@ -421,7 +423,7 @@ impl PinholeLayer {
                     reflectance: r.refl,
                 });
             }
-            part_ranges.push(first..samples.len());
+            part_ranges.push((first..samples.len(), rigid.inverse()));
         }
         // Unfiltered, a representative would alias for 16 points: no clusters then.
         let cluster_size = if p.filter { p.cluster.max(1) } else { 1 };
@@ -1004,7 +1006,8 @@ mod tests {
             .map(|i| mk(i as f32 * 0.1, 1.0))
             .chain((0..20).map(|i| mk(10.0 + i as f32 * 0.1, 2.0)))
             .collect();
-        let clusters = cluster_points(&mut samples, &[0..37, 37..57], 16);
+        let id = Mat4::IDENTITY;
+        let clusters = cluster_points(&mut samples, &[(0..37, id), (37..57, id)], 16);
         assert_eq!(clusters.len(), 3 + 2);
         let mut covered = vec![0; samples.len()];
         for c in &clusters {
