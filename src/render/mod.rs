@@ -233,8 +233,8 @@ pub struct Renderer {
     loop_budget: Option<u32>,
 }
 
-/// How a pinhole pass was drawn and how many pixels report a draw whose loop over points the
-/// adapter ended early.
+/// How many clusters of points a pinhole pass drew at a time, and how many pixels report a
+/// draw whose loop over them the adapter ended early.
 #[derive(Clone, Copy, Debug)]
 struct PinholeDraws {
     per_draw: u32,
@@ -339,7 +339,7 @@ impl Renderer {
     /// Renders `world` with the caustics method `caustics`. A pinhole frame in which the
     /// adapter ended the loop over points early (llvmpipe's cap on loop iterations, when a
     /// draw's estimate of its iterations falls short) is drawn again with a quarter of the
-    /// points a draw, down to one.
+    /// clusters of points a draw, down to one.
     pub fn render_with(
         &mut self,
         world: &World,
@@ -353,17 +353,18 @@ impl Renderer {
                 Some(d) if d.cut_pixels > 0 && d.per_draw > 1 => {
                     tracing::warn!(
                         pixels = d.cut_pixels,
-                        points_per_draw = d.per_draw,
+                        clusters_per_draw = d.per_draw,
                         "the adapter ended the pinhole pass's loop over points early; \
-                         drawing again with fewer points a draw"
+                         drawing again with fewer clusters a draw"
                     );
                     cap = (d.per_draw / 4).max(1);
                 }
                 Some(d) if d.cut_pixels > 0 => {
                     return Err(RenderError::Limit(format!(
-                        "the adapter ends the pinhole pass's loops early in {} pixels even one \
-                         point a draw (llvmpipe's cap of {} loop iterations per invocation); \
-                         render without shadows or on another adapter",
+                        "the adapter ends the pinhole pass's loops early in {} pixels even with \
+                         one cluster of points a draw (llvmpipe's cap of {} loop iterations per \
+                         invocation); render with smaller clusters, without shadows, or on \
+                         another adapter",
                         d.cut_pixels,
                         crate::gpu::LLVMPIPE_LOOP_ITERATIONS
                     )));

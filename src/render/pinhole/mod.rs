@@ -549,7 +549,7 @@ impl PinholeLayer {
     /// (counted as 16), and with shadows two traversals of the occluder hierarchy, counted as
     /// 1024 iterations each (nodes and triangles visited). Where the estimate falls short the
     /// pass says so and the renderer draws again with fewer ([`super::Renderer::render_with`]).
-    pub fn points_per_draw(&self, budget: u32) -> u32 {
+    pub fn clusters_per_draw(&self, budget: u32) -> u32 {
         let per_point =
             (2 + 16 + if self.shadows { 2 * 1024 } else { 0u32 }).saturating_add(self.delta_count);
         let per_cluster = per_point
@@ -846,8 +846,8 @@ pub struct PinholeBuffers {
 
 impl PinholeBuffers {
     /// `loop_budget`: the loop iterations a shader invocation may make on this adapter (see
-    /// [`PinholeLayer::points_per_draw`]; `u32::MAX` where there is no such limit); at most
-    /// `cap` points a draw.
+    /// [`PinholeLayer::clusters_per_draw`]; `u32::MAX` where there is no such limit); at most
+    /// `cap` clusters a draw.
     pub fn upload(
         device: &wgpu::Device,
         layer: &PinholeLayer,
@@ -881,7 +881,7 @@ impl PinholeBuffers {
             &layer.lights
         };
         let storage = wgpu::BufferUsages::STORAGE;
-        let per_draw = layer.points_per_draw(loop_budget).min(cap).max(1);
+        let per_draw = layer.clusters_per_draw(loop_budget).min(cap).max(1);
         let uniform = layer.uniform(env.levels, env.norm, per_draw);
         PinholeBuffers {
             samples: buf("pinhole samples", bytemuck::cast_slice(s), storage),
@@ -984,14 +984,14 @@ mod tests {
         for (shadows, size) in [(false, 1), (true, 1), (false, 16), (true, 16)] {
             layer.shadows = shadows;
             layer.cluster_size = size;
-            let n = layer.points_per_draw(crate::gpu::LLVMPIPE_LOOP_ITERATIONS);
+            let n = layer.clusters_per_draw(crate::gpu::LLVMPIPE_LOOP_ITERATIONS);
             let per_cluster = (2 + 3 + 16 + if shadows { 2048 } else { 0 }) * size + 2;
             let fits = n * per_cluster <= 65535 && (n + 1) * per_cluster > 65535;
             assert!(fits || n == 1, "{shadows} {size}: {n}");
-            assert_eq!(layer.points_per_draw(u32::MAX), u32::MAX / per_cluster);
+            assert_eq!(layer.clusters_per_draw(u32::MAX), u32::MAX / per_cluster);
         }
         layer.delta_count = u32::MAX / 2;
-        assert_eq!(layer.points_per_draw(100), 1);
+        assert_eq!(layer.clusters_per_draw(100), 1);
     }
 
     #[test]
