@@ -16,33 +16,15 @@ pub struct GBufferPipeline {
 
 impl GBufferPipeline {
     pub fn new(device: &wgpu::Device) -> GBufferPipeline {
-        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty,
-            count: None,
-        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("gbuffer"),
             entries: &[
-                entry(
+                super::layout_entry(
                     0,
                     wgpu::ShaderStages::VERTEX_FRAGMENT,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
+                    super::UNIFORM_BINDING,
                 ),
-                entry(
-                    2,
-                    wgpu::ShaderStages::FRAGMENT,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
+                super::layout_entry(2, wgpu::ShaderStages::FRAGMENT, super::STORAGE_BINDING),
             ],
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

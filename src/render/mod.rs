@@ -602,6 +602,43 @@ fn texture_2d(
     })
 }
 
+/// A bind group layout entry (no array).
+fn layout_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    ty: wgpu::BindingType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty,
+        count: None,
+    }
+}
+
+/// A uniform buffer binding of any size.
+const UNIFORM_BINDING: wgpu::BindingType = wgpu::BindingType::Buffer {
+    ty: wgpu::BufferBindingType::Uniform,
+    has_dynamic_offset: false,
+    min_binding_size: None,
+};
+
+/// A read-only storage buffer binding of any size.
+const STORAGE_BINDING: wgpu::BindingType = wgpu::BindingType::Buffer {
+    ty: wgpu::BufferBindingType::Storage { read_only: true },
+    has_dynamic_offset: false,
+    min_binding_size: None,
+};
+
+/// A 2D float texture binding.
+fn texture_binding(filterable: bool) -> wgpu::BindingType {
+    wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Float { filterable },
+        view_dimension: wgpu::TextureViewDimension::D2,
+        multisampled: false,
+    }
+}
+
 /// A render pass that adds to (or overwrites) the caustics layer `view` as it stands after the
 /// direct pass, timed as pass `name` when the adapter has timestamps: how the per-pixel caustics
 /// passes (transport, pinhole) draw.

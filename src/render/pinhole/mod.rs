@@ -514,10 +514,7 @@ impl PinholeLayer {
             shadows: self.shadows,
             delta: self.delta_count > 0,
             env: self.env_map.is_some() || self.env_constant.max_element() > 0.0,
-            transmit: self
-                .samples
-                .iter()
-                .any(|s| s.reflectance[3] > 0.0 && s.reflectance[0] > 0.5),
+            transmit: self.stats.transmitting_parts > 0,
         }
     }
 
@@ -689,27 +686,12 @@ pub struct PinholePipeline {
 
 impl PinholePipeline {
     pub fn new(device: &wgpu::Device) -> PinholePipeline {
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty,
-            count: None,
-        };
-        let uniform = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let storage = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
-        let texture = |filterable| wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        };
+        let entry = |binding, ty| super::layout_entry(binding, wgpu::ShaderStages::FRAGMENT, ty);
+        let (uniform, storage, texture) = (
+            super::UNIFORM_BINDING,
+            super::STORAGE_BINDING,
+            super::texture_binding,
+        );
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("pinhole"),
             entries: &[
