@@ -35,6 +35,7 @@ fn glass_sphere_world() -> World {
         lights: vec![Light::Directional {
             direction: Vec3::new(1.0, -1.2, 0.0).normalize(),
             irradiance: Vec3::splat(3.0),
+            angular_radius: 0.0,
         }],
         materials: vec![
             Material::Diffuse {
@@ -58,6 +59,7 @@ fn glass_sphere_world() -> World {
             },
         ],
         warnings: vec![],
+        water: vec![],
     }
 }
 

@@ -153,6 +153,7 @@ fn gltf_scene(
         vec![LightDesc::Directional {
             direction: [-0.3, -1.0, -0.5],
             irradiance: Rgb::Grey(3.0),
+            angular_radius: 0.0,
         }]
     } else {
         vec![]

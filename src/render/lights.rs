@@ -119,6 +119,7 @@ impl LightPlan {
                 Light::Directional {
                     direction,
                     irradiance,
+                    ..
                 } => {
                     let d = direction.normalize_or(Vec3::NEG_Y);
                     let c = (lo + hi) * 0.5;

@@ -6,6 +6,7 @@
 use super::gltf::{self as gltf_import, GltfLimits};
 use super::shapes;
 use super::types::*;
+use super::water::{WaterBody, WaterSurface, Waves};
 use super::world::*;
 use glam::Vec3;
 use std::collections::HashMap;
@@ -259,10 +260,20 @@ pub fn resolve_light(
         LightDesc::Directional {
             direction,
             irradiance,
-        } => Light::Directional {
-            direction: unit3(&p("direction"), *direction)?,
-            irradiance: nonneg_rgb(&p("irradiance"), *irradiance)?,
-        },
+            angular_radius,
+        } => {
+            if !(angular_radius.is_finite() && (0.0..=10.0).contains(angular_radius)) {
+                return Err(SceneError::invalid(
+                    p("angular_radius"),
+                    "must lie in 0..=10 (degrees)",
+                ));
+            }
+            Light::Directional {
+                direction: unit3(&p("direction"), *direction)?,
+                irradiance: nonneg_rgb(&p("irradiance"), *irradiance)?,
+                angular_radius: angular_radius.to_radians(),
+            }
+        }
         LightDesc::Point {
             position,
             intensity,
@@ -459,9 +470,11 @@ pub fn resolve(
     let mut warnings = Vec::new();
     let mut names = std::collections::HashSet::new();
     let mut triangles = 0usize;
+    let mut water = Vec::new();
+    let mut floors: Vec<(usize, Mesh, u32)> = Vec::new();
     for (i, o) in desc.objects.iter().enumerate() {
         let path = format!("objects[{i}]");
-        if o.name.is_empty() || !names.insert(o.name.as_str()) {
+        if o.name.is_empty() || !names.insert(o.name.clone()) {
             return Err(SceneError::invalid(
                 format!("{path}.name"),
                 format!("'{}' must be non-empty and unique", o.name),
@@ -546,6 +559,37 @@ pub fn resolve(
                 ),
                 need_material()?,
             )],
+            ShapeDesc::Water(wd) => {
+                if material.is_some() {
+                    return Err(SceneError::invalid(
+                        format!("{path}.material"),
+                        "a water shape sets its own material (shape.ior, shape.absorption)",
+                    ));
+                }
+                if tr.rotation_deg.is_some_and(|r| r != [0.0; 3]) || tr.scale.is_some() {
+                    return Err(SceneError::invalid(
+                        format!("{path}.transform"),
+                        "a water shape may only be translated (waves are horizontal)",
+                    ));
+                }
+                let (body, meshes) = resolve_water(&path, wd, tr, objects.len(), limits)?;
+                materials.push(Material::Dielectric {
+                    ior: body.ior,
+                    // The body's medium absorbs (World::medium_transmittance), not the surface.
+                    absorption: Vec3::ZERO,
+                });
+                let surface_material = materials.len() as u32 - 1;
+                if let (Some(floor), Some(albedo)) = (meshes.1, wd.floor) {
+                    // The floor is an object of its own (`<name>-floor`), after the surface.
+                    materials.push(resolve_material(
+                        &sp("floor"),
+                        &MaterialDesc::Diffuse { albedo },
+                    )?);
+                    floors.push((objects.len(), floor, materials.len() as u32 - 1));
+                }
+                water.push(body);
+                vec![(meshes.0, surface_material)]
+            }
             ShapeDesc::Gltf { path: file } => {
                 let bytes = assets
                     .read(file, limits.max_asset_bytes)
@@ -613,6 +657,29 @@ pub fn resolve(
                 .collect(),
             transform: o.transform.matrix(),
         });
+        // A water's floor follows its surface.
+        if let Some(&(surface, ref mesh, material)) = floors.last()
+            && surface == objects.len() - 1
+        {
+            let name = format!("{}-floor", o.name);
+            if !names.insert(name.clone()) {
+                return Err(SceneError::invalid(
+                    format!("{path}.name"),
+                    format!("the water's floor would be named '{name}', which is taken"),
+                ));
+            }
+            if let Some(w) = water.last_mut() {
+                w.floor = Some(objects.len());
+            }
+            objects.push(Object {
+                name,
+                parts: vec![Part {
+                    mesh: Arc::new(mesh.clone()),
+                    material,
+                }],
+                transform: o.transform.matrix(),
+            });
+        }
     }
     if lights.len() > limits.max_lights {
         return Err(SceneError::Limit {
@@ -630,7 +697,87 @@ pub fn resolve(
         materials,
         objects,
         warnings,
+        water,
     })
+}
+
+/// Checks a water shape and builds its body, its surface mesh and its floor's mesh (in the
+/// object's frame).
+fn resolve_water(
+    path: &str,
+    wd: &WaterDesc,
+    tr: &TransformDesc,
+    object: usize,
+    limits: &Limits,
+) -> Result<(WaterBody, (Mesh, Option<Mesh>)), SceneError> {
+    let sp = |f: &str| format!("{path}.shape.{f}");
+    let size = glam::Vec2::new(
+        positive(&sp("size[0]"), wd.size[0])?,
+        positive(&sp("size[1]"), wd.size[1])?,
+    );
+    if !wd.time.is_finite() {
+        return Err(SceneError::invalid(
+            sp("time"),
+            "must be a finite number of seconds",
+        ));
+    }
+    if !(wd.ior.is_finite() && wd.ior > 1.0 && wd.ior <= 3.0) {
+        return Err(SceneError::invalid(sp("ior"), "must lie in (1, 3]"));
+    }
+    let absorption = nonneg_rgb(&sp("absorption"), wd.absorption)?;
+    let depth = positive(&sp("depth"), wd.depth)?;
+    if let Some(a) = wd.floor {
+        nonneg_rgb(&sp("floor"), a)?;
+    }
+    if !(2..=1024).contains(&wd.resolution) {
+        return Err(SceneError::Limit {
+            path: sp("resolution"),
+            message: "must lie in 2..=1024".into(),
+        });
+    }
+    if (wd.resolution as usize).pow(2) * 2 > limits.max_triangles {
+        return Err(SceneError::Limit {
+            path: sp("resolution"),
+            message: format!("more than {} triangles (limit)", limits.max_triangles),
+        });
+    }
+    let waves = Waves::resolve(&wd.waves, &sp("waves"))
+        .map_err(|(field, message)| SceneError::invalid(field, message))?;
+    let surface = WaterSurface {
+        centre: Vec3::from(tr.translation.unwrap_or([0.0; 3])),
+        size,
+        waves,
+        time: wd.time,
+    };
+    if surface.amplitude_bound() >= depth {
+        return Err(SceneError::invalid(
+            sp("depth"),
+            format!(
+                "must exceed the waves' height ({:.3} m), so that the floor stays under water",
+                surface.amplitude_bound()
+            ),
+        ));
+    }
+    let mesh = surface.mesh(wd.resolution);
+    let floor = wd.floor.map(|_| {
+        let mut m = shapes::plane(size.x, size.y);
+        for p in &mut m.positions {
+            p.y = -depth;
+        }
+        m
+    });
+    Ok((
+        WaterBody {
+            object,
+            surface,
+            depth,
+            ior: wd.ior,
+            absorption,
+            floor: None,
+            resolution: wd.resolution,
+        },
+        (mesh, floor),
+    ))
 }
 
 /// Move a light by an object's transform.
@@ -639,9 +786,11 @@ pub fn transform_light(l: Light, m: glam::Mat4) -> Light {
         Light::Directional {
             direction,
             irradiance,
+            angular_radius,
         } => Light::Directional {
             direction: m.transform_vector3(direction).normalize(),
             irradiance,
+            angular_radius,
         },
         Light::Point {
             position,

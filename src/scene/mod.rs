@@ -8,6 +8,7 @@ pub mod image;
 pub mod load;
 pub mod shapes;
 pub mod types;
+pub mod water;
 pub mod world;
 
 pub use load::{
@@ -15,4 +16,5 @@ pub use load::{
     parse_scene, resolve,
 };
 pub use types::SceneDesc;
+pub use water::{WaterBody, WaterSurface, Waves};
 pub use world::{Camera, EnvMap, EnvSampler, Light, Material, Mesh, Object, Part, World};

@@ -83,6 +83,10 @@ pub enum LightDesc {
     Directional {
         direction: [f32; 3],
         irradiance: Rgb,
+        /// Angular radius of the source's disc in degrees, 0..=10 (default 0: a delta light;
+        /// the sun is 0.265). `irradiance` is the whole disc's.
+        #[serde(default)]
+        angular_radius: f32,
     },
     /// Isotropic point light; `intensity` in W/sr.
     Point { position: [f32; 3], intensity: Rgb },
@@ -218,6 +222,51 @@ pub enum ShapeDesc {
     },
     /// A glTF 2.0 file (`.glb` or `.gltf` with embedded data), resolved relative to the scene.
     Gltf { path: String },
+    /// A procedural water surface over a rectangle (local y = 0 is the mean surface), the water
+    /// body below it and optionally a floor. The object's transform may only translate it.
+    Water(WaterDesc),
+}
+
+/// A water surface, its body and floor (`shape.type = "water"`).
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WaterDesc {
+    /// [x extent, z extent] of the rectangle, metres.
+    pub size: [f32; 2],
+    /// The wave function (default: the article preset).
+    #[serde(default)]
+    pub waves: super::water::WavesDesc,
+    /// Seconds (default 0).
+    #[serde(default)]
+    pub time: f32,
+    /// Index of refraction of the water (default 1.33).
+    #[serde(default = "water_ior")]
+    pub ior: f32,
+    /// Beer-Lambert absorption per metre, per channel (default: 77, 78.5 and 80 % transmitted
+    /// per metre in R, G, B).
+    #[serde(default = "water_absorption")]
+    pub absorption: Rgb,
+    /// Metres from the mean surface down to the bottom of the body, > 0 (default 1).
+    #[serde(default = "one")]
+    pub depth: f32,
+    /// Albedo of a diffuse floor at `depth` over the whole rectangle (an object named
+    /// `<name>-floor`); none when absent.
+    #[serde(default)]
+    pub floor: Option<Rgb>,
+    /// Quads per side of the surface's tessellation, 2..=1024 (default 256): what the
+    /// reference and the direct pass see (normals come from the analytic gradient).
+    #[serde(default = "water_resolution")]
+    pub resolution: u32,
+}
+
+fn water_ior() -> f32 {
+    1.33
+}
+fn water_absorption() -> Rgb {
+    Rgb::Rgb(super::water::default_absorption())
+}
+fn water_resolution() -> u32 {
+    256
 }
 
 fn default_segments() -> u32 {

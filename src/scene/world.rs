@@ -259,8 +259,13 @@ pub fn env_uv(d: Vec3) -> (f32, f32) {
 /// A light in the form renderers use (directions normalised, angles in radians).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
-    /// `direction`: unit travel direction. `irradiance`: W/m² facing the light.
-    Directional { direction: Vec3, irradiance: Vec3 },
+    /// `direction`: unit travel direction (the disc's centre). `irradiance`: W/m² facing the
+    /// light, from the whole disc. `angular_radius`: the disc's, radians (0: a delta light).
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+        angular_radius: f32,
+    },
     /// `intensity` in W/sr.
     Point { position: Vec3, intensity: Vec3 },
     /// `direction`: unit axis. Angles in radians.
@@ -440,6 +445,8 @@ pub struct World {
     pub objects: Vec<Object>,
     /// Non-fatal findings while loading (clamped values, ignored glTF features...).
     pub warnings: Vec<String>,
+    /// Water bodies (`water` shapes): their surfaces are objects too, their media absorb.
+    pub water: Vec<super::water::WaterBody>,
 }
 
 impl World {
@@ -484,6 +491,19 @@ impl World {
 
     pub fn object(&self, name: &str) -> Option<&Object> {
         self.objects.iter().find(|o| o.name == name)
+    }
+
+    /// Transmittance of the straight segment a → b (which crosses no surface) through the
+    /// water bodies' media.
+    pub fn medium_transmittance(&self, a: Vec3, b: Vec3) -> Vec3 {
+        self.water
+            .iter()
+            .fold(Vec3::ONE, |t, w| t * w.transmittance(a, b))
+    }
+
+    /// The water body whose surface is object `object`.
+    pub fn water_of(&self, object: u32) -> Option<&super::water::WaterBody> {
+        self.water.iter().find(|w| w.object == object as usize)
     }
 }
 

@@ -483,6 +483,7 @@ fn lights_and_cameras_follow_their_nodes() {
         caustica::scene::Light::Directional {
             direction,
             irradiance,
+            ..
         } => {
             assert_eq!(*direction, Vec3::NEG_Z);
             assert!((*irradiance - Vec3::splat(2.0)).length() < 1e-6);

@@ -66,6 +66,7 @@ fn world(receiver: Material, spheres: &[(Vec3, f32)], lights: Vec<Light>) -> Wor
         ],
         objects,
         warnings: vec![],
+        water: vec![],
     }
 }
 
@@ -180,6 +181,7 @@ fn directional_light_on_diffuse_plane_is_exact() {
         vec![Light::Directional {
             direction: dir,
             irradiance: Vec3::splat(e),
+            angular_radius: 0.0,
         }],
     );
     let out = render(&w);
@@ -258,6 +260,7 @@ fn sphere_shadow_under_directional_light_matches_cpu() {
         vec![Light::Directional {
             direction: dir,
             irradiance: Vec3::splat(2.0),
+            angular_radius: 0.0,
         }],
     );
     let l = 0.5 / PI * 2.0 * theta.cos();
@@ -411,6 +414,7 @@ fn renders_again_after_device_loss() {
         vec![Light::Directional {
             direction: Vec3::new(0.3, -1.0, 0.1).normalize(),
             irradiance: Vec3::splat(2.0),
+            angular_radius: 0.0,
         }],
     );
     let opts = RenderOptions::default();
@@ -583,6 +587,7 @@ fn environment_map_orientation_follows_mitsuba() {
             materials: vec![material],
             objects: vec![object("ball", shapes::sphere(0.5, 64), 0, Mat4::IDENTITY)],
             warnings: vec![],
+            water: vec![],
         };
         let out = r.render(&w, &RenderOptions::default()).unwrap();
         let f = if layer == 0 {

@@ -240,6 +240,7 @@ fn wave_sheet_world() -> World {
         lights: vec![Light::Directional {
             direction: Vec3::new(0.34, -1.0, 0.1).normalize(),
             irradiance: Vec3::splat(3.0),
+            angular_radius: 0.0,
         }],
         materials: vec![
             Material::Diffuse {
@@ -263,6 +264,7 @@ fn wave_sheet_world() -> World {
             },
         ],
         warnings: vec![],
+        water: vec![],
     }
 }
 

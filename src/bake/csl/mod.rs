@@ -376,6 +376,7 @@ pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
             transform: Mat4::from_scale(scale),
         }],
         warnings: Vec::new(),
+        water: Vec::new(),
     }
 }
 
@@ -444,6 +445,7 @@ pub fn scene_directional_light(world: &World) -> Option<(Vec3, Vec3)> {
         crate::scene::Light::Directional {
             direction,
             irradiance,
+            ..
         } => Some((*direction, *irradiance)),
         _ => None,
     })

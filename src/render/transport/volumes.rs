@@ -128,6 +128,7 @@ pub fn sources(lights: &[Light], line_points: u32) -> Vec<Source> {
             Light::Directional {
                 direction,
                 irradiance,
+                ..
             } => out.push(Source::Directional {
                 direction: direction.normalize(),
                 irradiance,

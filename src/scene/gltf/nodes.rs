@@ -101,6 +101,7 @@ fn convert_light(
         LightType::Directional => Light::Directional {
             direction,
             irradiance: radiometric,
+            angular_radius: 0.0,
         },
         LightType::Point => Light::Point {
             position,

@@ -48,6 +48,7 @@ pub fn directional_light(world: &World) -> (Vec3, Vec3) {
     let Light::Directional {
         direction,
         irradiance,
+        ..
     } = world.lights[0].clone()
     else {
         panic!("directional light expected")
