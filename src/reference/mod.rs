@@ -470,11 +470,16 @@ fn emit(
         Light::Directional {
             direction,
             irradiance,
-        } => Some((
-            from_far(*direction, rng),
-            *direction,
-            *irradiance * disk_area,
-        )),
+            angular_radius,
+        } => {
+            // A disc source: directions uniform over its cone, each carrying its share.
+            let d = if *angular_radius > 0.0 {
+                uniform_cone(*direction, angular_radius.cos(), rng.vec2())
+            } else {
+                *direction
+            };
+            Some((from_far(d, rng), d, *irradiance * disk_area))
+        }
         Light::Point {
             position,
             intensity,
@@ -554,7 +559,7 @@ fn trace_photon_chunk(
         let mut specular_seen = false;
         let mut diffuse_vertices = 0u32;
         for depth in 0..params.max_depth {
-            let Some(hit) = accel.intersect(o, d, f32::INFINITY) else {
+            let Some(hit) = intersect(world, accel, o, d) else {
                 break;
             };
             let mat = accel.material(&hit);
@@ -567,7 +572,7 @@ fn trace_photon_chunk(
                     break;
                 }
             }
-            flux *= segment_transmittance(&hit, mat);
+            flux *= segment_transmittance(&hit, mat) * world.medium_transmittance(o, hit.point);
             if mat.is_specular() {
                 let Some(b) = sample_specular(&hit, d, mat, rng.f32()) else {
                     break;
@@ -656,7 +661,10 @@ fn connect_to_camera(
         return None;
     }
     let pixel = py as u32 * cam.width + px as u32;
-    let value = flux * f * (cos_x / (dist * dist * cos_c.powi(3) * pixel_area));
+    let value = flux
+        * f
+        * world.medium_transmittance(hit.point, cam.eye)
+        * (cos_x / (dist * dist * cos_c.powi(3) * pixel_area));
     Some((pixel, value))
 }
 
@@ -744,17 +752,18 @@ fn camera_pixel(
         let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
         let j = (cell + rng.vec2()) / k as f32;
         let d = rays.dir(x as f32 + j.x, y as f32 + j.y);
-        let Some(hit) = accel.intersect(cam.eye, d, f32::INFINITY) else {
+        let Some(hit) = intersect(world, accel, cam.eye, d) else {
             direct += background(world, d);
             continue;
         };
         let mat = accel.material(&hit);
+        let medium = world.medium_transmittance(cam.eye, hit.point);
         if !mat.is_specular() {
-            direct += shade(world, accel, params, env, &hit, mat, -d, &mut rng);
+            direct += medium * shade(world, accel, params, env, &hit, mat, -d, &mut rng);
             continue;
         }
         // Specular chain.
-        let mut throughput = Vec3::ONE;
+        let mut throughput = medium;
         let (mut h, mut dir) = (hit, d);
         for _ in 0..params.max_depth {
             let m = accel.material(&h);
@@ -769,10 +778,20 @@ fn camera_pixel(
                 break;
             };
             throughput *= b.weight;
+            // Radiance crossing into a medium of index n_t from n_i scales by (n_t/n_i)²: along
+            // the camera path (against the light) by η² = (n_i/n_t)² of the path's direction
+            // (cancels through a closed glass object; not into open water).
+            if let (true, Material::Dielectric { ior, .. }) = (b.transmitted, m) {
+                let eta = if h.front_face { 1.0 / ior } else { *ior };
+                throughput *= eta * eta;
+            }
             let o = h.spawn(b.dir);
             dir = b.dir;
-            match accel.intersect(o, dir, f32::INFINITY) {
-                Some(n) => h = n,
+            match intersect(world, accel, o, dir) {
+                Some(n) => {
+                    throughput *= world.medium_transmittance(o, n.point);
+                    h = n
+                }
                 None => {
                     spec += throughput * background(world, dir);
                     break;
@@ -781,6 +800,19 @@ fn camera_pixel(
         }
     }
     (direct / spp as f32, spec / spp as f32)
+}
+
+/// The first hit along o + t·d; on a water surface, with the shading normal of the waves'
+/// analytic gradient (the tessellation only places the hit).
+fn intersect(world: &World, accel: &Accel, o: Vec3, d: Vec3) -> Option<Hit> {
+    let mut hit = accel.intersect(o, d, f32::INFINITY)?;
+    if let Some(w) = world.water_of(hit.object)
+        && accel.material(&hit).is_specular()
+    {
+        let n = w.surface.normal(hit.point.x, hit.point.z);
+        hit.normal = if n.dot(hit.geo_normal) < 0.0 { -n } else { n };
+    }
+    Some(hit)
 }
 
 /// Radiance arriving from the environment along a ray travelling in `d`.
@@ -826,13 +858,20 @@ fn shade(
         }
         Some((wi, dist))
     };
+    // Lights under water reach the point through its medium.
+    let medium = |p: Vec3| world.medium_transmittance(hit.point, p);
     for (li, l) in world.lights.iter().enumerate() {
         match l {
             Light::Directional {
                 direction,
                 irradiance,
+                angular_radius,
             } => {
-                let wi = -*direction;
+                let wi = if *angular_radius > 0.0 {
+                    -uniform_cone(*direction, angular_radius.cos(), rng.vec2())
+                } else {
+                    -*direction
+                };
                 if wi.dot(hit.geo_normal) > 0.0
                     && n.dot(wi) > 0.0
                     && !accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
@@ -845,7 +884,10 @@ fn shade(
                 intensity,
             } => {
                 if let Some((wi, d)) = point(*position) {
-                    sum += brdf(mat, n, wi, wo) * *intensity * (n.dot(wi) / (d * d));
+                    sum += brdf(mat, n, wi, wo)
+                        * *intensity
+                        * medium(*position)
+                        * (n.dot(wi) / (d * d));
                 }
             }
             Light::Spot {
@@ -858,7 +900,10 @@ fn shade(
                 if let Some((wi, d)) = point(*position) {
                     let f = Light::spot_falloff((-wi).dot(*direction), *cutoff, *beam_width);
                     if f > 0.0 {
-                        sum += brdf(mat, n, wi, wo) * *intensity * (f * n.dot(wi) / (d * d));
+                        sum += brdf(mat, n, wi, wo)
+                            * *intensity
+                            * medium(*position)
+                            * (f * n.dot(wi) / (d * d));
                     }
                 }
             }
@@ -871,7 +916,10 @@ fn shade(
                 for k in 0..m {
                     let p = start.lerp(*end, (k as f32 + rng.f32()) / m as f32);
                     if let Some((wi, d)) = point(p) {
-                        sum += brdf(mat, n, wi, wo) * *intensity * (n.dot(wi) / (d * d * m as f32));
+                        sum += brdf(mat, n, wi, wo)
+                            * *intensity
+                            * medium(p)
+                            * (n.dot(wi) / (d * d * m as f32));
                     }
                 }
             }
