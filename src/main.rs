@@ -42,6 +42,10 @@ enum Cmd {
         width: Option<u32>,
         #[arg(long)]
         height: Option<u32>,
+        /// Replaces the scene's camera: its JSON, as in a scene (`{"eye": [0, 1, 2],
+        /// "target": [0, 0, 0], "fov_y": 40}`), as the API's `camera`.
+        #[arg(long)]
+        camera: Option<String>,
         #[arg(long, value_enum, default_value = "total")]
         component: Component,
         /// Output file: .png (tone-mapped sRGB) or .exr (linear radiance).
@@ -103,6 +107,42 @@ enum Cmd {
         /// appears as (default 0.27, the sun's).
         #[arg(long)]
         sun_radius: Option<f32>,
+        /// Water: physical (default: refracted grid of sun rays, converges to the reference)
+        /// or article (Sánchez-Crespo 2003's sun-map lookup).
+        #[arg(long, value_enum)]
+        water_mode: Option<caustica::render::water::Mode>,
+        /// Water: where the caustics are computed: pixel (default), texture (a mipmapped light
+        /// map) or vertex (a coarse grid, the article's first version).
+        #[arg(long, value_enum)]
+        water_variant: Option<caustica::render::water::Variant>,
+        /// Water, physical: sun rays per side of the water's rectangle (default 768).
+        #[arg(long)]
+        water_grid: Option<u32>,
+        /// Water, physical: directions over the sun's disc (default 4).
+        #[arg(long)]
+        sun_samples: Option<u32>,
+        /// Water, texture: texels per side of the light map (default 1024).
+        #[arg(long)]
+        map_resolution: Option<u32>,
+        /// Water, vertex: quads per side of the receiver grid (default 128).
+        #[arg(long)]
+        mesh_resolution: Option<u32>,
+        /// Water, article: the sun map's width in degrees (default 4).
+        #[arg(long)]
+        sun_map_width: Option<f32>,
+        /// Water: receiver points per pixel side (default 3: 9 a pixel).
+        #[arg(long)]
+        pixel_samples: Option<u32>,
+        /// Scenes with water: the waves' time in seconds (every method).
+        #[arg(long, allow_negative_numbers = true)]
+        time: Option<f32>,
+        /// Scenes with water: render a sequence of this many frames from --time, written as an
+        /// animated PNG (--out X.png) or as numbered PNGs in a folder (--out DIR).
+        #[arg(long)]
+        frames: Option<u32>,
+        /// A sequence's frames per second (default 24).
+        #[arg(long)]
+        fps: Option<f32>,
     },
     /// Precompute a method's data for a scene.
     Bake {
@@ -118,6 +158,9 @@ enum Cmd {
         scene: PathBuf,
         #[arg(long, default_value = "floor")]
         object: String,
+        /// The camera the images were rendered with, when not the scene's (`render --camera`).
+        #[arg(long)]
+        camera: Option<String>,
     },
     /// Run the HTTP service (API v1; see api/openapi.yaml).
     Serve {
@@ -205,6 +248,7 @@ fn main() -> Result<()> {
             method,
             width,
             height,
+            camera,
             component,
             out,
             layers,
@@ -223,7 +267,30 @@ fn main() -> Result<()> {
             transmit,
             cluster,
             sun_radius,
+            water_mode,
+            water_variant,
+            water_grid,
+            sun_samples,
+            map_resolution,
+            mesh_resolution,
+            sun_map_width,
+            pixel_samples,
+            time,
+            frames,
+            fps,
         } => {
+            let water_args = caustica::methods::water::WaterArgs {
+                mode: water_mode,
+                variant: water_variant,
+                grid: water_grid,
+                sun_samples,
+                map_resolution,
+                mesh_resolution,
+                sun_map_width,
+                pixel_samples,
+            };
+            let water = (water_args != Default::default())
+                .then(|| serde_json::to_value(water_args).expect("water arguments serialise"));
             let pinhole_given = samples.is_some()
                 || sampling.is_some()
                 || no_filter
@@ -251,6 +318,7 @@ fn main() -> Result<()> {
                 csl: None,
                 line_points: Some(line_points),
                 pinhole,
+                water,
                 bake,
             };
             let png = PngSettings { exposure, tone_map };
@@ -259,10 +327,14 @@ fn main() -> Result<()> {
                 method,
                 (width, height),
                 &args,
-                component,
-                &out,
-                layers,
-                png,
+                Output {
+                    component,
+                    out: &out,
+                    layers,
+                    png,
+                },
+                Animation { time, frames, fps },
+                camera.as_deref(),
             )
         }
         Cmd::Bake { what } => {
@@ -320,8 +392,13 @@ fn main() -> Result<()> {
             b,
             scene,
             object,
+            camera,
         } => {
-            let world = load(&scene)?;
+            let mut world = load(&scene)?;
+            if let Some(c) = parse_camera(camera.as_deref())? {
+                world.camera = scene::load::resolve_camera(&c, &scene::Limits::default())
+                    .map_err(|e| anyhow::anyhow!("--camera: {e}"))?;
+            }
             let read = |p: &Path| -> Result<Frame> {
                 encode::decode_frame(&std::fs::read(p).with_context(|| p.display().to_string())?)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
@@ -342,38 +419,68 @@ fn main() -> Result<()> {
     }
 }
 
+/// Where and how `caustica render` writes.
+struct Output<'a> {
+    component: Component,
+    out: &'a Path,
+    layers: bool,
+    png: PngSettings,
+}
+
+/// `--time`, `--frames`, `--fps`.
+struct Animation {
+    time: Option<f32>,
+    frames: Option<u32>,
+    fps: Option<f32>,
+}
+
 /// `caustica render`: the method's frames for the scene, the chosen component (and with
-/// `layers` every component) written to `out`.
-#[allow(clippy::too_many_arguments)]
+/// `layers` every component) written to `out`; with `--frames`, a sequence.
 fn render(
     scene: &Path,
     method: Method,
     size: (Option<u32>, Option<u32>),
     args: &MethodArgs,
-    component: Component,
-    out: &Path,
-    layers: bool,
-    png: PngSettings,
+    o: Output,
+    anim: Animation,
+    camera: Option<&str>,
 ) -> Result<()> {
+    let Output {
+        component,
+        out,
+        layers,
+        png,
+    } = o;
+    let sequence_dir = anim.frames.is_some() && ext(out).is_none();
     let is_exr = match ext(out).as_deref() {
         Some("exr") => true,
         Some("png") => false,
+        None if sequence_dir => false,
         _ => bail!("--out must end in .png or .exr: {}", out.display()),
     };
     let mut timings: Vec<(String, Duration)> = Vec::new();
     let t = Instant::now();
     let mut world = load(scene)?;
-    caustica::jobs::render::apply_overrides(
-        &mut world,
-        None,
-        size,
-        None,
-        &scene::Limits::default(),
-    )
-    .map_err(|e| match e {
+    let params_error = |e: caustica::jobs::JobError| match e {
         caustica::jobs::JobError::Params(p) => flag_error(&p),
         e => anyhow::anyhow!("{e}"),
-    })?;
+    };
+    let camera = parse_camera(camera)?;
+    caustica::jobs::render::apply_overrides(
+        &mut world,
+        camera.as_ref(),
+        size,
+        None,
+        anim.time,
+        &scene::Limits::default(),
+    )
+    .map_err(params_error)?;
+    let t0 = world.water.first().map_or(0.0, |w| w.surface.time);
+    let times = caustica::jobs::render::sequence_times(&world, anim.frames, anim.fps, t0)
+        .map_err(|e| flag_error(&e))?;
+    if times.is_some() && is_exr {
+        bail!("--frames: a sequence is written as an animated PNG (--out X.png) or a folder");
+    }
     timings.push(("load".into(), t.elapsed()));
     let plan = method
         .imp()
@@ -389,6 +496,39 @@ fn render(
         timings.push(("gpu init".into(), t.elapsed()));
     }
     let store = ArtifactStore::from_env();
+    if let Some(times) = times {
+        let t = Instant::now();
+        let seq = with_bar(plan.method().name(), |progress| {
+            caustica::methods::sequence(
+                plan.as_ref(),
+                &world,
+                &Env {
+                    progress,
+                    keep_going: &|| true,
+                    gpu: &gpu,
+                    store: &store,
+                },
+                &times,
+            )
+        })?;
+        let per_frame = t.elapsed().as_secs_f64() * 1e3 / times.len() as f64;
+        let images: Vec<&Frame> = seq.iter().map(|f| f.get(component)).collect();
+        if sequence_dir {
+            std::fs::create_dir_all(out).with_context(|| out.display().to_string())?;
+            for (i, f) in images.iter().enumerate() {
+                write_frame(&out.join(format!("{i:04}.png")), f, png)?;
+            }
+        } else {
+            let bytes = encode::encode_apng(&images, anim.fps.unwrap_or(24.0), png)?;
+            std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))?;
+        }
+        eprintln!(
+            "wrote {} ({} frames, {per_frame:.1} ms a frame)",
+            out.display(),
+            times.len()
+        );
+        return Ok(());
+    }
     let frames = with_bar(plan.method().name(), |progress| {
         plan.frames(
             &world,
@@ -425,6 +565,17 @@ fn render(
         eprintln!("  {stage:<12} {:>10.1} ms", d.as_secs_f64() * 1e3);
     }
     Ok(())
+}
+
+/// The `--camera` flag's JSON.
+fn parse_camera(camera: Option<&str>) -> Result<Option<scene::types::CameraDesc>> {
+    camera
+        .map(|c| {
+            let mut d = serde_json::Deserializer::from_str(c);
+            serde_path_to_error::deserialize(&mut d)
+                .map_err(|e| anyhow::anyhow!("--camera: {} at {}", e.inner(), e.path()))
+        })
+        .transpose()
 }
 
 /// `caustica bake`: the method's bake of `object` (default: the method's first object of the

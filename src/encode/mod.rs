@@ -69,10 +69,12 @@ pub enum EncodeError {
     LayerSize,
     #[error("EXR encoding failed: {0}")]
     Exr(String),
+    #[error("APNG encoding failed: {0}")]
+    Apng(String),
 }
 
-/// 8-bit sRGB PNG bytes.
-pub fn encode_png(f: &Frame, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
+/// The 8-bit sRGB bytes (RGB) of a frame, tone-mapped as `s` says.
+fn srgb8(f: &Frame, s: PngSettings) -> Vec<u8> {
     let k = 2f32.powf(s.exposure);
     let mut buf = Vec::with_capacity(f.pixels.len() * 3);
     for p in &f.pixels {
@@ -81,6 +83,41 @@ pub fn encode_png(f: &Frame, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
             buf.push((v * 255.0 + 0.5).clamp(0.0, 255.0) as u8);
         }
     }
+    buf
+}
+
+/// An animated PNG (APNG) of `frames`, all of one size, shown `fps` frames a second and
+/// looping, tone-mapped as `s` says.
+pub fn encode_apng(frames: &[&Frame], fps: f32, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
+    let first = frames.first().ok_or(EncodeError::LayerSize)?;
+    if frames
+        .iter()
+        .any(|f| (f.width, f.height) != (first.width, first.height))
+    {
+        return Err(EncodeError::LayerSize);
+    }
+    let err = |e: png::EncodingError| EncodeError::Apng(e.to_string());
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, first.width, first.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_animated(frames.len() as u32, 0).map_err(err)?;
+        // The delay 1/fps s as 1000/(1000·fps): fps to a thousandth, up to 65.
+        let den = (fps * 1000.0).round().clamp(1.0, 65535.0) as u16;
+        enc.set_frame_delay(1000, den).map_err(err)?;
+        let mut w = enc.write_header().map_err(err)?;
+        for f in frames {
+            w.write_image_data(&srgb8(f, s)).map_err(err)?;
+        }
+        w.finish().map_err(err)?;
+    }
+    Ok(out)
+}
+
+/// 8-bit sRGB PNG bytes.
+pub fn encode_png(f: &Frame, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
+    let buf = srgb8(f, s);
     let img = image::RgbImage::from_raw(f.width, f.height, buf).expect("buffer size matches");
     let mut out = Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::Png)?;

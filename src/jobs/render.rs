@@ -67,6 +67,58 @@ pub struct RenderParams {
     /// "neighbourhood", "filter": bool, "shadows": bool, "sun_radius": degrees}`.
     #[serde(default)]
     pub pinhole: Option<serde_json::Value>,
+    /// Water: `physical` (default) or `article`.
+    #[serde(default)]
+    pub water_mode: Option<crate::render::water::Mode>,
+    /// Water: `{"variant": "pixel" | "texture" | "vertex", "grid": 16..=4096, "sun_samples":
+    /// 1..=64, "map_resolution": 16..=4096, "mesh_resolution": 4..=4096, "sun_map_width":
+    /// degrees}`.
+    #[serde(default)]
+    pub water: Option<serde_json::Value>,
+    /// Scenes with water: the waves' time in seconds (any method); the first frame's time of a
+    /// sequence.
+    #[serde(default)]
+    pub time: Option<f32>,
+    /// Scenes with water: a sequence of this many frames, 1..=240, answered as an animated PNG
+    /// (format png only).
+    #[serde(default)]
+    pub frames: Option<u32>,
+    /// A sequence's frames per second, 0.1..=60 (default 24).
+    #[serde(default)]
+    pub fps: Option<f32>,
+}
+
+/// Most frames a sequence may ask for; the highest and lowest frame rates.
+pub const MAX_SEQUENCE_FRAMES: u32 = 240;
+
+/// Checks a sequence request (`frames`, `fps`) against `world`: the times of its frames from
+/// `t0`, or None for a single frame.
+pub fn sequence_times(
+    world: &World,
+    frames: Option<u32>,
+    fps: Option<f32>,
+    t0: f32,
+) -> Result<Option<Vec<f32>>, ParamError> {
+    if let Some(f) = fps
+        && !(f.is_finite() && (0.1..=60.0).contains(&f))
+    {
+        return Err(ParamError::new("fps", "must lie in 0.1..=60"));
+    }
+    let Some(n) = frames else {
+        if fps.is_some() {
+            return Err(ParamError::new("fps", "only with frames (a sequence)"));
+        }
+        return Ok(None);
+    };
+    ParamError::range("frames", n, 1, MAX_SEQUENCE_FRAMES)?;
+    if world.water.is_empty() {
+        return Err(ParamError::new(
+            "frames",
+            "a sequence animates water; the scene has no water shape",
+        ));
+    }
+    let fps = fps.unwrap_or(24.0);
+    Ok(Some((0..n).map(|i| t0 + i as f32 / fps).collect()))
 }
 
 impl RenderParams {
@@ -78,6 +130,16 @@ impl RenderParams {
             seed: self.seed,
             csl: self.csl.clone(),
             pinhole: self.pinhole.clone(),
+            water: match (&self.water, self.water_mode) {
+                (w, None) => w.clone(),
+                (w, Some(mode)) => {
+                    let mut v = w.clone().unwrap_or_else(|| serde_json::json!({}));
+                    if let Some(o) = v.as_object_mut() {
+                        o.insert("mode".into(), mode.name().into());
+                    }
+                    Some(v)
+                }
+            },
             ..Default::default()
         }
     }
@@ -90,8 +152,22 @@ pub fn apply_overrides(
     camera: Option<&CameraDesc>,
     size: (Option<u32>, Option<u32>),
     lights: Option<&[LightDesc]>,
+    time: Option<f32>,
     limits: &Limits,
 ) -> Result<(), JobError> {
+    if let Some(t) = time {
+        if !t.is_finite() {
+            return Err(ParamError::new("time", "must be a finite number of seconds").into());
+        }
+        if world.water.is_empty() {
+            return Err(ParamError::new(
+                "time",
+                "the scene has no water shape: nothing moves with time",
+            )
+            .into());
+        }
+        crate::scene::water::set_time(world, t);
+    }
     if let Some(c) = camera {
         world.camera = crate::scene::load::resolve_camera(c, limits)?;
     }
@@ -124,6 +200,8 @@ pub struct RenderJob {
     requested: Method,
     plan: Box<dyn RenderPlan>,
     p: RenderParams,
+    /// A sequence's frame times.
+    times: Option<Vec<f32>>,
 }
 
 impl RenderJob {
@@ -147,14 +225,23 @@ impl RenderJob {
             p.camera.as_ref(),
             (p.width, p.height),
             p.lights.as_deref(),
+            p.time,
             limits,
         )?;
+        let first = world.water.first().map_or(0.0, |w| w.surface.time);
+        let times = sequence_times(&world, p.frames, p.fps, first)?;
+        if times.is_some() && p.format != Format::Png {
+            return Err(
+                ParamError::new("format", "a sequence is an animated PNG: format png").into(),
+            );
+        }
         let plan = method.imp().plan(&world, &p.method_args())?;
         Ok(RenderJob {
             world,
             requested: method,
             plan,
             p,
+            times,
         })
     }
 }
@@ -173,6 +260,9 @@ impl Job for RenderJob {
     }
 
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
+        if let Some(times) = &self.times {
+            return self.run_sequence(ctx, times);
+        }
         ctx.progress(0.0, "render");
         let mut frames = ctx
             .with_env(|env| self.plan.frames(&self.world, env))
@@ -220,6 +310,50 @@ impl Job for RenderJob {
         Ok(Artifact {
             content_type,
             ext,
+            bytes,
+            timings,
+            info,
+        })
+    }
+}
+
+impl RenderJob {
+    /// A sequence: the frames at `times`, one animated PNG.
+    fn run_sequence(&self, ctx: &JobCtx<'_>, times: &[f32]) -> Result<Artifact, JobError> {
+        let t = Instant::now();
+        let frames = ctx
+            .with_env(|env| crate::methods::sequence(self.plan.as_ref(), &self.world, env, times))
+            .map_err(|e| ctx.method_error(e))?;
+        let rendered = t.elapsed();
+        ctx.check()?;
+        ctx.progress(1.0, "encode");
+        let t = Instant::now();
+        let component = self.p.component;
+        let images: Vec<&crate::frame::Frame> = frames.iter().map(|f| f.get(component)).collect();
+        let fps = self.p.fps.unwrap_or(24.0);
+        let bytes = encode::encode_apng(
+            &images,
+            fps,
+            PngSettings {
+                exposure: self.p.exposure,
+                tone_map: self.p.tone_map.unwrap_or(ToneMap::Clamp),
+            },
+        )?;
+        let timings = vec![("frames".into(), rendered), ("encode".into(), t.elapsed())];
+        let info = serde_json::json!({
+            "adapter": frames.first().map(|f| f.adapter.clone()),
+            "method": self.plan.method(),
+            "width": self.world.camera.width,
+            "height": self.world.camera.height,
+            "component": component,
+            "frames": times.len(),
+            "fps": fps,
+            "times": times,
+            "ms_per_frame": rendered.as_secs_f64() * 1e3 / times.len() as f64,
+        });
+        Ok(Artifact {
+            content_type: "image/apng",
+            ext: "png",
             bytes,
             timings,
             info,

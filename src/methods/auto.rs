@@ -1,6 +1,7 @@
 //! Method `auto`: one of the others, chosen from the scene by [`choose`]. The CLI's default.
 //!
 //! The rule, first match wins:
+//! 0. a water shape and a directional light (the sun) → `water`;
 //! 1. no object has a glass or mirror part → `direct` (nothing casts caustics);
 //! 2. every caustic part is glass (dielectric) and a directional, point, spot or line light
 //!    lights the scene → `transport` (every delta light type, the light may move freely);
@@ -31,6 +32,12 @@ pub struct Auto;
 
 /// The method `auto` renders `world` with, and why.
 pub fn choose(world: &World) -> (Method, &'static str) {
+    if super::water::check_scene(world).is_ok() {
+        return (
+            Method::Water,
+            "a water surface under a directional light: underwater caustics",
+        );
+    }
     let caustic = caustic_objects(world);
     if caustic.is_empty() {
         return (

@@ -4,7 +4,8 @@
 //! A method is a way of making the frames of a scene: [`direct`] (GPU direct lighting, no
 //! caustics), [`reference`](mod@reference) (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
 //! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), [`pinhole`] (pinhole
-//! caustics, Wand and Straßer 2003), and [`auto`], which picks one of them from the scene. Each module implements [`MethodImpl`]:
+//! caustics, Wand and Straßer 2003), [`water`] (underwater caustics, Sánchez-Crespo 2003), and
+//! [`auto`], which picks one of them from the scene. Each module implements [`MethodImpl`]:
 //!
 //! - its [`MethodInfo`] (name, lane, whether it needs the GPU, whether it bakes, its fields);
 //! - [`MethodImpl::plan`]: parse and check its render parameters against the scene (one parser,
@@ -23,6 +24,7 @@ pub mod direct;
 pub mod pinhole;
 pub mod reference;
 pub mod transport;
+pub mod water;
 
 pub use crate::bake::store::{ArtifactKind, ArtifactStore};
 pub use crate::frame::Component;
@@ -56,17 +58,21 @@ pub enum Method {
     /// Pinhole caustics (Wand and Straßer 2003): no bake, points on the reflectors project the
     /// environment and the lights onto the receivers every frame.
     Pinhole,
+    /// Underwater caustics (Sánchez-Crespo 2003): sunlight refracted by a procedural water
+    /// surface onto what lies below it; the article's mode or a physical one.
+    Water,
 }
 
 impl Method {
     /// Every method, in the order of the registry's listings.
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 7] = [
         Method::Auto,
         Method::Direct,
         Method::Reference,
         Method::Csl,
         Method::Transport,
         Method::Pinhole,
+        Method::Water,
     ];
 
     /// The registry: the implementation of each method.
@@ -78,6 +84,7 @@ impl Method {
             Method::Csl => &csl::Csl,
             Method::Transport => &transport::Transport,
             Method::Pinhole => &pinhole::Pinhole,
+            Method::Water => &water::Water,
         }
     }
 
@@ -211,6 +218,8 @@ pub struct MethodArgs {
     pub line_points: Option<u32>,
     /// Pinhole: its parameters (`methods::pinhole::PinholeArgs`).
     pub pinhole: Option<serde_json::Value>,
+    /// Water: its parameters (`methods::water::WaterArgs`).
+    pub water: Option<serde_json::Value>,
     /// CSL, transport: a bake made beforehand (CLI: `--bake FILE`).
     pub bake: Option<PathBuf>,
 }
@@ -243,6 +252,7 @@ impl MethodArgs {
             ("csl", self.csl.is_some()),
             ("bake", self.bake.is_some()),
             ("pinhole", self.pinhole.is_some()),
+            ("water", self.water.is_some()),
         ] {
             if given && !info.args.contains(&field) {
                 let takers = names(|i| i.args.contains(&field));
@@ -487,6 +497,34 @@ fn no_bake(info: &MethodInfo) -> ParamError {
             names(|i| i.bake)
         ),
     )
+}
+
+/// The frames of `plan` for `world` with its water at each of `times` (a sequence): the plan
+/// is made once, the world changes only by its waves between frames, and a method keeps
+/// between them what does not change.
+pub fn sequence(
+    plan: &dyn RenderPlan,
+    world: &World,
+    env: &Env,
+    times: &[f32],
+) -> Result<Vec<Frames>, MethodError> {
+    let mut out = Vec::with_capacity(times.len());
+    let n = times.len().max(1) as f32;
+    for (i, &t) in times.iter().enumerate() {
+        env.check()?;
+        let mut w = world.clone();
+        crate::scene::water::set_time(&mut w, t);
+        let k = i as f32;
+        let progress = |f: f32, stage: &str| (env.progress)((k + f) / n, stage);
+        let sub = Env {
+            progress: &progress,
+            keep_going: env.keep_going,
+            gpu: env.gpu,
+            store: env.store,
+        };
+        out.push(plan.frames(&w, &sub)?);
+    }
+    Ok(out)
 }
 
 /// Indices of the objects with a glass or mirror part: the objects that cast caustics.

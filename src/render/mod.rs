@@ -28,6 +28,7 @@ pub mod shaders;
 pub mod shadow;
 pub mod timestamps;
 pub mod transport;
+pub mod water;
 
 pub use csl::CslLayer;
 pub use pinhole::PinholeLayer;

@@ -26,3 +26,4 @@ mod schema;
 mod shaders_naga;
 mod transport_bake;
 mod transport_render;
+mod water;

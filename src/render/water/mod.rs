@@ -1,0 +1,498 @@
+//! The caustics layer of method `water` (Sánchez-Crespo 2003): sunlight refracted by a
+//! procedural water surface onto what lies below it, on the CPU.
+//!
+//! Two modes compute the irradiance E at receiver points under the water:
+//! - [`Mode::Physical`] ([`physical`]): a grid of the sun's rays is refracted at the analytic
+//!   surface and carried to the receivers; each grid triangle's transmitted flux (Fresnel, the
+//!   surface's projected area, Beer-Lambert along the path) is spread over the triangle its
+//!   corners land on, so that E is flux over area, and every triangle covering a point adds up
+//!   (folds and focal lines included). Several directions over the sun's disc blur it.
+//! - [`Mode::Article`] ([`article`]): the article's backward test: from the receiver point a
+//!   ray towards the sun to the surface, the surface normal there, the ray refracted out into
+//!   the air, and a brightness from its angle to the sun (a Gaussian "sun map"), attenuated
+//!   along the path in the water. Its overall brightness is calibrated so that its mean over
+//!   the floor equals the flat surface's irradiance.
+//!
+//! Three variants place the points where E is computed: [`Variant::Pixel`] (per pixel, at the
+//! receiver each pixel sees, directly or refracted through the surface from above);
+//! [`Variant::Texture`] (a light map of fixed resolution over the water's rectangle, on the
+//! receivers seen from above, mipmapped and sampled per pixel); [`Variant::Vertex`] (the
+//! article's first version: a coarser grid of vertices, interpolated bilinearly, normals by
+//! finite differences in the article mode).
+
+pub mod article;
+pub mod physical;
+pub mod view;
+
+use crate::frame::Frame;
+use crate::scene::{Light, WaterBody, World};
+use crate::trace::Accel;
+use crate::trace::optics::{brdf, refract};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::{Duration, Instant};
+
+/// How E is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Refracted grid of sun rays, irradiance from the area ratio (converges to the reference).
+    Physical,
+    /// The article's sun-map lookup, brightness calibrated to the mean.
+    Article,
+}
+
+/// Where E is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Variant {
+    /// Per pixel, at the receiver point it sees.
+    Pixel,
+    /// A mipmapped light map over the water's rectangle.
+    Texture,
+    /// A grid of vertices interpolated bilinearly (the article's per-vertex version).
+    Vertex,
+}
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Physical => "physical",
+            Mode::Article => "article",
+        }
+    }
+}
+
+impl Variant {
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Pixel => "pixel",
+            Variant::Texture => "texture",
+            Variant::Vertex => "vertex",
+        }
+    }
+}
+
+/// Largest `grid`, `map_resolution`, `mesh_resolution`, `sun_samples`.
+pub const MAX_GRID: u32 = 4096;
+pub const MAX_MAP: u32 = 4096;
+pub const MAX_SUN_SAMPLES: u32 = 64;
+pub const MAX_PIXEL_SAMPLES: u32 = 8;
+
+/// Settings of the water layer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WaterParams {
+    pub mode: Mode,
+    pub variant: Variant,
+    /// Physical: sun rays per side of each water rectangle.
+    pub grid: u32,
+    /// Physical: directions over the sun's disc (1 when the light has no disc).
+    pub sun_samples: u32,
+    /// Texture: texels per side of the light map.
+    pub map_resolution: u32,
+    /// Vertex: quads per side of the receiver grid.
+    pub mesh_resolution: u32,
+    /// Article: the sun map's width (radians): brightness exp(−(θ/width)²) at angle θ from the
+    /// sun.
+    pub sun_map_width: f32,
+    /// Pixel and texture variants: receiver points per pixel, `pixel_samples`² on a grid (the
+    /// pixel's area average, as the reference's).
+    pub pixel_samples: u32,
+}
+
+impl Default for WaterParams {
+    fn default() -> Self {
+        WaterParams {
+            mode: Mode::Physical,
+            variant: Variant::Pixel,
+            grid: 768,
+            sun_samples: 4,
+            map_resolution: 1024,
+            mesh_resolution: 128,
+            sun_map_width: 4f32.to_radians(),
+            pixel_samples: 3,
+        }
+    }
+}
+
+/// A directional light as the water sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Sun {
+    /// Unit travel direction.
+    pub dir: Vec3,
+    /// W/m² facing it.
+    pub irradiance: Vec3,
+    /// Disc radius, radians.
+    pub radius: f32,
+}
+
+/// The directional lights of `world`.
+pub fn suns(world: &World) -> Vec<Sun> {
+    world
+        .lights
+        .iter()
+        .filter_map(|l| match *l {
+            Light::Directional {
+                direction,
+                irradiance,
+                angular_radius,
+            } => Some(Sun {
+                dir: direction,
+                irradiance,
+                radius: angular_radius,
+            }),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A receiver point where E is wanted: position, unit geometric normal on the side light
+/// arrives from, and its object.
+#[derive(Clone, Copy, Debug)]
+pub struct RecvPoint {
+    pub pos: Vec3,
+    pub normal: Vec3,
+    pub object: u32,
+}
+
+/// The receivers: every object but the water surfaces (which the water layer treats
+/// analytically). Kept between the frames of a sequence: only the surfaces move.
+pub struct Receivers {
+    pub accel: Accel,
+    /// The highest point of any receiver (−∞ without receivers).
+    pub top: f32,
+}
+
+impl Receivers {
+    pub fn build(world: &World) -> Receivers {
+        let keep = |i: usize| world.water_of(i as u32).is_none();
+        let top = world
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .flat_map(|(_, o)| {
+                o.parts.iter().flat_map(move |p| {
+                    p.mesh
+                        .positions
+                        .iter()
+                        .map(move |v| o.transform.transform_point3(*v).y)
+                })
+            })
+            .fold(f32::NEG_INFINITY, f32::max);
+        Receivers {
+            accel: Accel::build_with(world, keep, obvhs::BvhBuildParams::fast_build()),
+            top,
+        }
+    }
+}
+
+/// What the water layer did.
+#[derive(Clone, Debug, Default)]
+pub struct WaterStats {
+    /// Receiver points E was computed at.
+    pub points: usize,
+    /// Physical: sun rays traced, and the share of the transmitted flux that reached no point
+    /// (missed every receiver, or landed on a triangle split between receivers).
+    pub rays: u64,
+    pub flux_transmitted: f64,
+    pub flux_splatted: f64,
+    /// Article: the calibration factor of the brightness.
+    pub calibration: Vec<f32>,
+    pub stages: Vec<(String, Duration)>,
+}
+
+/// E at `points` from every sun through `body`.
+pub fn irradiance(
+    world: &World,
+    recv: &Receivers,
+    body: &WaterBody,
+    params: &WaterParams,
+    points: &[RecvPoint],
+    finite_differences: Option<f32>,
+    stats: &mut WaterStats,
+) -> Vec<Vec3> {
+    let mut e = vec![Vec3::ZERO; points.len()];
+    for sun in suns(world) {
+        let add = match params.mode {
+            Mode::Physical => physical::irradiance(world, recv, body, &sun, params, points, stats),
+            Mode::Article => {
+                article::irradiance(recv, body, &sun, params, points, finite_differences, stats)
+            }
+        };
+        e.iter_mut().zip(add).for_each(|(a, b)| *a += b);
+    }
+    e
+}
+
+/// The sun's direction in the water under a flat surface (None when it is below the horizon).
+pub fn refracted_sun(sun: &Sun, ior: f32) -> Option<Vec3> {
+    if sun.dir.y >= 0.0 {
+        return None;
+    }
+    refract(sun.dir, Vec3::Y, 1.0 / ior)
+}
+
+/// The caustics layer of a frame: per pixel, the radiance the receivers under water reflect
+/// from the refracted sunlight, seen directly (camera under water) or through the surface
+/// (camera above).
+pub fn render_layer(
+    world: &World,
+    recv: &Receivers,
+    params: &WaterParams,
+    stats: &mut WaterStats,
+) -> Frame {
+    let cam = &world.camera;
+    let t = Instant::now();
+    let k = params.pixel_samples.max(1);
+    let views = view::view_points(world, recv, k);
+    let sub_width = cam.width * k;
+    // The pixel of a sub-pixel.
+    let pixel = |i: usize| {
+        let (x, y) = (i as u32 % sub_width / k, i as u32 / sub_width / k);
+        (y * cam.width + x) as usize
+    };
+    let weight = 1.0 / (k * k) as f32;
+    stats.stages.push(("view".into(), t.elapsed()));
+    let mut frame = Frame::new(cam.width, cam.height);
+    for (bi, body) in world.water.iter().enumerate() {
+        let t = Instant::now();
+        // The pixels that see a receiver under this water.
+        let mine: Vec<usize> = (0..views.len())
+            .filter(|&i| views[i].as_ref().is_some_and(|v| v.body == bi))
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let pts: Vec<RecvPoint> = mine
+            .iter()
+            .map(|&i| views[i].as_ref().expect("kept").point)
+            .collect();
+        let e = match params.variant {
+            Variant::Pixel => irradiance(world, recv, body, params, &pts, None, stats),
+            Variant::Texture | Variant::Vertex => {
+                let vertex = params.variant == Variant::Vertex;
+                let res = if vertex {
+                    params.mesh_resolution + 1
+                } else {
+                    params.map_resolution
+                };
+                let map = LightMap::build(world, recv, body, params, res, vertex, stats);
+                let mut out = map.lookup(&pts, &mine, &views, sub_width, k, !vertex);
+                // Points the map does not hold (not the receiver seen from above there).
+                let missing: Vec<usize> = (0..pts.len()).filter(|&k| out[k].is_none()).collect();
+                if !missing.is_empty() {
+                    let sub: Vec<RecvPoint> = missing.iter().map(|&k| pts[k]).collect();
+                    let fd = vertex.then_some(map.texel);
+                    let e = irradiance(world, recv, body, params, &sub, fd, stats);
+                    for (k, v) in missing.into_iter().zip(e) {
+                        out[k] = Some(v);
+                    }
+                }
+                out.into_iter().map(|v| v.unwrap_or(Vec3::ZERO)).collect()
+            }
+        };
+        stats.points += pts.len();
+        let wi = suns(world)
+            .first()
+            .and_then(|s| refracted_sun(s, body.ior))
+            .map_or(Vec3::Y, |d| -d);
+        for (&i, e) in mine.iter().zip(e) {
+            let v = views[i].as_ref().expect("kept");
+            let f = brdf(&world.materials[v.material as usize], v.shading, wi, v.wo);
+            frame.pixels[pixel(i)] += v.throughput * f * e * weight;
+        }
+        stats
+            .stages
+            .push((format!("irradiance[{bi}]"), t.elapsed()));
+    }
+    frame
+}
+
+/// E on a grid over a water's rectangle, at the receivers seen straight down from above the
+/// surface: the article's texture-space light map (mipmapped) and its per-vertex mesh.
+pub struct LightMap {
+    res: u32,
+    /// Texel (or vertex) spacing, metres (x).
+    pub texel: f32,
+    origin: Vec3,
+    size: glam::Vec2,
+    /// Mip levels, finest first: texels per side and E per texel; heights of the receiver at
+    /// level 0.
+    levels: Vec<(u32, Vec<Vec3>)>,
+    heights: Vec<f32>,
+    /// Vertex grid: samples at the grid's corners (bilinear between them); texture: at texel
+    /// centres.
+    corners: bool,
+}
+
+impl LightMap {
+    pub fn build(
+        world: &World,
+        recv: &Receivers,
+        body: &WaterBody,
+        params: &WaterParams,
+        res: u32,
+        corners: bool,
+        stats: &mut WaterStats,
+    ) -> LightMap {
+        let s = &body.surface;
+        let top = s.centre.y + s.amplitude_bound() + 1e-3;
+        let at = |k: u32| -> f32 {
+            if corners {
+                k as f32 / (res - 1).max(1) as f32 - 0.5
+            } else {
+                (k as f32 + 0.5) / res as f32 - 0.5
+            }
+        };
+        let probes: Vec<Option<RecvPoint>> = (0..res * res)
+            .into_par_iter()
+            .map(|k| {
+                let (i, j) = (k % res, k / res);
+                let o = Vec3::new(
+                    s.centre.x + at(i) * s.size.x,
+                    top,
+                    s.centre.z + at(j) * s.size.y,
+                );
+                let h = recv.accel.intersect(o, -Vec3::Y, f32::INFINITY)?;
+                (h.point.y < s.centre.y - s.amplitude_bound()).then_some(RecvPoint {
+                    pos: h.point,
+                    normal: h.geo_normal,
+                    object: h.object,
+                })
+            })
+            .collect();
+        let live: Vec<usize> = (0..probes.len()).filter(|&k| probes[k].is_some()).collect();
+        let pts: Vec<RecvPoint> = live.iter().map(|&k| probes[k].expect("live")).collect();
+        let step = s.size.x / res.max(2) as f32;
+        let e = irradiance(
+            world,
+            recv,
+            body,
+            params,
+            &pts,
+            corners.then_some(step),
+            stats,
+        );
+        let mut base = vec![Vec3::ZERO; (res * res) as usize];
+        let mut heights = vec![f32::NAN; (res * res) as usize];
+        for (&k, (v, p)) in live.iter().zip(e.into_iter().zip(&pts)) {
+            base[k] = v;
+            heights[k] = p.pos.y;
+        }
+        let mut levels = vec![(res, base)];
+        if !corners {
+            // 2×2 box mips down to one texel.
+            let mut r = res;
+            while r > 1 {
+                let prev = &levels.last().expect("level").1;
+                let n = r.div_ceil(2);
+                let mut next = vec![Vec3::ZERO; (n * n) as usize];
+                for j in 0..n {
+                    for i in 0..n {
+                        let mut sum = Vec3::ZERO;
+                        let mut c = 0.0;
+                        for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                            let (x, y) = (2 * i + di, 2 * j + dj);
+                            if x < r && y < r {
+                                sum += prev[(y * r + x) as usize];
+                                c += 1.0;
+                            }
+                        }
+                        next[(j * n + i) as usize] = sum / c;
+                    }
+                }
+                levels.push((n, next));
+                r = n;
+            }
+        }
+        LightMap {
+            res,
+            texel: step,
+            origin: s.centre,
+            size: s.size,
+            levels,
+            heights,
+            corners,
+        }
+    }
+
+    /// Continuous texel coordinates of world (x, z) at level 0.
+    fn coords(&self, p: Vec3) -> (f32, f32) {
+        let u = (p.x - self.origin.x) / self.size.x + 0.5;
+        let v = (p.z - self.origin.z) / self.size.y + 0.5;
+        if self.corners {
+            (u * (self.res - 1) as f32, v * (self.res - 1) as f32)
+        } else {
+            (u * self.res as f32 - 0.5, v * self.res as f32 - 0.5)
+        }
+    }
+
+    fn bilinear(&self, level: usize, x: f32, y: f32) -> Vec3 {
+        let (r, data) = (self.levels[level].0, &self.levels[level].1);
+        let fetch = |i: i64, j: i64| {
+            let i = i.clamp(0, r as i64 - 1) as u32;
+            let j = j.clamp(0, r as i64 - 1) as u32;
+            data[(j * r + i) as usize]
+        };
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (x0 as i64, y0 as i64);
+        fetch(i, j) * ((1.0 - fx) * (1.0 - fy))
+            + fetch(i + 1, j) * (fx * (1.0 - fy))
+            + fetch(i, j + 1) * ((1.0 - fx) * fy)
+            + fetch(i + 1, j + 1) * (fx * fy)
+    }
+
+    /// E at each point from the map (None where the map does not hold that receiver): mip
+    /// level from the pixel's footprint in texels (the distance to the next pixel's point),
+    /// trilinear between levels when `mips`.
+    pub fn lookup(
+        &self,
+        pts: &[RecvPoint],
+        pixels: &[usize],
+        views: &[Option<view::ViewPoint>],
+        width: u32,
+        sub: u32,
+        mips: bool,
+    ) -> Vec<Option<Vec3>> {
+        let tol = 2.0 * self.texel + 1e-3;
+        pts.iter()
+            .zip(pixels)
+            .map(|(p, &pix)| {
+                let (x, y) = self.coords(p.pos);
+                let (i, j) = (x.round() as i64, y.round() as i64);
+                if i < 0 || j < 0 || i >= self.res as i64 || j >= self.res as i64 {
+                    return None;
+                }
+                let hgt = self.heights[(j as u32 * self.res + i as u32) as usize];
+                if hgt.is_nan() || (hgt - p.pos.y).abs() > tol {
+                    return None;
+                }
+                if !mips {
+                    return Some(self.bilinear(0, x, y));
+                }
+                // The pixel's footprint: the largest distance to a neighbouring sub-pixel's
+                // receiver point, times the sub-pixels per side.
+                let w = width as usize;
+                let mut foot = 0.0f32;
+                for n in [pix + 1, pix.wrapping_sub(1), pix + w, pix.wrapping_sub(w)] {
+                    if let Some(Some(v)) = views.get(n) {
+                        foot = foot.max((v.point.pos - p.pos).length());
+                    }
+                }
+                foot *= sub as f32;
+                let lod = (foot / self.texel).max(1.0).log2();
+                let l0 = (lod.floor() as usize).min(self.levels.len() - 1);
+                let l1 = (l0 + 1).min(self.levels.len() - 1);
+                let f = (lod - l0 as f32).clamp(0.0, 1.0);
+                let at = |l: usize| {
+                    let s = self.res as f32 / self.levels[l].0 as f32;
+                    self.bilinear(l, (x + 0.5) / s - 0.5, (y + 0.5) / s - 0.5)
+                };
+                Some(at(l0) * (1.0 - f) + at(l1) * f)
+            })
+            .collect()
+    }
+}
