@@ -115,7 +115,7 @@ enum Cmd {
         /// map) or vertex (a coarse grid, the article's first version).
         #[arg(long, value_enum)]
         water_variant: Option<caustica::render::water::Variant>,
-        /// Water, physical: sun rays per side of the water's rectangle (default 768).
+        /// Water, physical: sun rays per side of the water's rectangle (default 512).
         #[arg(long)]
         water_grid: Option<u32>,
         /// Water, physical: directions over the sun's disc (default 4).

@@ -10,8 +10,8 @@ use super::{
 };
 use crate::render::RenderOptions;
 use crate::render::water::{
-    MAX_GRID, MAX_MAP, MAX_PIXEL_SAMPLES, MAX_SUN_SAMPLES, Mode, Receivers, Variant, WaterParams,
-    WaterStats, render_layer, suns,
+    MAX_GRID, MAX_MAP, MAX_PIXEL_SAMPLES, MAX_POINTS, MAX_SUN_SAMPLES, Mode, Receivers, Variant,
+    WaterParams, WaterStats, render_layer, suns,
 };
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
@@ -41,23 +41,23 @@ pub struct WaterArgs {
     /// pixel (default), texture or vertex.
     #[serde(default)]
     pub variant: Option<Variant>,
-    /// Physical: sun rays per side of each water rectangle, 16..=4096 (default 768).
+    /// Physical: sun rays per side of each water rectangle, 16..=2048 (default 512).
     #[serde(default)]
     pub grid: Option<u32>,
     /// Physical: directions over the sun's disc, 1..=64 (default 4).
     #[serde(default)]
     pub sun_samples: Option<u32>,
-    /// Texture: texels per side of the light map, 16..=4096 (default 1024).
+    /// Texture: texels per side of the light map, 16..=2048 (default 1024).
     #[serde(default)]
     pub map_resolution: Option<u32>,
-    /// Vertex: quads per side of the receiver grid, 4..=4096 (default 128).
+    /// Vertex: quads per side of the receiver grid, 4..=2048 (default 128).
     #[serde(default)]
     pub mesh_resolution: Option<u32>,
     /// Article: the sun map's width in degrees, 0.1..=45 (default 4).
     #[serde(default)]
     pub sun_map_width: Option<f32>,
-    /// Pixel and texture variants: receiver points per pixel side, 1..=8 (default 3: 9 a
-    /// pixel).
+    /// Receiver points per pixel side, 1..=8 (default 3: 9 a pixel, fewer where width ×
+    /// height × 9 would pass 8 Mi points).
     #[serde(default)]
     pub pixel_samples: Option<u32>,
 }
@@ -121,8 +121,31 @@ impl MethodImpl for Water {
             None => WaterArgs::default(),
         };
         check_scene(world)?;
+        let mut params = a.params();
+        let pixels = u64::from(world.camera.width) * u64::from(world.camera.height);
+        let points = |k: u32| pixels * u64::from(k) * u64::from(k);
+        if a.pixel_samples.is_none() {
+            // The default: 3 × 3 a pixel, fewer where the image is too large for that.
+            while params.pixel_samples > 1 && points(params.pixel_samples) > MAX_POINTS {
+                params.pixel_samples -= 1;
+            }
+        }
+        if points(params.pixel_samples) > MAX_POINTS {
+            return Err(ParamError::new(
+                if a.pixel_samples.is_some() {
+                    "water.pixel_samples"
+                } else {
+                    "width"
+                },
+                format!(
+                    "width × height × pixel_samples² is {}, more than {MAX_POINTS} receiver \
+                     points; ask for fewer pixel samples or a smaller image",
+                    points(params.pixel_samples)
+                ),
+            ));
+        }
         Ok(Box::new(Plan {
-            params: a.params(),
+            params,
             receivers: Mutex::new(None),
         }))
     }

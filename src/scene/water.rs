@@ -393,18 +393,35 @@ impl WaterSurface {
             let tb = (ta + step).min(t1);
             let fb = f(tb);
             if fa.signum() != fb.signum() {
-                let (mut lo, mut hi, mut flo) = (ta, tb, fa);
-                for _ in 0..40 {
-                    let mid = 0.5 * (lo + hi);
-                    let fm = f(mid);
-                    if fm.signum() == flo.signum() {
-                        lo = mid;
-                        flo = fm;
+                // Regula falsi (Illinois) inside the bracket: a few steps reach 1e-7 m.
+                let (mut lo, mut hi, mut flo, mut fhi) = (ta, tb, fa, fb);
+                let mut t = 0.5 * (lo + hi);
+                let mut side = 0;
+                for _ in 0..24 {
+                    t = (lo * fhi - hi * flo) / (fhi - flo);
+                    if !(t > lo && t < hi) {
+                        t = 0.5 * (lo + hi);
+                    }
+                    let ft = f(t);
+                    if ft.abs() < 1e-7 || hi - lo < 1e-7 {
+                        break;
+                    }
+                    if ft.signum() == flo.signum() {
+                        lo = t;
+                        flo = ft;
+                        if side == -1 {
+                            fhi *= 0.5;
+                        }
+                        side = -1;
                     } else {
-                        hi = mid;
+                        hi = t;
+                        fhi = ft;
+                        if side == 1 {
+                            flo *= 0.5;
+                        }
+                        side = 1;
                     }
                 }
-                let t = 0.5 * (lo + hi);
                 let p = o + d * t;
                 if self.contains(p.x, p.z) {
                     return Some((t, p));

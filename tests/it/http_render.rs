@@ -499,3 +499,83 @@ async fn pinhole_render_matches_the_library_and_reports_its_points() {
     );
     assert_eq!(served, out.total());
 }
+
+/// `method: water` through the service: the underwater view at a given `time` as an EXR (the
+/// library's frame at that time, and the record's figures), a sequence as an animated PNG of
+/// the frames asked for, and a time that is not finite or a sequence as EXR refused with 422.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn water_renders_frames_at_a_time_and_sequences_as_animated_png() {
+    use caustica::render::water::{Receivers, WaterParams, WaterStats, render_layer};
+    let srv = Server::start("render-water", |_, _| {}).await;
+    let mut scene: serde_json::Value =
+        serde_json::from_str(&scenes::text("underwater-view")).unwrap();
+    scene["camera"]["width"] = 40.into();
+    scene["camera"]["height"] = 30.into();
+    let req = serde_json::json!({"scene": scene, "method": "water", "format": "exr",
+        "component": "caustics", "time": 1.25, "water_mode": "physical",
+        "water": {"grid": 128, "sun_samples": 2}});
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let served = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    let stats = &rec["info"]["statistics"];
+    assert_eq!(stats["mode"], "physical", "{rec}");
+    assert_eq!(stats["grid"], 128, "{rec}");
+    assert_eq!(stats["rays"], 2 * 129 * 129, "{rec}");
+
+    let seq = serde_json::json!({"scene": scene, "method": "water", "frames": 4, "fps": 30,
+        "water": {"grid": 64}});
+    let r = srv.post_json("/v1/renders", &seq).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    assert_eq!(r.headers()["content-type"], "image/apng");
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let bytes = r.bytes().await.unwrap();
+    let dec = png::Decoder::new(std::io::Cursor::new(bytes.to_vec()));
+    let reader = dec.read_info().unwrap();
+    assert_eq!(reader.info().animation_control.unwrap().num_frames, 4);
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["info"]["frames"], 4, "{rec}");
+    assert!(rec["info"]["ms_per_frame"].as_f64().unwrap() > 0.0, "{rec}");
+
+    for (bad, field) in [
+        (
+            serde_json::json!({"scene": scene, "method": "water", "time": "soon"}),
+            "time",
+        ),
+        (
+            serde_json::json!({"scene": scene, "method": "water", "frames": 3, "format": "exr"}),
+            "format",
+        ),
+        (
+            serde_json::json!({"scene": scene, "method": "water", "frames": 0}),
+            "frames",
+        ),
+        (
+            serde_json::json!({"scene": serde_json::from_str::<serde_json::Value>(SCENE).unwrap(), "method": "direct", "time": 1.0}),
+            "time",
+        ),
+    ] {
+        let r = srv.post_json("/v1/renders", &bad).await;
+        assert_eq!(r.status(), 422, "{bad}");
+        let body: serde_json::Value = r.json().await.unwrap();
+        assert_eq!(body["field"], field, "{body}");
+    }
+    srv.stop().await;
+
+    let mut world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    caustica::scene::water::set_time(&mut world, 1.25);
+    let p = WaterParams {
+        grid: 128,
+        sun_samples: 2,
+        ..Default::default()
+    };
+    let layer = render_layer(
+        &world,
+        &Receivers::build(&world),
+        &p,
+        &mut WaterStats::default(),
+    );
+    assert!(layer.pixels.iter().any(|p| p.x > 0.0), "the floor is lit");
+    assert_eq!(served, layer);
+}

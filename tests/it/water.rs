@@ -426,3 +426,28 @@ fn a_sequence_is_an_animated_png_with_the_frames_asked_for() {
     assert_ne!(frames[0], frames[1]);
     assert!(frames[0].iter().map(|&b| b as u64).sum::<u64>() > 0);
 }
+
+#[test]
+fn the_reference_agrees_with_mitsuba_on_a_wavy_frame() {
+    // Mitsuba 3's particle tracer on our tessellation of one frame of waves (no absorption:
+    // Mitsuba would need a medium), camera under the surface: every path, so our total.
+    let path = crate::support::repo_path("tests/data/mitsuba/water-waves.json");
+    let w = caustica::scene::load_scene_file(&path, &Default::default()).unwrap();
+    let params = ReferenceParams {
+        photons: 4_000_000,
+        spp: 2,
+        ..Default::default()
+    };
+    let accel = Accel::build(&w);
+    let (c, _) = reference::render(&w, &accel, &params, &|_| true).unwrap();
+    let mitsuba = images::mitsuba("water-waves-ptracer-65536spp.exr");
+    let mask = compare::object_mask(&w, &accel, "sea-floor");
+    let total = compare::compare(&c.total(), &mitsuba, &mask);
+    let caustics = compare::compare(&c.caustics, &mitsuba, &mask);
+    eprintln!("total {total:?}; caustics alone {caustics:?}");
+    assert!(total.rel_l1 <= 0.05, "{total:?}");
+    assert!((total.flux_ratio - 1.0).abs() <= 0.02, "{total:?}");
+    // Light the floor sends up and the surface reflects back down (mostly total internal
+    // reflection) is the rest: indirect, a few per cent.
+    assert!(caustics.flux_ratio < total.flux_ratio, "{caustics:?}");
+}

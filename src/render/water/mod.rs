@@ -75,8 +75,11 @@ impl Variant {
 }
 
 /// Largest `grid`, `map_resolution`, `mesh_resolution`, `sun_samples`.
-pub const MAX_GRID: u32 = 4096;
-pub const MAX_MAP: u32 = 4096;
+pub const MAX_GRID: u32 = 2048;
+pub const MAX_MAP: u32 = 2048;
+/// Most receiver points of a frame (pixels × `pixel_samples`²): what bounds its memory
+/// (about 80 bytes a point).
+pub const MAX_POINTS: u64 = 8 << 20;
 pub const MAX_SUN_SAMPLES: u32 = 64;
 pub const MAX_PIXEL_SAMPLES: u32 = 8;
 
@@ -106,7 +109,7 @@ impl Default for WaterParams {
         WaterParams {
             mode: Mode::Physical,
             variant: Variant::Pixel,
-            grid: 768,
+            grid: 512,
             sun_samples: 4,
             map_resolution: 1024,
             mesh_resolution: 128,

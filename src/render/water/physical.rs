@@ -87,6 +87,20 @@ impl PointIndex {
     }
 }
 
+/// The index's cell for `points`: about four points' spacing (taken as if they covered their
+/// bounding box's two largest sides evenly), within [½, 2] sun-grid cells.
+fn index_cell(points: &[RecvPoint], grid_cell: f32) -> f32 {
+    let (lo, hi) = points.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p.pos), hi.max(p.pos)),
+    );
+    let e = (hi - lo).max(Vec3::splat(1e-6)).to_array();
+    let mut e = e.to_vec();
+    e.sort_by(f32::total_cmp);
+    let spacing = (e[1] * e[2] / points.len().max(1) as f32).sqrt();
+    (4.0 * spacing).clamp(0.5 * grid_cell, 2.0 * grid_cell)
+}
+
 /// `k` directions over a disc of angular radius `r` around `dir` (a Fibonacci spiral, equal
 /// areas); `dir` alone for a point-like disc.
 pub fn disc_directions(dir: Vec3, r: f32, k: u32) -> Vec<Vec3> {
@@ -120,7 +134,7 @@ pub fn irradiance(
     let cell = Vec2::new(s.size.x / g as f32, s.size.y / g as f32);
     let dirs = disc_directions(sun.dir, sun.radius, params.sun_samples);
     let k = dirs.len() as f32;
-    let index = PointIndex::new(points, cell.max_element() * 2.0);
+    let index = PointIndex::new(points, index_cell(points, cell.max_element()));
     let eta = 1.0 / body.ior;
     // Receivers above the water can shade the surface.
     let shade = recv.top > s.centre.y - s.amplitude_bound();
@@ -178,7 +192,8 @@ pub fn irradiance(
         let rows = g as usize;
         let (acc, sent, kept) = (0..rows)
             .into_par_iter()
-            .with_min_len((rows / (4 * rayon::current_num_threads().max(1))).max(1))
+            // One accumulator of the points per thread, no more (they are the memory).
+            .with_min_len(rows.div_ceil(rayon::current_num_threads().max(1)).max(1))
             .fold(
                 || (vec![Vec3::ZERO; points.len()], 0.0f64, 0.0f64),
                 |(mut acc, mut sent, mut kept), j| {
