@@ -1,9 +1,9 @@
-//! Method `water`'s caustics layer (CPU; the direct frame under it is `gpu`'s
-//! `direct_frame_*`): `sea-floor-low-sun` seen from above through the waves, at 800×600 and
-//! 1920×1080, in the physical and the article's mode, per pixel (3 × 3 points a pixel at
-//! 800×600, 2 × 2 at 1080p: the default's cap of 8 Mi points) and in the light map, and the
-//! article's per-vertex variant at 800×600. One frame of a sequence: the receivers' BVH is
-//! built once, as a sequence keeps it. Quote the medians with the machine (cores).
+//! Method `water`: its caustics layer on the CPU (the direct frame under it is `gpu`'s
+//! `direct_frame_*`), `sea-floor-low-sun` seen from above through the waves, at 800×600 and
+//! 1920×1080, in the physical and the article's mode, per pixel (3 × 3 points a pixel, the
+//! default, or one), in the light map and per vertex, the receivers' BVH built once as a
+//! sequence keeps it; and the article's per-pixel pass on the GPU (variant `shader`), whole
+//! frames. Quote the medians with the machine (cores) and the adapter.
 
 use caustica::render::water::{Mode, Receivers, Variant, WaterParams, WaterStats, render_layer};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -59,5 +59,43 @@ fn bench_water(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_water);
+/// The article's per-pixel pass on the GPU (variant `shader`): the whole frame (shadow maps,
+/// direct, G-buffer, the water pass, readback) at 800×600 and 1920×1080, on whatever adapter
+/// `GpuContext` picks; the water pass's own GPU time is printed from the frame's timestamps.
+fn bench_water_shader(c: &mut Criterion) {
+    use caustica::gpu::{GpuConfig, GpuContext};
+    use caustica::render::water::gpu::WaterGpuLayer;
+    use caustica::render::{RenderOptions, Renderer};
+    let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::default()).expect("no GPU adapter"));
+    println!("adapter: {}", ctx.adapter_info());
+    let mut renderer = Renderer::new(ctx).expect("renderer");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sea-floor-low-sun.json");
+    let base = caustica::scene::load_scene_file(&path, &Default::default()).expect("scene");
+    let p = WaterParams {
+        mode: Mode::Article,
+        variant: Variant::Shader,
+        ..Default::default()
+    };
+    let mut g = c.benchmark_group("water");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    for (w, h) in [(800, 600), (1920, 1080)] {
+        let mut world = base.clone();
+        world.camera.width = w;
+        world.camera.height = h;
+        let layer = WaterGpuLayer::build(&world, &p).expect("layer");
+        let opts = RenderOptions::default();
+        for _ in 0..2 {
+            let out = renderer.render_water(&world, &opts, &layer).expect("frame");
+            println!("article shader {w}x{h}: {:?}", out.timings);
+        }
+        g.bench_function(
+            format!("article_shader_frame_{w}x{h}_sea_floor_low_sun"),
+            |b| b.iter(|| renderer.render_water(&world, &opts, &layer).expect("frame")),
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_water, bench_water_shader);
 criterion_main!(benches);

@@ -112,7 +112,8 @@ enum Cmd {
         #[arg(long, value_enum)]
         water_mode: Option<caustica::render::water::Mode>,
         /// Water: where the caustics are computed: pixel (default), texture (a mipmapped light
-        /// map) or vertex (a coarse grid, the article's first version).
+        /// map), vertex (a coarse grid, the article's first version) or shader (the article's
+        /// per-pixel pass on the GPU; --water-mode article).
         #[arg(long, value_enum)]
         water_variant: Option<caustica::render::water::Variant>,
         /// Water, physical: sun rays per side of the water's rectangle (default 512).

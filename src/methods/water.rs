@@ -9,6 +9,7 @@ use super::{
     RenderPlan, from_value,
 };
 use crate::render::RenderOptions;
+use crate::render::water::gpu::WaterGpuLayer;
 use crate::render::water::{
     MAX_GRID, MAX_MAP, MAX_PIXEL_SAMPLES, MAX_POINTS, MAX_SUN_SAMPLES, Mode, Receivers, Variant,
     WaterParams, WaterStats, render_layer, suns,
@@ -122,6 +123,17 @@ impl MethodImpl for Water {
         };
         check_scene(world)?;
         let mut params = a.params();
+        if params.variant == Variant::Shader && params.mode != Mode::Article {
+            return Err(ParamError::new(
+                "water.variant",
+                "variant shader (the article's per-pixel pass on the GPU) takes the article's \
+                 mode only: add water_mode article (--water-mode article)",
+            ));
+        }
+        if params.variant == Variant::Shader {
+            crate::render::water::gpu::WaterGpuLayer::build(world, &params)
+                .map_err(|e| ParamError::new("water.variant", e))?;
+        }
         let pixels = u64::from(world.camera.width) * u64::from(world.camera.height);
         let points = |k: u32| pixels * u64::from(k) * u64::from(k);
         if a.pixel_samples.is_none() {
@@ -194,6 +206,33 @@ fn receiver_keys(world: &World) -> Vec<ReceiverKey> {
 }
 
 impl Plan {
+    /// Variant `shader`: the article's per-pixel pass in the GPU's frame.
+    fn frames_on_the_gpu(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
+        let mut timings = Vec::new();
+        let t = Instant::now();
+        let layer = WaterGpuLayer::build(world, &self.params)
+            .map_err(|e| ParamError::new("water.variant", e))?;
+        timings.push(("calibration".into(), t.elapsed()));
+        env.check()?;
+        (env.progress)(0.2, "render");
+        let out = env.render(&mut timings, |r| {
+            r.render_water(world, &RenderOptions::default(), &layer)
+        })?;
+        let mut frames = Frames::from_output(out, timings);
+        let p = &self.params;
+        frames.statistics = Some(serde_json::json!({
+            "mode": p.mode.name(),
+            "variant": p.variant.name(),
+            "sun_map_width_deg": p.sun_map_width.to_degrees(),
+            "article_calibration": [layer.calibration],
+        }));
+        frames.notes.push(format!(
+            "water, article mode, shader variant (GPU), brightness calibration {:.4}",
+            layer.calibration
+        ));
+        Ok(frames)
+    }
+
     /// The receivers of `world`, made again only when they changed; whether they were kept.
     fn receivers(&self, world: &World) -> (Arc<Receivers>, bool) {
         let key = receiver_keys(world);
@@ -215,6 +254,9 @@ impl RenderPlan for Plan {
     }
 
     fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
+        if self.params.variant == Variant::Shader {
+            return self.frames_on_the_gpu(world, env);
+        }
         let mut timings = Vec::new();
         (env.progress)(0.0, "receivers");
         let t = Instant::now();

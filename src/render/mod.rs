@@ -51,6 +51,8 @@ pub enum Caustics<'a> {
     Csl(&'a CslLayer),
     Transport(&'a TransportLayer),
     Pinhole(&'a PinholeLayer),
+    /// The article's per-pixel water pass (method `water`, variant `shader`).
+    Water(&'a water::gpu::WaterGpuLayer),
 }
 
 /// Which layers to compute and read back.
@@ -158,7 +160,9 @@ struct DeviceCache {
     transport: Option<transport::TransportPipelines>,
     /// Built on the first pinhole frame, with the environment pyramid of its map.
     pinhole: Option<pinhole::PinholePipeline>,
-    /// Built on the first frame that needs a G-buffer (transport, pinhole).
+    /// Built on the first water frame.
+    water: Option<water::gpu::WaterPipeline>,
+    /// Built on the first frame that needs a G-buffer (transport, pinhole, water).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
     targets: Option<direct::Targets>,
@@ -211,7 +215,10 @@ impl DeviceCache {
                 .get_or_insert_with(|| pinhole::PinholePipeline::new(dev))
                 .fit(dev, queue, layer);
         }
-        if plan.transport.is_some() || plan.pinhole.is_some() {
+        if plan.water.is_some() && self.water.is_none() {
+            self.water = Some(water::gpu::WaterPipeline::new(dev));
+        }
+        if plan.needs_gbuffer() {
             if self.gbuffer_pipeline.is_none() {
                 self.gbuffer_pipeline = Some(gbuffer::GBufferPipeline::new(dev));
             }
@@ -267,6 +274,7 @@ impl Renderer {
             shadow,
             transport: None,
             pinhole: None,
+            water: None,
             gbuffer_pipeline: None,
             targets: None,
             gbuffer: None,
@@ -328,6 +336,17 @@ impl Renderer {
         layer: &PinholeLayer,
     ) -> Result<RenderOutput, RenderError> {
         self.render_with(world, opts, Caustics::Pinhole(layer))
+    }
+
+    /// Renders `world` and its caustics layer by the article's per-pixel water pass
+    /// (`RenderOutput::caustics` is then `Some`).
+    pub fn render_water(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &water::gpu::WaterGpuLayer,
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_with(world, opts, Caustics::Water(layer))
     }
 
     /// Replaces the loop iterations one shader invocation is taken to be allowed
@@ -423,19 +442,21 @@ impl Renderer {
             timestamps::Timestamps::new(&self.ctx, dev, 3)
         })?;
         let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
-        let (frame, volumes, pinhole_buffers, generation) = self.ctx.scoped(dev, || {
-            let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
-            (
-                direct::FrameBuffers::upload(dev, &plan.globals, &plan.lights, &csl),
-                plan.transport
-                    .map(|l| transport::upload_volumes(dev, &l.volumes)),
-                plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
-                    let env = p.env.as_ref().expect("fitted");
-                    pinhole::PinholeBuffers::upload(dev, l, env, loop_budget, cap)
-                }),
-                generation,
-            )
-        })?;
+        let (frame, volumes, pinhole_buffers, water_buffers, generation) =
+            self.ctx.scoped(dev, || {
+                let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
+                (
+                    direct::FrameBuffers::upload(dev, &plan.globals, &plan.lights, &csl),
+                    plan.transport
+                        .map(|l| transport::upload_volumes(dev, &l.volumes)),
+                    plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
+                        let env = p.env.as_ref().expect("fitted");
+                        pinhole::PinholeBuffers::upload(dev, l, env, loop_budget, cap)
+                    }),
+                    plan.water.map(|l| water::gpu::WaterBuffers::upload(dev, l)),
+                    generation,
+                )
+            })?;
         let blockers = self.ctx.scoped(dev, || {
             c.occluders
                 .prepare(dev, world, generation, plan.caustic_objects)
@@ -474,11 +495,9 @@ impl Renderer {
                 env,
                 ts.as_mut(),
             );
-            if let (true, Some(gp), Some(gb)) = (
-                plan.transport.is_some() || plan.pinhole.is_some(),
-                &c.gbuffer_pipeline,
-                &c.gbuffer,
-            ) {
+            if let (true, Some(gp), Some(gb)) =
+                (plan.needs_gbuffer(), &c.gbuffer_pipeline, &c.gbuffer)
+            {
                 gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals);
             }
             if let (Some(pb), Some(pp), Some(gb)) = (&pinhole_buffers, &c.pinhole, &c.gbuffer) {
@@ -491,6 +510,20 @@ impl Renderer {
                     &frame.globals,
                     blockers,
                     pb,
+                    targets,
+                    ts.as_mut(),
+                );
+            }
+            if let (Some(wb), Some(wp), Some(gb)) = (&water_buffers, &c.water, &c.gbuffer) {
+                water::gpu::encode(
+                    dev,
+                    &mut enc,
+                    wp,
+                    gb,
+                    scene,
+                    &frame.globals,
+                    blockers,
+                    wb,
                     targets,
                     ts.as_mut(),
                 );

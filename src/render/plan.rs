@@ -73,6 +73,7 @@ pub struct FramePlan<'a> {
     pub csl: Option<CslFrame<'a>>,
     pub transport: Option<&'a TransportLayer>,
     pub pinhole: Option<&'a PinholeLayer>,
+    pub water: Option<&'a super::water::gpu::WaterGpuLayer>,
     /// The objects whose own caustic light nothing else occludes (the caustic objects of the
     /// method), when the frame has caustics.
     pub caustic_objects: Option<&'a [usize]>,
@@ -85,11 +86,12 @@ impl<'a> FramePlan<'a> {
         caustics: Caustics<'a>,
         dev: &DeviceLimits,
     ) -> Result<FramePlan<'a>, RenderError> {
-        let (csl, transport, pinhole) = match caustics {
-            Caustics::None => (None, None, None),
-            Caustics::Csl(l) => (Some(l), None, None),
-            Caustics::Transport(l) => (None, Some(l), None),
-            Caustics::Pinhole(l) => (None, None, Some(l)),
+        let (csl, transport, pinhole, water) = match caustics {
+            Caustics::None => (None, None, None, None),
+            Caustics::Csl(l) => (Some(l), None, None, None),
+            Caustics::Transport(l) => (None, Some(l), None, None),
+            Caustics::Pinhole(l) => (None, None, Some(l), None),
+            Caustics::Water(l) => (None, None, None, Some(l)),
         };
         if transport.is_some()
             && let Some(why) = dev.transport_unsupported()
@@ -213,7 +215,8 @@ impl<'a> FramePlan<'a> {
             .as_ref()
             .map(|c| c.layer.caustic_objects.as_slice())
             .or(transport.map(|t| t.caustic_objects.as_slice()))
-            .or(pinhole.map(|_| &[][..]));
+            .or(pinhole.map(|_| &[][..]))
+            .or(water.map(|w| w.surfaces.as_slice()));
         Ok(FramePlan {
             width,
             height,
@@ -223,13 +226,22 @@ impl<'a> FramePlan<'a> {
             csl,
             transport,
             pinhole,
+            water,
             caustic_objects,
         })
     }
 
     /// Whether the frame has a caustics layer to read back.
     pub fn has_caustics(&self) -> bool {
-        self.csl.is_some() || self.transport.is_some() || self.pinhole.is_some()
+        self.csl.is_some()
+            || self.transport.is_some()
+            || self.pinhole.is_some()
+            || self.water.is_some()
+    }
+
+    /// Whether a pass gathers caustics per pixel over the G-buffer of the receivers.
+    pub fn needs_gbuffer(&self) -> bool {
+        self.transport.is_some() || self.pinhole.is_some() || self.water.is_some()
     }
 }
 

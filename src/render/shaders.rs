@@ -14,6 +14,7 @@ pub const FILES: &[(&str, &str)] = &[
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
+    ("water.wgsl", include_str!("../../shaders/water.wgsl")),
     (
         "transport.wgsl",
         include_str!("../../shaders/transport.wgsl"),
@@ -267,6 +268,26 @@ mod tests {
                 ("env_scale", offset_of!(GpuPinhole, env_scale)),
                 ("env_size", offset_of!(GpuPinhole, env_size)),
                 ("draw", offset_of!(GpuPinhole, draw)),
+            ],
+        );
+    }
+
+    #[test]
+    fn the_water_uniform_has_the_wgsl_layout() {
+        use crate::render::water::gpu::GpuWater;
+        mirror(
+            "water.wgsl",
+            "Water",
+            size_of::<GpuWater>(),
+            &[
+                ("centre", offset_of!(GpuWater, centre)),
+                ("size", offset_of!(GpuWater, size)),
+                ("absorption", offset_of!(GpuWater, absorption)),
+                ("article", offset_of!(GpuWater, article)),
+                ("counts", offset_of!(GpuWater, counts)),
+                ("sun", offset_of!(GpuWater, sun)),
+                ("beam", offset_of!(GpuWater, beam)),
+                ("up", offset_of!(GpuWater, up)),
             ],
         );
     }

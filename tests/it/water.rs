@@ -451,3 +451,61 @@ fn the_reference_agrees_with_mitsuba_on_a_wavy_frame() {
     // reflection) is the rest: indirect, a few per cent.
     assert!(caustics.flux_ratio < total.flux_ratio, "{caustics:?}");
 }
+
+#[test]
+fn the_articles_pixel_shader_on_the_gpu_gives_the_cpus_frame() {
+    use caustica::render::water::gpu::WaterGpuLayer;
+    // Under the surface (receivers from the G-buffer, the rock's shadow from the blockers) and
+    // from above (the floor plane through the waves), one point a pixel on both sides.
+    for (scene, camera, object) in [
+        ("sea-floor-low-sun", Some(SEA_CAMERA), "sea-floor"),
+        ("pool-noon", None, "pool"),
+    ] {
+        let mut w = match camera {
+            Some(c) => at(scene, c, 0.7),
+            None => scenes::load(scene),
+        };
+        w.camera.width = 96;
+        w.camera.height = 72;
+        let p = WaterParams {
+            mode: Mode::Article,
+            variant: Variant::Shader,
+            pixel_samples: 1,
+            ..Default::default()
+        };
+        let layer = WaterGpuLayer::build(&w, &p).unwrap();
+        let out = crate::support::gpu::renderer()
+            .render_water(&w, &Default::default(), &layer)
+            .unwrap();
+        let gpu = out.caustics.expect("a caustics layer");
+        let (cpu, _) = layer_of(&w, &p);
+        let (l1, flux) = error(&w, &gpu, &cpu, object);
+        eprintln!("{scene}: GPU against CPU rel L1 {l1:.4}, flux ratio {flux:.4}");
+        assert!(l1 < 0.03, "{scene}: {l1}");
+        assert!((flux - 1.0).abs() < 0.01, "{scene}: {flux}");
+        assert!(gpu.pixels.iter().any(|p| p.x > 0.0), "{scene}: lit");
+    }
+    // The physical mode has no shader.
+    let w = at("sea-floor-low-sun", SEA_CAMERA, 0.0);
+    let args = caustica::methods::MethodArgs {
+        water: Some(serde_json::json!({"variant": "shader"})),
+        ..Default::default()
+    };
+    let e = caustica::methods::Method::Water
+        .imp()
+        .plan(&w, &args)
+        .err()
+        .expect("refused");
+    assert_eq!(e.field, "water.variant", "{e}");
+}
+
+/// The CPU layer with `p`'s variant taken as per pixel.
+fn layer_of(world: &World, p: &WaterParams) -> (Frame, WaterStats) {
+    layer(
+        world,
+        &WaterParams {
+            variant: Variant::Pixel,
+            ..p.clone()
+        },
+    )
+}

@@ -21,6 +21,7 @@
 //! finite differences in the article mode).
 
 pub mod article;
+pub mod gpu;
 pub mod physical;
 pub mod view;
 
@@ -53,6 +54,9 @@ pub enum Variant {
     Texture,
     /// A grid of vertices interpolated bilinearly (the article's per-vertex version).
     Vertex,
+    /// The article's mode per pixel in a fragment shader on the GPU ([`gpu`]; the CPU's
+    /// [`render_layer`] takes it as `Pixel`).
+    Shader,
 }
 
 impl Mode {
@@ -70,6 +74,7 @@ impl Variant {
             Variant::Pixel => "pixel",
             Variant::Texture => "texture",
             Variant::Vertex => "vertex",
+            Variant::Shader => "shader",
         }
     }
 }
@@ -273,7 +278,9 @@ pub fn render_layer(
             .map(|&i| views[i].as_ref().expect("kept").point)
             .collect();
         let e = match params.variant {
-            Variant::Pixel => irradiance(world, recv, body, params, &pts, None, stats),
+            Variant::Pixel | Variant::Shader => {
+                irradiance(world, recv, body, params, &pts, None, stats)
+            }
             Variant::Texture | Variant::Vertex => {
                 let vertex = params.variant == Variant::Vertex;
                 let res = if vertex {

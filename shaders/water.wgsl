@@ -1,0 +1,280 @@
+// Underwater caustics, the article's per-pixel pass (Sanchez-Crespo 2003; render/water/gpu.rs):
+// at the receiver point q each pixel sees under the water (in the G-buffer, or, where the
+// camera looks at the water from above, the water's floor plane reached by the view ray
+// refracted at the wave surface), a ray towards the sun as a flat surface refracts it, up to
+// the wave surface at s; the waves' analytic normal at s refracts it out into the air, and the
+// sun map exp(-(theta/width)^2) of its angle theta to the sun gives the brightness, calibrated
+// on the CPU so that its mean over the floor is 1. The irradiance is the flat surface's times
+// that brightness and Beer-Lambert along |q - s|; the receiver reflects it diffusely
+// (albedo / pi) towards the camera, attenuated along the water the view ray crosses. Objects
+// between q and s (a rock over the floor) shadow it: the frame's blockers, every object but the
+// water surfaces.
+
+#include "common.inc.wgsl"
+#include "occlusion.inc.wgsl"
+
+struct Water {
+    // xyz: the rectangle's centre at the mean surface height; w: depth of the body.
+    centre: vec4<f32>,
+    // xy: the rectangle's size (x, z); z: time (s); w: the water's index of refraction.
+    size: vec4<f32>,
+    // rgb: absorption per metre; w: 0 for the article's waves, 1 for sine waves.
+    absorption: vec4<f32>,
+    // The article's waves: amplitude, frequency, factor, speed.
+    article: vec4<f32>,
+    // x: octaves; y: sine waves; z: the floor's material index (0xffffffff: none); w: unused.
+    counts: vec4<u32>,
+    // xyz: the sun's travel direction; w: the sun map's width (radians).
+    sun: vec4<f32>,
+    // rgb: irradiance on a surface facing the refracted sun under a flat surface, times the
+    // calibration; w: a bound on |height - mean|.
+    beam: vec4<f32>,
+    // xyz: towards the sun in the water (the flat surface's refraction, reversed); w: the
+    // march step along the surface, metres (a sixteenth of the shortest wavelength).
+    up: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> g: Globals;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(10) var gbuf_position: texture_2d<f32>;
+@group(0) @binding(11) var gbuf_normal: texture_2d<f32>;
+@group(0) @binding(20) var<uniform> water: Water;
+// Two per sine wave: (k.x, k.z, amplitude, omega), (phase, 0, 0, 0).
+@group(0) @binding(21) var<storage, read> waves: array<vec4<f32>>;
+
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    // One triangle over the whole target.
+    let x = f32((i << 1u) & 2u);
+    let y = f32(i & 2u);
+    return vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+}
+
+// Height above the mean surface (x) and its gradient (y: d/dx, z: d/dz) at world (px, pz).
+fn wave(px: f32, pz: f32) -> vec3<f32> {
+    let lx = px - water.centre.x;
+    let lz = pz - water.centre.z;
+    let t = water.size.z;
+    if water.absorption.w < 0.5 {
+        // z = 2 A d sum_i -f_i cos(t S + u v W / f_i), u, v in [0, 1] across the rectangle,
+        // heights in units of its x side.
+        let a = water.article;
+        let s = water.size.xy;
+        let u = lx / s.x + 0.5;
+        let v = lz / s.y + 0.5;
+        let d = sqrt(u * u + v * v);
+        var c = 0.0;
+        var sn = 0.0;
+        var f = a.z;
+        for (var i = 0u; i < water.counts.x; i++) {
+            let ph = t * a.w + u * v * a.y / f;
+            c -= f * cos(ph);
+            sn += sin(ph);
+            f *= 0.5;
+        }
+        let z = 2.0 * a.x * d * c;
+        var du = 0.0;
+        var dv = 0.0;
+        if d > 0.0 {
+            du = u / d;
+            dv = v / d;
+        }
+        let zu = 2.0 * a.x * (du * c + d * sn * v * a.y);
+        let zv = 2.0 * a.x * (dv * c + d * sn * u * a.y);
+        return vec3<f32>(z * s.x, zu, zv * s.x / s.y);
+    }
+    var h = 0.0;
+    var gx = 0.0;
+    var gz = 0.0;
+    for (var i = 0u; i < water.counts.y; i++) {
+        let w = waves[2u * i];
+        let ph = w.x * lx + w.y * lz - w.w * t + waves[2u * i + 1u].x;
+        h += w.z * sin(ph);
+        let c = w.z * cos(ph);
+        gx += w.x * c;
+        gz += w.y * c;
+    }
+    return vec3<f32>(h, gx, gz);
+}
+
+fn inside_rect(p: vec3<f32>) -> bool {
+    let l = abs(p.xz - water.centre.xz);
+    return l.x <= 0.5 * water.size.x && l.y <= 0.5 * water.size.y;
+}
+
+fn above(p: vec3<f32>) -> f32 {
+    return p.y - (water.centre.y + wave(p.x, p.z).x);
+}
+
+// The first crossing of o + t d (0 < t < t_max) with the surface over the rectangle: marched
+// inside the slab the waves stay in, refined by regula falsi; t < 0 when there is none.
+fn cross_surface(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> f32 {
+    let a = water.beam.w + 1e-4;
+    var t0 = 1e-6;
+    var t1 = t_max;
+    if abs(d.y) < 1e-9 {
+        if abs(o.y - water.centre.y) > a {
+            return -1.0;
+        }
+    } else {
+        let ta = (water.centre.y - a - o.y) / d.y;
+        let tb = (water.centre.y + a - o.y) / d.y;
+        t0 = max(t0, min(ta, tb));
+        t1 = min(t1, max(ta, tb));
+    }
+    if t0 >= t1 {
+        return -1.0;
+    }
+    let horiz = max(length(d.xz), 1e-6);
+    let step = max(water.up.w / horiz, (t1 - t0) / 256.0);
+    var ta = t0;
+    var fa = above(o + d * ta);
+    for (var k = 0u; k < 256u && ta < t1; k++) {
+        let tb = min(ta + step, t1);
+        let fb = above(o + d * tb);
+        if sign(fa) != sign(fb) {
+            var lo = ta;
+            var hi = tb;
+            var flo = fa;
+            var fhi = fb;
+            var t = 0.5 * (lo + hi);
+            for (var j = 0u; j < 16u; j++) {
+                t = (lo * fhi - hi * flo) / (fhi - flo);
+                if !(t > lo && t < hi) {
+                    t = 0.5 * (lo + hi);
+                }
+                let ft = above(o + d * t);
+                if abs(ft) < 1e-7 {
+                    break;
+                }
+                if sign(ft) == sign(flo) {
+                    lo = t;
+                    flo = ft;
+                } else {
+                    hi = t;
+                    fhi = ft;
+                }
+            }
+            if inside_rect(o + d * t) {
+                return t;
+            }
+        }
+        ta = tb;
+        fa = fb;
+    }
+    return -1.0;
+}
+
+fn normal_at(p: vec3<f32>) -> vec3<f32> {
+    let w = wave(p.x, p.z);
+    return normalize(vec3<f32>(-w.y, 1.0, -w.z));
+}
+
+fn beer(len: f32) -> vec3<f32> {
+    return exp(-water.absorption.rgb * len);
+}
+
+fn in_water(p: vec3<f32>) -> bool {
+    return inside_rect(p) && p.y > water.centre.y - water.centre.w - 1e-3 && above(p) < 0.0;
+}
+
+// The irradiance at q (unit normal n) under the water, the article's way.
+fn irradiance(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let u = water.up.xyz;
+    let facing = dot(n, u);
+    if facing <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let o = q + n * 1e-4;
+    let t = cross_surface(o, u, 1e30);
+    if t < 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if occluded(o, u, t) {
+        return vec3<f32>(0.0);
+    }
+    let s = o + u * t;
+    let ns = normal_at(s);
+    // Leaving the water: the normal facing the ray is -ns, eta = ior / 1.
+    let a = refract(u, -ns, water.size.w);
+    if dot(a, a) == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let theta = acos(clamp(dot(a, -water.sun.xyz), -1.0, 1.0));
+    let b = exp(-(theta / water.sun.w) * (theta / water.sun.w));
+    return water.beam.rgb * (facing * b) * beer(t);
+}
+
+fn fresnel(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let sin2_t = eta * eta * (1.0 - c * c);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let rs = (eta * c - cos_t) / (eta * c + cos_t);
+    let rp = (c - eta * cos_t) / (c + eta * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+@fragment
+fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(frag.xy);
+    let gp = textureLoad(gbuf_position, px, 0);
+    let gn = textureLoad(gbuf_normal, px, 0);
+    let eye = g.eye.xyz;
+    if gp.w > 0.0 {
+        // A receiver seen directly: under the water, or not lit by it.
+        let q = gp.xyz;
+        if !in_water(q + normalize(gn.xyz) * 1e-3) {
+            return vec4<f32>(0.0);
+        }
+        let m = materials[u32(gn.w)];
+        var through = vec3<f32>(1.0);
+        if in_water(0.5 * (eye + q)) {
+            through = beer(distance(eye, q));
+        }
+        let e = irradiance(q, normalize(gn.xyz));
+        return vec4<f32>(m.albedo.rgb / PI * e * through, 0.0);
+    }
+    // Seen through the waves from above: the view ray refracted at the surface to the
+    // water's floor plane.
+    if water.counts.z == 0xffffffffu {
+        return vec4<f32>(0.0);
+    }
+    let ndc = vec2<f32>(
+        (frag.x / g.viewport.x) * 2.0 - 1.0,
+        1.0 - (frag.y / g.viewport.y) * 2.0,
+    );
+    let far = g.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let d = normalize(far.xyz / far.w - eye);
+    var t_max = 1e30;
+    if gp.w < 0.0 || dot(gp.xyz, gp.xyz) > 0.0 {
+        // Something is drawn there: the surface must come before it (or at it).
+        t_max = distance(eye, gp.xyz) + 0.05;
+    }
+    let t = cross_surface(eye, d, t_max);
+    if t < 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let s = eye + d * t;
+    let ns = normal_at(s);
+    if dot(d, ns) >= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let eta = 1.0 / water.size.w;
+    let r = refract(d, ns, eta);
+    let floor_y = water.centre.y - water.centre.w;
+    if r.y >= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    let l = (floor_y - s.y) / r.y;
+    let q = s + r * l;
+    if !inside_rect(q) {
+        return vec4<f32>(0.0);
+    }
+    let m = materials[water.counts.z];
+    let tr = (1.0 - fresnel(-dot(d, ns), eta)) * eta * eta;
+    let e = irradiance(q, vec3<f32>(0.0, 1.0, 0.0));
+    return vec4<f32>(m.albedo.rgb / PI * e * tr * beer(l), 0.0);
+}
