@@ -16,11 +16,13 @@
 struct Water {
     // xyz: the rectangle's centre at the mean surface height; w: depth of the body.
     centre: vec4<f32>,
-    // xy: the rectangle's size (x, z); z: time (s); w: the water's index of refraction.
+    // xy: the rectangle's size (x, z); z: time (s, for the record); w: the water's index of
+    // refraction.
     size: vec4<f32>,
     // rgb: absorption per metre; w: 0 for the article's waves, 1 for sine waves.
     absorption: vec4<f32>,
-    // The article's waves: amplitude, frequency, factor, speed.
+    // The article's waves: amplitude, frequency, factor, and the phase time x speed (modulo
+    // 2 pi, reduced on the CPU in f64).
     article: vec4<f32>,
     // x: octaves; y: sine waves; z: the floor's material index (0xffffffff: none); w: unused.
     counts: vec4<u32>,
@@ -39,7 +41,7 @@ struct Water {
 @group(0) @binding(10) var gbuf_position: texture_2d<f32>;
 @group(0) @binding(11) var gbuf_normal: texture_2d<f32>;
 @group(0) @binding(20) var<uniform> water: Water;
-// Two per sine wave: (k.x, k.z, amplitude, omega), (phase, 0, 0, 0).
+// Two per sine wave: (k.x, k.z, amplitude, omega), (phase - omega t modulo 2 pi, 0, 0, 0).
 @group(0) @binding(21) var<storage, read> waves: array<vec4<f32>>;
 
 @vertex
@@ -54,7 +56,6 @@ fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
 fn wave(px: f32, pz: f32) -> vec3<f32> {
     let lx = px - water.centre.x;
     let lz = pz - water.centre.z;
-    let t = water.size.z;
     if water.absorption.w < 0.5 {
         // z = 2 A d sum_i -f_i cos(t S + u v W / f_i), u, v in [0, 1] across the rectangle,
         // heights in units of its x side.
@@ -67,7 +68,7 @@ fn wave(px: f32, pz: f32) -> vec3<f32> {
         var sn = 0.0;
         var f = a.z;
         for (var i = 0u; i < water.counts.x; i++) {
-            let ph = t * a.w + u * v * a.y / f;
+            let ph = a.w + u * v * a.y / f;
             c -= f * cos(ph);
             sn += sin(ph);
             f *= 0.5;
@@ -88,7 +89,7 @@ fn wave(px: f32, pz: f32) -> vec3<f32> {
     var gz = 0.0;
     for (var i = 0u; i < water.counts.y; i++) {
         let w = waves[2u * i];
-        let ph = w.x * lx + w.y * lz - w.w * t + waves[2u * i + 1u].x;
+        let ph = w.x * lx + w.y * lz + waves[2u * i + 1u].x;
         h += w.z * sin(ph);
         let c = w.z * cos(ph);
         gx += w.x * c;
@@ -121,6 +122,26 @@ fn cross_surface(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> f32 {
         let tb = (water.centre.y + a - o.y) / d.y;
         t0 = max(t0, min(ta, tb));
         t1 = min(t1, max(ta, tb));
+    }
+    // And inside the rectangle's x and z slabs.
+    let half = 0.5 * water.size.xy;
+    let lo = water.centre.xz - half;
+    let hi = water.centre.xz + half;
+    for (var k = 0u; k < 2u; k++) {
+        let oc = select(o.z, o.x, k == 0u);
+        let dc = select(d.z, d.x, k == 0u);
+        let l = select(lo.y, lo.x, k == 0u);
+        let h = select(hi.y, hi.x, k == 0u);
+        if abs(dc) < 1e-12 {
+            if oc < l || oc > h {
+                return -1.0;
+            }
+        } else {
+            let ta = (l - oc) / dc;
+            let tb = (h - oc) / dc;
+            t0 = max(t0, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        }
     }
     if t0 >= t1 {
         return -1.0;
@@ -176,6 +197,14 @@ fn beer(len: f32) -> vec3<f32> {
 
 fn in_water(p: vec3<f32>) -> bool {
     return inside_rect(p) && p.y > water.centre.y - water.centre.w - 1e-3 && above(p) < 0.0;
+}
+
+// The receiver's BRDF for light from the refracted sun (wi) seen from wo.
+fn receiver_brdf(m: Material, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    if m.kind == MAT_GLOSSY {
+        return glossy_brdf(n, water.up.xyz, wo, m.albedo.rgb, m.specular.rgb, m.roughness);
+    }
+    return m.albedo.rgb / PI;
 }
 
 // The irradiance at q (unit normal n) under the water, the article's way.
@@ -234,8 +263,9 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         if in_water(0.5 * (eye + q)) {
             through = beer(distance(eye, q));
         }
-        let e = irradiance(q, normalize(gn.xyz));
-        return vec4<f32>(m.albedo.rgb / PI * e * through, 0.0);
+        let n = normalize(gn.xyz);
+        let e = irradiance(q, n);
+        return vec4<f32>(receiver_brdf(m, n, normalize(eye - q)) * e * through, 0.0);
     }
     // Seen through the waves from above: the view ray refracted at the surface to the
     // water's floor plane.
@@ -270,11 +300,13 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     }
     let l = (floor_y - s.y) / r.y;
     let q = s + r * l;
-    if !inside_rect(q) {
+    // A receiver in between (a rock) is not found here: its pixel stays dark.
+    if !inside_rect(q) || occluded(s + r * 1e-4, r, l - 1e-3) {
         return vec4<f32>(0.0);
     }
     let m = materials[water.counts.z];
     let tr = (1.0 - fresnel(-dot(d, ns), eta)) * eta * eta;
-    let e = irradiance(q, vec3<f32>(0.0, 1.0, 0.0));
-    return vec4<f32>(m.albedo.rgb / PI * e * tr * beer(l), 0.0);
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    let e = irradiance(q, up);
+    return vec4<f32>(receiver_brdf(m, up, -r) * e * tr * beer(l), 0.0);
 }

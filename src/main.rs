@@ -499,7 +499,12 @@ fn render(
     let store = ArtifactStore::from_env();
     if let Some(times) = times {
         let t = Instant::now();
-        let seq = with_bar(plan.method().name(), |progress| {
+        if sequence_dir {
+            std::fs::create_dir_all(out).with_context(|| out.display().to_string())?;
+        }
+        // A folder gets each frame as it is made; an animation keeps 8-bit frames to the end.
+        let mut images = Vec::new();
+        with_bar(plan.method().name(), |progress| {
             caustica::methods::sequence(
                 plan.as_ref(),
                 &world,
@@ -510,17 +515,22 @@ fn render(
                     store: &store,
                 },
                 &times,
+                &mut |i, f| {
+                    let frame = f.get(component);
+                    if sequence_dir {
+                        write_frame(&out.join(format!("{i:04}.png")), frame, png)
+                            .map_err(|e| MethodError::Render(format!("{e:#}")))?;
+                    } else {
+                        images.push(encode::srgb8(frame, png));
+                    }
+                    Ok(())
+                },
             )
         })?;
         let per_frame = t.elapsed().as_secs_f64() * 1e3 / times.len() as f64;
-        let images: Vec<&Frame> = seq.iter().map(|f| f.get(component)).collect();
-        if sequence_dir {
-            std::fs::create_dir_all(out).with_context(|| out.display().to_string())?;
-            for (i, f) in images.iter().enumerate() {
-                write_frame(&out.join(format!("{i:04}.png")), f, png)?;
-            }
-        } else {
-            let bytes = encode::encode_apng(&images, anim.fps.unwrap_or(24.0), png)?;
+        if !sequence_dir {
+            let size = (world.camera.width, world.camera.height);
+            let bytes = encode::encode_apng(&images, size, anim.fps.unwrap_or(24.0))?;
             std::fs::write(out, bytes).with_context(|| format!("writing {}", out.display()))?;
         }
         eprintln!(

@@ -74,7 +74,7 @@ pub enum EncodeError {
 }
 
 /// The 8-bit sRGB bytes (RGB) of a frame, tone-mapped as `s` says.
-fn srgb8(f: &Frame, s: PngSettings) -> Vec<u8> {
+pub fn srgb8(f: &Frame, s: PngSettings) -> Vec<u8> {
     let k = 2f32.powf(s.exposure);
     let mut buf = Vec::with_capacity(f.pixels.len() * 3);
     for p in &f.pixels {
@@ -86,20 +86,21 @@ fn srgb8(f: &Frame, s: PngSettings) -> Vec<u8> {
     buf
 }
 
-/// An animated PNG (APNG) of `frames`, all of one size, shown `fps` frames a second and
-/// looping, tone-mapped as `s` says.
-pub fn encode_apng(frames: &[&Frame], fps: f32, s: PngSettings) -> Result<Vec<u8>, EncodeError> {
-    let first = frames.first().ok_or(EncodeError::LayerSize)?;
-    if frames
-        .iter()
-        .any(|f| (f.width, f.height) != (first.width, first.height))
-    {
+/// An animated PNG (APNG) of `frames`, each the [`srgb8`] bytes of a `width` × `height`
+/// frame, shown `fps` frames a second and looping.
+pub fn encode_apng(
+    frames: &[Vec<u8>],
+    (width, height): (u32, u32),
+    fps: f32,
+) -> Result<Vec<u8>, EncodeError> {
+    let size = width as usize * height as usize * 3;
+    if frames.is_empty() || frames.iter().any(|f| f.len() != size) {
         return Err(EncodeError::LayerSize);
     }
     let err = |e: png::EncodingError| EncodeError::Apng(e.to_string());
     let mut out = Vec::new();
     {
-        let mut enc = png::Encoder::new(&mut out, first.width, first.height);
+        let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_animated(frames.len() as u32, 0).map_err(err)?;
@@ -108,7 +109,7 @@ pub fn encode_apng(frames: &[&Frame], fps: f32, s: PngSettings) -> Result<Vec<u8
         enc.set_frame_delay(1000, den).map_err(err)?;
         let mut w = enc.write_header().map_err(err)?;
         for f in frames {
-            w.write_image_data(&srgb8(f, s)).map_err(err)?;
+            w.write_image_data(f).map_err(err)?;
         }
         w.finish().map_err(err)?;
     }

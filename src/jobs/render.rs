@@ -70,9 +70,9 @@ pub struct RenderParams {
     /// Water: `physical` (default) or `article`.
     #[serde(default)]
     pub water_mode: Option<crate::render::water::Mode>,
-    /// Water: `{"variant": "pixel" | "texture" | "vertex", "grid": 16..=4096, "sun_samples":
-    /// 1..=64, "map_resolution": 16..=4096, "mesh_resolution": 4..=4096, "sun_map_width":
-    /// degrees}`.
+    /// Water: `{"variant": "pixel" | "texture" | "vertex" | "shader", "grid": 16..=2048,
+    /// "sun_samples": 1..=64, "map_resolution": 16..=2048, "mesh_resolution": 4..=2048,
+    /// "sun_map_width": degrees, "pixel_samples": 1..=8}` (`methods::water::WaterArgs`).
     #[serde(default)]
     pub water: Option<serde_json::Value>,
     /// Scenes with water: the waves' time in seconds (any method); the first frame's time of a
@@ -88,8 +88,10 @@ pub struct RenderParams {
     pub fps: Option<f32>,
 }
 
-/// Most frames a sequence may ask for; the highest and lowest frame rates.
+/// Most frames a sequence may ask for, and most pixels over all its frames (each kept as 8-bit
+/// sRGB until the animation is encoded: 3 bytes a pixel).
 pub const MAX_SEQUENCE_FRAMES: u32 = 240;
+pub const MAX_SEQUENCE_PIXELS: u64 = 64 << 20;
 
 /// Checks a sequence request (`frames`, `fps`) against `world`: the times of its frames from
 /// `t0`, or None for a single frame.
@@ -111,6 +113,16 @@ pub fn sequence_times(
         return Ok(None);
     };
     ParamError::range("frames", n, 1, MAX_SEQUENCE_FRAMES)?;
+    let pixels = u64::from(n) * u64::from(world.camera.width) * u64::from(world.camera.height);
+    if pixels > MAX_SEQUENCE_PIXELS {
+        return Err(ParamError::new(
+            "frames",
+            format!(
+                "frames × width × height is {pixels}, more than {MAX_SEQUENCE_PIXELS}: ask for \
+                 fewer frames or a smaller image"
+            ),
+        ));
+    }
     if world.water.is_empty() {
         return Err(ParamError::new(
             "frames",
@@ -118,7 +130,20 @@ pub fn sequence_times(
         ));
     }
     let fps = fps.unwrap_or(24.0);
-    Ok(Some((0..n).map(|i| t0 + i as f32 / fps).collect()))
+    let times: Vec<f32> = (0..n).map(|i| t0 + i as f32 / fps).collect();
+    if times
+        .iter()
+        .any(|t| t.abs() > crate::scene::water::MAX_TIME)
+    {
+        return Err(ParamError::new(
+            "frames",
+            format!(
+                "the sequence's times pass ±{} s",
+                crate::scene::water::MAX_TIME
+            ),
+        ));
+    }
+    Ok(Some(times))
 }
 
 impl RenderParams {
@@ -156,8 +181,15 @@ pub fn apply_overrides(
     limits: &Limits,
 ) -> Result<(), JobError> {
     if let Some(t) = time {
-        if !t.is_finite() {
-            return Err(ParamError::new("time", "must be a finite number of seconds").into());
+        if !(t.is_finite() && t.abs() <= crate::scene::water::MAX_TIME) {
+            return Err(ParamError::new(
+                "time",
+                format!(
+                    "must be a number of seconds within ±{}",
+                    crate::scene::water::MAX_TIME
+                ),
+            )
+            .into());
         }
         if world.water.is_empty() {
             return Err(ParamError::new(
@@ -321,27 +353,32 @@ impl RenderJob {
     /// A sequence: the frames at `times`, one animated PNG.
     fn run_sequence(&self, ctx: &JobCtx<'_>, times: &[f32]) -> Result<Artifact, JobError> {
         let t = Instant::now();
-        let frames = ctx
-            .with_env(|env| crate::methods::sequence(self.plan.as_ref(), &self.world, env, times))
-            .map_err(|e| ctx.method_error(e))?;
+        let component = self.p.component;
+        let png = PngSettings {
+            exposure: self.p.exposure,
+            tone_map: self.p.tone_map.unwrap_or(ToneMap::Clamp),
+        };
+        // Only each frame's component, as 8-bit sRGB, is kept until the end.
+        let mut images = Vec::with_capacity(times.len());
+        let mut adapter = None;
+        ctx.with_env(|env| {
+            crate::methods::sequence(self.plan.as_ref(), &self.world, env, times, &mut |_, f| {
+                adapter.get_or_insert_with(|| f.adapter.clone());
+                images.push(encode::srgb8(f.get(component), png));
+                Ok(())
+            })
+        })
+        .map_err(|e| ctx.method_error(e))?;
         let rendered = t.elapsed();
         ctx.check()?;
         ctx.progress(1.0, "encode");
         let t = Instant::now();
-        let component = self.p.component;
-        let images: Vec<&crate::frame::Frame> = frames.iter().map(|f| f.get(component)).collect();
         let fps = self.p.fps.unwrap_or(24.0);
-        let bytes = encode::encode_apng(
-            &images,
-            fps,
-            PngSettings {
-                exposure: self.p.exposure,
-                tone_map: self.p.tone_map.unwrap_or(ToneMap::Clamp),
-            },
-        )?;
+        let cam = &self.world.camera;
+        let bytes = encode::encode_apng(&images, (cam.width, cam.height), fps)?;
         let timings = vec![("frames".into(), rendered), ("encode".into(), t.elapsed())];
         let info = serde_json::json!({
-            "adapter": frames.first().map(|f| f.adapter.clone()),
+            "adapter": adapter,
             "method": self.plan.method(),
             "width": self.world.camera.width,
             "height": self.world.camera.height,

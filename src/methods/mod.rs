@@ -499,16 +499,17 @@ fn no_bake(info: &MethodInfo) -> ParamError {
     )
 }
 
-/// The frames of `plan` for `world` with its water at each of `times` (a sequence): the plan
-/// is made once, the world changes only by its waves between frames, and a method keeps
-/// between them what does not change.
+/// The frames of `plan` for `world` with its water at each of `times` (a sequence), each handed
+/// to `each` as it is made (so that a caller keeps only what it needs of it): the plan is made
+/// once, the world changes only by its waves between frames, and a method keeps between them
+/// what does not change.
 pub fn sequence(
     plan: &dyn RenderPlan,
     world: &World,
     env: &Env,
     times: &[f32],
-) -> Result<Vec<Frames>, MethodError> {
-    let mut out = Vec::with_capacity(times.len());
+    each: &mut dyn FnMut(usize, Frames) -> Result<(), MethodError>,
+) -> Result<(), MethodError> {
     let n = times.len().max(1) as f32;
     for (i, &t) in times.iter().enumerate() {
         env.check()?;
@@ -522,9 +523,9 @@ pub fn sequence(
             gpu: env.gpu,
             store: env.store,
         };
-        out.push(plan.frames(&w, &sub)?);
+        each(i, plan.frames(&w, &sub)?)?;
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Indices of the objects with a glass or mirror part: the objects that cast caustics.

@@ -31,15 +31,15 @@ pub static INFO: MethodInfo = MethodInfo {
 pub struct Water;
 
 /// The `water` field of a render request (the API's `water_mode` is its `mode`; the CLI's
-/// `--water-mode`, `--water-variant`, `--grid`, `--sun-samples`, `--map-resolution`,
-/// `--mesh-resolution`, `--sun-map-width`).
+/// `--water-mode`, `--water-variant`, `--water-grid`, `--sun-samples`, `--map-resolution`,
+/// `--mesh-resolution`, `--sun-map-width`, `--pixel-samples`).
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct WaterArgs {
     /// physical (default) or article.
     #[serde(default)]
     pub mode: Option<Mode>,
-    /// pixel (default), texture or vertex.
+    /// pixel (default), texture, vertex or shader (the article's per-pixel pass on the GPU).
     #[serde(default)]
     pub variant: Option<Variant>,
     /// Physical: sun rays per side of each water rectangle, 16..=2048 (default 512).
@@ -142,7 +142,8 @@ impl MethodImpl for Water {
                 params.pixel_samples -= 1;
             }
         }
-        if points(params.pixel_samples) > MAX_POINTS {
+        // The shader takes no CPU points.
+        if params.variant != Variant::Shader && points(params.pixel_samples) > MAX_POINTS {
             return Err(ParamError::new(
                 if a.pixel_samples.is_some() {
                     "water.pixel_samples"

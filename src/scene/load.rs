@@ -715,10 +715,13 @@ fn resolve_water(
         positive(&sp("size[0]"), wd.size[0])?,
         positive(&sp("size[1]"), wd.size[1])?,
     );
-    if !wd.time.is_finite() {
+    if !(wd.time.is_finite() && wd.time.abs() <= super::water::MAX_TIME) {
         return Err(SceneError::invalid(
             sp("time"),
-            "must be a finite number of seconds",
+            format!(
+                "must be a number of seconds within ±{}",
+                super::water::MAX_TIME
+            ),
         ));
     }
     if !(wd.ior.is_finite() && wd.ior > 1.0 && wd.ior <= 3.0) {

@@ -124,6 +124,15 @@ pub fn default_absorption() -> [f32; 3] {
     [-(0.77f32.ln()), -(0.785f32.ln()), -(0.80f32.ln())]
 }
 
+/// The largest |time| in seconds a water surface takes (phases stay exact: they are reduced
+/// modulo 2π in f64 before the f32 wave sums).
+pub const MAX_TIME: f32 = 1e6;
+
+/// (rate · t) modulo 2π, worked out in f64 so that a late time keeps its precision.
+pub fn phase_at(rate: f32, t: f32) -> f32 {
+    (f64::from(rate) * f64::from(t)).rem_euclid(std::f64::consts::TAU) as f32
+}
+
 /// The most waves a physical preset may have, octaves an article preset.
 pub const MAX_WAVES: usize = 64;
 pub const MAX_OCTAVES: u32 = 16;
@@ -212,8 +221,8 @@ impl Waves {
                         return bad(&f("heading"), "heading and phase must be finite");
                     }
                     let speed = match w.speed {
-                        Some(s) if !s.is_finite() => {
-                            return bad(&f("speed"), "must be a finite number of m/s");
+                        Some(s) if !(s.is_finite() && s.abs() <= 1000.0) => {
+                            return bad(&f("speed"), "must lie in -1000..=1000 m/s");
                         }
                         Some(s) => s,
                         None => (GRAVITY / k).sqrt(),
@@ -274,8 +283,9 @@ impl WaterSurface {
                 let d = (u * u + v * v).sqrt();
                 let (mut c, mut sn) = (0.0f32, 0.0f32);
                 let mut f = *factor;
+                let ts = phase_at(*speed, self.time);
                 for _ in 0..*octaves {
-                    let ph = self.time * speed + u * v * frequency / f;
+                    let ph = ts + u * v * frequency / f;
                     c -= f * ph.cos();
                     sn += ph.sin();
                     f *= 0.5;
@@ -293,7 +303,7 @@ impl WaterSurface {
                 let mut h = 0.0;
                 let mut g = Vec2::ZERO;
                 for w in waves {
-                    let ph = w.k.dot(p) - w.omega * self.time + w.phase;
+                    let ph = w.k.dot(p) - phase_at(w.omega, self.time) + w.phase;
                     h += w.amplitude * ph.sin();
                     g += w.k * (w.amplitude * ph.cos());
                 }
@@ -378,6 +388,21 @@ impl WaterSurface {
         };
         t0 = t0.max(1e-6);
         t1 = t1.min(t_max);
+        // And inside the rectangle's x and z slabs.
+        for (o, d, c, h) in [
+            (o.x, d.x, self.centre.x, self.size.x * 0.5),
+            (o.z, d.z, self.centre.z, self.size.y * 0.5),
+        ] {
+            if d.abs() < 1e-12 {
+                if (o - c).abs() > h {
+                    return None;
+                }
+            } else {
+                let (ta, tb) = ((c - h - o) / d, (c + h - o) / d);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
         if t0 >= t1 {
             return None;
         }

@@ -14,6 +14,7 @@ use crate::render::gbuffer::GBuffer;
 use crate::render::scene::{BlockerBuffers, SceneBuffers};
 use crate::render::shaders;
 use crate::render::timestamps::Timestamps;
+use crate::scene::water::phase_at;
 use crate::scene::{WaterBody, Waves, World};
 use crate::trace::optics::fresnel_dielectric;
 use bytemuck::{Pod, Zeroable};
@@ -83,7 +84,7 @@ impl WaterGpuLayer {
                 speed,
             } => (
                 0.0,
-                [*amplitude, *frequency, *factor, *speed],
+                [*amplitude, *frequency, *factor, phase_at(*speed, s.time)],
                 *octaves,
                 vec![[0.0; 4]; 2],
             ),
@@ -93,10 +94,9 @@ impl WaterGpuLayer {
                 0,
                 ws.iter()
                     .flat_map(|w| {
-                        [
-                            [w.k.x, w.k.y, w.amplitude, w.omega],
-                            [w.phase, 0.0, 0.0, 0.0],
-                        ]
+                        let ph =
+                            (w.phase - phase_at(w.omega, s.time)).rem_euclid(std::f32::consts::TAU);
+                        [[w.k.x, w.k.y, w.amplitude, w.omega], [ph, 0.0, 0.0, 0.0]]
                     })
                     .collect(),
             ),

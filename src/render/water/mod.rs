@@ -375,7 +375,12 @@ impl LightMap {
             .collect();
         let live: Vec<usize> = (0..probes.len()).filter(|&k| probes[k].is_some()).collect();
         let pts: Vec<RecvPoint> = live.iter().map(|&k| probes[k].expect("live")).collect();
-        let step = s.size.x / res.max(2) as f32;
+        // The spacing of the samples along x (of the vertices, or of the texels).
+        let step = if corners {
+            s.size.x / (res - 1).max(1) as f32
+        } else {
+            s.size.x / res.max(1) as f32
+        };
         let e = irradiance(
             world,
             recv,

@@ -69,7 +69,7 @@ impl PointIndex {
         let a = (lo / self.cell).floor();
         let b = (hi / self.cell).floor();
         let n = (b - a + Vec3::ONE).max(Vec3::ZERO);
-        if (n.x as i64) * (n.y as i64) * (n.z as i64) > max_cells {
+        if f64::from(n.x) * f64::from(n.y) * f64::from(n.z) > max_cells as f64 {
             return false;
         }
         for x in a.x as i32..=b.x as i32 {
@@ -192,8 +192,12 @@ pub fn irradiance(
         let rows = g as usize;
         let (acc, sent, kept) = (0..rows)
             .into_par_iter()
-            // One accumulator of the points per thread, no more (they are the memory).
-            .with_min_len(rows.div_ceil(rayon::current_num_threads().max(1)).max(1))
+            // At most four accumulators of the points (they are the memory: 12 bytes a point
+            // each), whatever the threads.
+            .with_min_len(
+                rows.div_ceil(rayon::current_num_threads().clamp(1, 4))
+                    .max(1),
+            )
             .fold(
                 || (vec![Vec3::ZERO; points.len()], 0.0f64, 0.0f64),
                 |(mut acc, mut sent, mut kept), j| {
@@ -280,7 +284,10 @@ fn splat(
     if den <= 0.0 {
         return false;
     }
-    index.visit(lo, hi, 4096, |i| {
+    // Room for any triangle up to four times the sun's blur, and some.
+    let blur_cells = 4.0 * min_area.sqrt() / index.cell + 2.0;
+    let max_cells = (blur_cells * blur_cells * 2.0).max(4096.0) as i64;
+    index.visit(lo, hi, max_cells, |i| {
         let p = &points[i as usize];
         if p.normal.dot(n) < 0.9 {
             return;
