@@ -100,6 +100,20 @@ fn glossy_brdf(n: vec3<f32>, wi: vec3<f32>, wo: vec3<f32>, albedo: vec3<f32>, f0
     return albedo / PI + d * g2 * f / (4.0 * ci * co);
 }
 
+// Unpolarised Fresnel reflectance of a dielectric for cos_i of the incident angle and
+// eta = n_incident / n_transmitted (1 beyond the critical angle), as trace::optics.
+fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let sin2_t = eta * eta * (1.0 - c * c);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    let rs = (eta * c - cos_t) / (eta * c + cos_t);
+    let rp = (c - eta * cos_t) / (c + eta * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
 // Schlick's approximation for a dielectric interface with relative index `ior`.
 fn fresnel_schlick_ior(cos_i: f32, ior: f32) -> f32 {
     let r = (ior - 1.0) / (ior + 1.0);

@@ -98,19 +98,6 @@ fn vs_main(@builtin(vertex_index) i: u32, @builtin(instance_index) first: u32) -
     return VsOut(vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0), first);
 }
 
-// Unpolarised Fresnel reflectance of a dielectric, light arriving from outside (eta = 1/ior).
-fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let c = clamp(cos_i, 0.0, 1.0);
-    let sin2_t = eta * eta * (1.0 - c * c);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let rs = (eta * c - cos_t) / (eta * c + cos_t);
-    let rp = (c - eta * cos_t) / (c + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
 // Orthonormal tangents of unit n (Duff et al. 2017), as sampling::frame.
 fn tangent(n: vec3<f32>) -> vec3<f32> {
     let s = select(-1.0, 1.0, n.z >= 0.0);

@@ -234,18 +234,6 @@ fn irradiance(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return water.beam.rgb * (facing * b) * beer(t);
 }
 
-fn fresnel(cos_i: f32, eta: f32) -> f32 {
-    let c = clamp(cos_i, 0.0, 1.0);
-    let sin2_t = eta * eta * (1.0 - c * c);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = sqrt(1.0 - sin2_t);
-    let rs = (eta * c - cos_t) / (eta * c + cos_t);
-    let rp = (c - eta * cos_t) / (c + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
 @fragment
 fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let px = vec2<i32>(frag.xy);
@@ -305,7 +293,7 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         return vec4<f32>(0.0);
     }
     let m = materials[water.counts.z];
-    let tr = (1.0 - fresnel(-dot(d, ns), eta)) * eta * eta;
+    let tr = (1.0 - fresnel_dielectric(-dot(d, ns), eta)) * eta * eta;
     let up = vec3<f32>(0.0, 1.0, 0.0);
     let e = irradiance(q, up);
     return vec4<f32>(receiver_brdf(m, up, -r) * e * tr * beer(l), 0.0);

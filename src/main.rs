@@ -476,7 +476,7 @@ fn render(
         &scene::Limits::default(),
     )
     .map_err(params_error)?;
-    let t0 = world.water.first().map_or(0.0, |w| w.surface.time);
+    let t0 = world.water.first().map_or(0.0, |w| w.surface.time());
     let times = caustica::jobs::render::sequence_times(&world, anim.frames, anim.fps, t0)
         .map_err(|e| flag_error(&e))?;
     if times.is_some() && is_exr {

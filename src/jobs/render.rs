@@ -260,7 +260,7 @@ impl RenderJob {
             p.time,
             limits,
         )?;
-        let first = world.water.first().map_or(0.0, |w| w.surface.time);
+        let first = world.water.first().map_or(0.0, |w| w.surface.time());
         let times = sequence_times(&world, p.frames, p.fps, first)?;
         if times.is_some() && p.format != Format::Png {
             return Err(

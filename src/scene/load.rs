@@ -746,12 +746,12 @@ fn resolve_water(
     }
     let waves = Waves::resolve(&wd.waves, &sp("waves"))
         .map_err(|(field, message)| SceneError::invalid(field, message))?;
-    let surface = WaterSurface {
-        centre: Vec3::from(tr.translation.unwrap_or([0.0; 3])),
+    let surface = WaterSurface::new(
+        Vec3::from(tr.translation.unwrap_or([0.0; 3])),
         size,
         waves,
-        time: wd.time,
-    };
+        wd.time,
+    );
     if surface.amplitude_bound() >= depth {
         return Err(SceneError::invalid(
             sp("depth"),

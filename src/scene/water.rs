@@ -254,11 +254,41 @@ impl Waves {
 pub struct WaterSurface {
     pub centre: Vec3,
     pub size: Vec2,
+    /// Changing the waves' count or rates needs [`Self::set_time`] again.
     pub waves: Waves,
-    pub time: f32,
+    time: f32,
+    /// Per wave (one for the article's), its rate × time modulo 2π: the time's share of each
+    /// phase, reduced once in f64 ([`phase_at`]).
+    phases: Vec<f32>,
 }
 
 impl WaterSurface {
+    pub fn new(centre: Vec3, size: Vec2, waves: Waves, time: f32) -> WaterSurface {
+        let mut s = WaterSurface {
+            centre,
+            size,
+            waves,
+            time,
+            phases: Vec::new(),
+        };
+        s.set_time(time);
+        s
+    }
+
+    /// Seconds.
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+
+    /// Moves the waves to time `t` (seconds).
+    pub fn set_time(&mut self, t: f32) {
+        self.time = t;
+        self.phases = match &self.waves {
+            Waves::Article { speed, .. } => vec![phase_at(*speed, t)],
+            Waves::Physical(ws) => ws.iter().map(|w| phase_at(w.omega, t)).collect(),
+        };
+    }
+
     /// Whether the horizontal position (x, z) lies over the rectangle.
     pub fn contains(&self, x: f32, z: f32) -> bool {
         let l = Vec2::new(x - self.centre.x, z - self.centre.z).abs();
@@ -274,7 +304,7 @@ impl WaterSurface {
                 amplitude,
                 frequency,
                 factor,
-                speed,
+                ..
             } => {
                 // The article's coordinates: x, y in [0, 1] across the rectangle, heights in
                 // units of the x side.
@@ -283,7 +313,7 @@ impl WaterSurface {
                 let d = (u * u + v * v).sqrt();
                 let (mut c, mut sn) = (0.0f32, 0.0f32);
                 let mut f = *factor;
-                let ts = phase_at(*speed, self.time);
+                let ts = self.phases[0];
                 for _ in 0..*octaves {
                     let ph = ts + u * v * frequency / f;
                     c -= f * ph.cos();
@@ -302,8 +332,8 @@ impl WaterSurface {
                 let p = Vec2::new(lx, lz);
                 let mut h = 0.0;
                 let mut g = Vec2::ZERO;
-                for w in waves {
-                    let ph = w.k.dot(p) - phase_at(w.omega, self.time) + w.phase;
+                for (w, wt) in waves.iter().zip(&self.phases) {
+                    let ph = w.k.dot(p) - wt + w.phase;
                     h += w.amplitude * ph.sin();
                     g += w.k * (w.amplitude * ph.cos());
                 }
@@ -525,7 +555,7 @@ impl WaterBody {
 /// are made again, nothing else changes.
 pub fn set_time(world: &mut super::World, t: f32) {
     for w in &mut world.water {
-        w.surface.time = t;
+        w.surface.set_time(t);
         if let Some(part) = world
             .objects
             .get_mut(w.object)
@@ -541,12 +571,12 @@ mod tests {
     use super::*;
 
     fn surface(waves: WavesDesc, time: f32) -> WaterSurface {
-        WaterSurface {
-            centre: Vec3::new(0.3, -0.2, 0.1),
-            size: Vec2::new(4.0, 3.0),
-            waves: Waves::resolve(&waves, "waves").unwrap(),
+        WaterSurface::new(
+            Vec3::new(0.3, -0.2, 0.1),
+            Vec2::new(4.0, 3.0),
+            Waves::resolve(&waves, "waves").unwrap(),
             time,
-        }
+        )
     }
 
     #[test]

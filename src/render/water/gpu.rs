@@ -84,7 +84,7 @@ impl WaterGpuLayer {
                 speed,
             } => (
                 0.0,
-                [*amplitude, *frequency, *factor, phase_at(*speed, s.time)],
+                [*amplitude, *frequency, *factor, phase_at(*speed, s.time())],
                 *octaves,
                 vec![[0.0; 4]; 2],
             ),
@@ -94,8 +94,8 @@ impl WaterGpuLayer {
                 0,
                 ws.iter()
                     .flat_map(|w| {
-                        let ph =
-                            (w.phase - phase_at(w.omega, s.time)).rem_euclid(std::f32::consts::TAU);
+                        let ph = (w.phase - phase_at(w.omega, s.time()))
+                            .rem_euclid(std::f32::consts::TAU);
                         [[w.k.x, w.k.y, w.amplitude, w.omega], [ph, 0.0, 0.0, 0.0]]
                     })
                     .collect(),
@@ -113,7 +113,7 @@ impl WaterGpuLayer {
         WaterGpuLayer {
             uniform: GpuWater {
                 centre: [s.centre.x, s.centre.y, s.centre.z, body.depth],
-                size: [s.size.x, s.size.y, s.time, body.ior],
+                size: [s.size.x, s.size.y, s.time(), body.ior],
                 absorption: [
                     body.absorption.x,
                     body.absorption.y,
