@@ -40,6 +40,13 @@ fn brightness(
     (-(theta / width).powi(2)).exp()
 }
 
+/// Irradiance under a flat surface on a receiver facing the refracted sun (travelling along
+/// `t0`, the flat surface's refraction of the sun): E·cosθᵢ·T_Fresnel/cosθₜ.
+pub fn flat_beam(sun: &Sun, ior: f32, t0: Vec3) -> Vec3 {
+    let cos_i = (-sun.dir.y).max(0.0);
+    sun.irradiance * (cos_i * (1.0 - fresnel_dielectric(cos_i, 1.0 / ior)) / (-t0.y).max(1e-6))
+}
+
 /// The calibration k: 1 / the mean brightness over a 64 × 64 grid of the water's floor (the
 /// floor points whose ray towards the sun leaves through the grid's surface points).
 pub fn calibration(body: &WaterBody, sun: &Sun, width: f32, fd: Option<f32>) -> f32 {
@@ -87,10 +94,7 @@ pub fn irradiance(
     let width = params.sun_map_width;
     let k = calibration(body, sun, width, fd);
     stats.calibration.push(k);
-    let cos_i = -sun.dir.y;
-    let eta = 1.0 / body.ior;
-    // Irradiance on a surface facing the refracted sun under a flat surface.
-    let e_beam = sun.irradiance * (cos_i * (1.0 - fresnel_dielectric(cos_i, eta)) / u.y);
+    let e_beam = flat_beam(sun, body.ior, t0);
     let s = &body.surface;
     points
         .par_iter()

@@ -16,7 +16,6 @@ use crate::render::shaders;
 use crate::render::timestamps::Timestamps;
 use crate::scene::water::phase_at;
 use crate::scene::{WaterBody, Waves, World};
-use crate::trace::optics::fresnel_dielectric;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
@@ -68,14 +67,10 @@ impl WaterGpuLayer {
     fn for_body(world: &World, body: &WaterBody, sun: &Sun, params: &WaterParams) -> Self {
         let s = &body.surface;
         let k = article::calibration(body, sun, params.sun_map_width, None);
-        let up = refracted_sun(sun, body.ior).map_or(Vec3::Y, |t| -t);
-        let cos_i = (-sun.dir.y).max(0.0);
-        let beam = if up.y > 0.0 && cos_i > 0.0 {
-            sun.irradiance * (cos_i * (1.0 - fresnel_dielectric(cos_i, 1.0 / body.ior)) / up.y)
-        } else {
-            Vec3::ZERO
-        } * k;
-        let (preset, article, octaves, waves) = match &s.waves {
+        let t0 = refracted_sun(sun, body.ior);
+        let up = t0.map_or(Vec3::Y, |t| -t);
+        let beam = t0.map_or(Vec3::ZERO, |t| article::flat_beam(sun, body.ior, t) * k);
+        let (preset, article, octaves, n_waves, waves) = match &s.waves {
             Waves::Article {
                 octaves,
                 amplitude,
@@ -86,12 +81,14 @@ impl WaterGpuLayer {
                 0.0,
                 [*amplitude, *frequency, *factor, phase_at(*speed, s.time())],
                 *octaves,
+                0,
                 vec![[0.0; 4]; 2],
             ),
             Waves::Physical(ws) => (
                 1.0,
                 [0.0; 4],
                 0,
+                ws.len() as u32,
                 ws.iter()
                     .flat_map(|w| {
                         let ph = (w.phase - phase_at(w.omega, s.time()))
@@ -100,10 +97,6 @@ impl WaterGpuLayer {
                     })
                     .collect(),
             ),
-        };
-        let n_waves = match &s.waves {
-            Waves::Physical(ws) => ws.len() as u32,
-            Waves::Article { .. } => 0,
         };
         let floor_material = body
             .floor

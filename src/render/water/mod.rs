@@ -224,7 +224,7 @@ pub fn irradiance(
     let mut e = vec![Vec3::ZERO; points.len()];
     for sun in suns(world) {
         let add = match params.mode {
-            Mode::Physical => physical::irradiance(world, recv, body, &sun, params, points, stats),
+            Mode::Physical => physical::irradiance(recv, body, &sun, params, points, stats),
             Mode::Article => {
                 article::irradiance(recv, body, &sun, params, points, finite_differences, stats)
             }

@@ -11,7 +11,7 @@
 
 use super::{Receivers, RecvPoint, Sun, WaterParams, WaterStats};
 use crate::sampling::frame;
-use crate::scene::{WaterBody, World};
+use crate::scene::WaterBody;
 use crate::trace::optics::{fresnel_dielectric, refract};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -120,7 +120,6 @@ pub fn disc_directions(dir: Vec3, r: f32, k: u32) -> Vec<Vec3> {
 
 /// E at `points` from `sun` through `body`'s surface.
 pub fn irradiance(
-    world: &World,
     recv: &Receivers,
     body: &WaterBody,
     sun: &Sun,
@@ -128,7 +127,6 @@ pub fn irradiance(
     points: &[RecvPoint],
     stats: &mut WaterStats,
 ) -> Vec<Vec3> {
-    let _ = world;
     let s = &body.surface;
     let g = params.grid.max(1);
     let cell = Vec2::new(s.size.x / g as f32, s.size.y / g as f32);
