@@ -23,6 +23,7 @@ struct BlockerTri {
 @group(0) @binding(9) var<storage, read> blocker_tris: array<BlockerTri>;
 
 const BVH_STACK: u32 = 48u;
+const EDGE_SLACK: f32 = 1e-5;
 
 fn bvh_slab(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, t_max: f32) -> bool {
     let t0 = (lo - o) * inv;
@@ -42,13 +43,15 @@ fn blocker_hit(t: BlockerTri, o: vec3<f32>, d: vec3<f32>) -> f32 {
     }
     let inv = 1.0 / det;
     let s = o - t.v0.xyz;
+    // Edges widened by EDGE_SLACK (barycentric units, as on the CPU) so that a ray through
+    // the shared edge of two triangles meets at least one of them.
     let u = dot(s, p) * inv;
-    if u < 0.0 || u > 1.0 {
+    if u < -EDGE_SLACK || u > 1.0 + EDGE_SLACK {
         return -1.0;
     }
     let q = cross(s, t.e1.xyz);
     let v = dot(d, q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
         return -1.0;
     }
     return dot(t.e2.xyz, q) * inv;
@@ -82,4 +85,50 @@ fn occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
         }
     }
     return false;
+}
+
+// The nearest occluder triangle on origin + t*dir, 0 < t < t_max: its distance and index
+// (tri == 0xffffffff: none). The same tree, kept for passes that follow a ray to whatever it
+// meets first (the water's refracted sun rays and view rays); v0.w holds the triangle's
+// material index.
+struct BlockerHit {
+    t: f32,
+    tri: u32,
+}
+
+fn closest_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BlockerHit {
+    let inv = 1.0 / d;
+    var best = BlockerHit(t_max, 0xffffffffu);
+    var stack: array<u32, 48>;
+    var sp = 1u;
+    stack[0] = 0u;
+    while sp > 0u {
+        sp -= 1u;
+        let n = blocker_nodes[stack[sp]];
+        if !bvh_slab(n.lo, n.hi, o, inv, best.t) {
+            continue;
+        }
+        if n.count == 0u {
+            if sp + 2u <= BVH_STACK {
+                stack[sp] = n.first;
+                stack[sp + 1u] = n.first + 1u;
+                sp += 2u;
+            }
+            continue;
+        }
+        for (var k = n.first; k < n.first + n.count; k++) {
+            let t = blocker_hit(blocker_tris[k], o, d);
+            if t > 0.0 && t < best.t {
+                best = BlockerHit(t, k);
+            }
+        }
+    }
+    return best;
+}
+
+// The unit geometric normal of blocker triangle k, facing against d.
+fn blocker_normal(k: u32, d: vec3<f32>) -> vec3<f32> {
+    let tri = blocker_tris[k];
+    let n = normalize(cross(tri.e1.xyz, tri.e2.xyz));
+    return select(n, -n, dot(n, d) > 0.0);
 }

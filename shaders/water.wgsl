@@ -1,48 +1,30 @@
-// Underwater caustics, the article's per-pixel pass (Sanchez-Crespo 2003; render/water/gpu.rs):
-// at the receiver point q each pixel sees under the water (in the G-buffer, or, where the
-// camera looks at the water from above, the water's floor plane reached by the view ray
-// refracted at the wave surface), a ray towards the sun as a flat surface refracts it, up to
-// the wave surface at s; the waves' analytic normal at s refracts it out into the air, and the
-// sun map exp(-(theta/width)^2) of its angle theta to the sun gives the brightness, calibrated
-// on the CPU so that its mean over the floor is 1. The irradiance is the flat surface's times
-// that brightness and Beer-Lambert along |q - s|; the receiver reflects it diffusely
-// (albedo / pi) towards the camera, attenuated along the water the view ray crosses. Objects
-// between q and s (a rock over the floor) shadow it: the frame's blockers, every object but the
-// water surfaces.
+// Underwater caustics, the pass that lights the receivers (Sanchez-Crespo 2003;
+// render/water/gpu.rs). Each pixel's receiver point q under the water is the G-buffer's, or,
+// where the camera looks at the water from above, the first receiver the view ray meets once
+// the wave surface has refracted it (a ray cast through the frame's blockers, which are every
+// object but the water surfaces). Its irradiance comes, by water.counts.w, from
+//   0: the article's method per pixel: a ray towards the sun as a flat surface refracts it, up
+//      to the wave surface at s; the waves' analytic normal at s refracts it out into the air,
+//      and the sun map exp(-(theta/width)^2) of its angle theta to the sun gives the
+//      brightness, calibrated on the CPU so that its mean over the floor is 1; times the flat
+//      surface's irradiance and Beer-Lambert along |q - s|, shadowed by blockers on the way;
+//   1, 2: the light map (water_map.wgsl: the physical mode's splatted refracted grid, or the
+//      article's irradiance per texel), read at q's texel where nothing lies between q and the
+//      surface along the refracted sun: bilinear at the finest level (1), or trilinear at the
+//      pixel's footprint (2).
+// The receiver reflects it (albedo / pi, or its glossy lobe) towards the camera, attenuated
+// along the water the view ray crosses and, from above, by the surface's Fresnel
+// transmittance times eta^2.
 
-#include "common.inc.wgsl"
-#include "occlusion.inc.wgsl"
-
-struct Water {
-    // xyz: the rectangle's centre at the mean surface height; w: depth of the body.
-    centre: vec4<f32>,
-    // xy: the rectangle's size (x, z); z: time (s, for the record); w: the water's index of
-    // refraction.
-    size: vec4<f32>,
-    // rgb: absorption per metre; w: 0 for the article's waves, 1 for sine waves.
-    absorption: vec4<f32>,
-    // The article's waves: amplitude, frequency, factor, and the phase time x speed (modulo
-    // 2 pi, reduced on the CPU in f64).
-    article: vec4<f32>,
-    // x: octaves; y: sine waves; z: the floor's material index (0xffffffff: none); w: unused.
-    counts: vec4<u32>,
-    // xyz: the sun's travel direction; w: the sun map's width (radians).
-    sun: vec4<f32>,
-    // rgb: irradiance on a surface facing the refracted sun under a flat surface, times the
-    // calibration; w: a bound on |height - mean|.
-    beam: vec4<f32>,
-    // xyz: towards the sun in the water (the flat surface's refraction, reversed); w: the
-    // march step along the surface, metres (a sixteenth of the shortest wavelength).
-    up: vec4<f32>,
-}
+#include "water.inc.wgsl"
 
 @group(0) @binding(0) var<uniform> g: Globals;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(10) var gbuf_position: texture_2d<f32>;
 @group(0) @binding(11) var gbuf_normal: texture_2d<f32>;
-@group(0) @binding(20) var<uniform> water: Water;
-// Two per sine wave: (k.x, k.z, amplitude, omega), (phase - omega t modulo 2 pi, 0, 0, 0).
-@group(0) @binding(21) var<storage, read> waves: array<vec4<f32>>;
+// The light map's levels, finest first, each row by row (water_map.wgsl; one placeholder
+// texel when the pass evaluates per pixel).
+@group(0) @binding(12) var<storage, read> pyramid: array<vec4<f32>>;
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -50,153 +32,6 @@ fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     let x = f32((i << 1u) & 2u);
     let y = f32(i & 2u);
     return vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
-}
-
-// Height above the mean surface (x) and its gradient (y: d/dx, z: d/dz) at world (px, pz).
-fn wave(px: f32, pz: f32) -> vec3<f32> {
-    let lx = px - water.centre.x;
-    let lz = pz - water.centre.z;
-    if water.absorption.w < 0.5 {
-        // z = 2 A d sum_i -f_i cos(t S + u v W / f_i), u, v in [0, 1] across the rectangle,
-        // heights in units of its x side.
-        let a = water.article;
-        let s = water.size.xy;
-        let u = lx / s.x + 0.5;
-        let v = lz / s.y + 0.5;
-        let d = sqrt(u * u + v * v);
-        var c = 0.0;
-        var sn = 0.0;
-        var f = a.z;
-        for (var i = 0u; i < water.counts.x; i++) {
-            let ph = a.w + u * v * a.y / f;
-            c -= f * cos(ph);
-            sn += sin(ph);
-            f *= 0.5;
-        }
-        let z = 2.0 * a.x * d * c;
-        var du = 0.0;
-        var dv = 0.0;
-        if d > 0.0 {
-            du = u / d;
-            dv = v / d;
-        }
-        let zu = 2.0 * a.x * (du * c + d * sn * v * a.y);
-        let zv = 2.0 * a.x * (dv * c + d * sn * u * a.y);
-        return vec3<f32>(z * s.x, zu, zv * s.x / s.y);
-    }
-    var h = 0.0;
-    var gx = 0.0;
-    var gz = 0.0;
-    for (var i = 0u; i < water.counts.y; i++) {
-        let w = waves[2u * i];
-        let ph = w.x * lx + w.y * lz + waves[2u * i + 1u].x;
-        h += w.z * sin(ph);
-        let c = w.z * cos(ph);
-        gx += w.x * c;
-        gz += w.y * c;
-    }
-    return vec3<f32>(h, gx, gz);
-}
-
-fn inside_rect(p: vec3<f32>) -> bool {
-    let l = abs(p.xz - water.centre.xz);
-    return l.x <= 0.5 * water.size.x && l.y <= 0.5 * water.size.y;
-}
-
-fn above(p: vec3<f32>) -> f32 {
-    return p.y - (water.centre.y + wave(p.x, p.z).x);
-}
-
-// The first crossing of o + t d (0 < t < t_max) with the surface over the rectangle: marched
-// inside the slab the waves stay in, refined by regula falsi; t < 0 when there is none.
-fn cross_surface(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> f32 {
-    let a = water.beam.w + 1e-4;
-    var t0 = 1e-6;
-    var t1 = t_max;
-    if abs(d.y) < 1e-9 {
-        if abs(o.y - water.centre.y) > a {
-            return -1.0;
-        }
-    } else {
-        let ta = (water.centre.y - a - o.y) / d.y;
-        let tb = (water.centre.y + a - o.y) / d.y;
-        t0 = max(t0, min(ta, tb));
-        t1 = min(t1, max(ta, tb));
-    }
-    // And inside the rectangle's x and z slabs.
-    let half = 0.5 * water.size.xy;
-    let lo = water.centre.xz - half;
-    let hi = water.centre.xz + half;
-    for (var k = 0u; k < 2u; k++) {
-        let oc = select(o.z, o.x, k == 0u);
-        let dc = select(d.z, d.x, k == 0u);
-        let l = select(lo.y, lo.x, k == 0u);
-        let h = select(hi.y, hi.x, k == 0u);
-        if abs(dc) < 1e-12 {
-            if oc < l || oc > h {
-                return -1.0;
-            }
-        } else {
-            let ta = (l - oc) / dc;
-            let tb = (h - oc) / dc;
-            t0 = max(t0, min(ta, tb));
-            t1 = min(t1, max(ta, tb));
-        }
-    }
-    if t0 >= t1 {
-        return -1.0;
-    }
-    let horiz = max(length(d.xz), 1e-6);
-    let step = max(water.up.w / horiz, (t1 - t0) / 256.0);
-    var ta = t0;
-    var fa = above(o + d * ta);
-    for (var k = 0u; k < 256u && ta < t1; k++) {
-        let tb = min(ta + step, t1);
-        let fb = above(o + d * tb);
-        if sign(fa) != sign(fb) {
-            var lo = ta;
-            var hi = tb;
-            var flo = fa;
-            var fhi = fb;
-            var t = 0.5 * (lo + hi);
-            for (var j = 0u; j < 16u; j++) {
-                t = (lo * fhi - hi * flo) / (fhi - flo);
-                if !(t > lo && t < hi) {
-                    t = 0.5 * (lo + hi);
-                }
-                let ft = above(o + d * t);
-                if abs(ft) < 1e-7 {
-                    break;
-                }
-                if sign(ft) == sign(flo) {
-                    lo = t;
-                    flo = ft;
-                } else {
-                    hi = t;
-                    fhi = ft;
-                }
-            }
-            if inside_rect(o + d * t) {
-                return t;
-            }
-        }
-        ta = tb;
-        fa = fb;
-    }
-    return -1.0;
-}
-
-fn normal_at(p: vec3<f32>) -> vec3<f32> {
-    let w = wave(p.x, p.z);
-    return normalize(vec3<f32>(-w.y, 1.0, -w.z));
-}
-
-fn beer(len: f32) -> vec3<f32> {
-    return exp(-water.absorption.rgb * len);
-}
-
-fn in_water(p: vec3<f32>) -> bool {
-    return inside_rect(p) && p.y > water.centre.y - water.centre.w - 1e-3 && above(p) < 0.0;
 }
 
 // The receiver's BRDF for light from the refracted sun (wi) seen from wo.
@@ -207,31 +42,79 @@ fn receiver_brdf(m: Material, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return m.albedo.rgb / PI;
 }
 
-// The irradiance at q (unit normal n) under the water, the article's way.
-fn irradiance(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// Bilinear read of the light map's level `level` at map coordinates uv; 0 outside the map.
+fn map_level(uv: vec2<f32>, level: u32) -> vec3<f32> {
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+        return vec3<f32>(0.0);
+    }
+    // Level k has ceil(res / 2^k) texels a side, after those of the finer levels.
+    var first = 0u;
+    var n = water.grid.w;
+    for (var k = 0u; k < level; k++) {
+        first += n * n;
+        n = (n + 1u) >> 1u;
+    }
+    let c = uv * f32(n) - 0.5;
+    let f = floor(c);
+    let w = c - f;
+    let i = vec2<i32>(f);
+    let hi = i32(n) - 1;
+    let x0 = u32(clamp(i.x, 0, hi));
+    let x1 = u32(clamp(i.x + 1, 0, hi));
+    let y0 = u32(clamp(i.y, 0, hi));
+    let y1 = u32(clamp(i.y + 1, 0, hi));
+    let t00 = pyramid[first + y0 * n + x0].rgb;
+    let t10 = pyramid[first + y0 * n + x1].rgb;
+    let t01 = pyramid[first + y1 * n + x0].rgb;
+    let t11 = pyramid[first + y1 * n + x1].rgb;
+    return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
+}
+
+// The light map's irradiance at q (unit normal n), `foot` metres across the pixel's footprint.
+fn map_irradiance(q: vec3<f32>, n: vec3<f32>, foot: f32) -> vec3<f32> {
     let u = water.up.xyz;
-    let facing = dot(n, u);
-    if facing <= 0.0 {
+    if dot(n, u) <= 0.0 {
         return vec3<f32>(0.0);
     }
+    // Shadowed along the refracted sun up to below the lowest trough: the light landing on
+    // q's texel belongs to what shadows it.
     let o = q + n * 1e-4;
-    let t = cross_surface(o, u, 1e30);
-    if t < 0.0 {
+    let t = (water.centre.y - water.beam.w - o.y) / u.y;
+    if t > 0.0 && occluded(o, u, t) {
         return vec3<f32>(0.0);
     }
-    if occluded(o, u, t) {
-        return vec3<f32>(0.0);
+    let uv = map_uv(q);
+    if water.counts.w == 1u {
+        // The pixel's area average, as the CPU's 3 x 3 points a pixel: 3 x 3 reads over a
+        // square of the footprint's side.
+        let h = foot / max(water.map.z, water.map.w);
+        var sum = vec3<f32>(0.0);
+        for (var k = 0; k < 9; k++) {
+            let o = vec2<f32>(f32(k % 3 - 1), f32(k / 3 - 1)) * (h / 3.0);
+            sum += map_level(uv + o, 0u);
+        }
+        return sum / 9.0;
     }
-    let s = o + u * t;
-    let ns = normal_at(s);
-    // Leaving the water: the normal facing the ray is -ns, eta = ior / 1.
-    let a = refract(u, -ns, water.size.w);
-    if dot(a, a) == 0.0 {
-        return vec3<f32>(0.0);
+    let texel = max(water.map.z, water.map.w) / f32(water.grid.w);
+    let lod = clamp(log2(max(foot / texel, 1.0)), 0.0, f32(water.counts.z - 1u));
+    let l0 = u32(floor(lod));
+    let l1 = min(l0 + 1u, water.counts.z - 1u);
+    return mix(map_level(uv, l0), map_level(uv, l1), lod - f32(l0));
+}
+
+// The irradiance at q (unit normal n) under the water, the way the pass was asked for.
+fn irradiance_at(q: vec3<f32>, n: vec3<f32>, foot: f32) -> vec3<f32> {
+    if water.counts.w == 0u {
+        return irradiance(q, n);
     }
-    let theta = acos(clamp(dot(a, -water.sun.xyz), -1.0, 1.0));
-    let b = exp(-(theta / water.sun.w) * (theta / water.sun.w));
-    return water.beam.rgb * (facing * b) * beer(t);
+    return map_irradiance(q, n, foot);
+}
+
+// The view ray through pixel position xy (framebuffer coordinates).
+fn view_dir(xy: vec2<f32>) -> vec3<f32> {
+    let ndc = vec2<f32>((xy.x / g.viewport.x) * 2.0 - 1.0, 1.0 - (xy.y / g.viewport.y) * 2.0);
+    let far = g.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    return normalize(far.xyz / far.w - g.eye.xyz);
 }
 
 @fragment
@@ -240,6 +123,9 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let gp = textureLoad(gbuf_position, px, 0);
     let gn = textureLoad(gbuf_normal, px, 0);
     let eye = g.eye.xyz;
+    let d = view_dir(frag.xy);
+    // The angle one pixel spans, for the footprint.
+    let pixel_angle = length(view_dir(frag.xy + vec2<f32>(1.0, 0.0)) - d);
     if gp.w > 0.0 {
         // A receiver seen directly: under the water, or not lit by it.
         let q = gp.xyz;
@@ -252,20 +138,13 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
             through = beer(distance(eye, q));
         }
         let n = normalize(gn.xyz);
-        let e = irradiance(q, n);
-        return vec4<f32>(receiver_brdf(m, n, normalize(eye - q)) * e * through, 0.0);
+        let wo = normalize(eye - q);
+        let foot = distance(eye, q) * pixel_angle / max(dot(n, wo), 0.25);
+        let e = irradiance_at(q, n, foot);
+        return vec4<f32>(receiver_brdf(m, n, wo) * e * through, 0.0);
     }
-    // Seen through the waves from above: the view ray refracted at the surface to the
-    // water's floor plane.
-    if water.counts.z == 0xffffffffu {
-        return vec4<f32>(0.0);
-    }
-    let ndc = vec2<f32>(
-        (frag.x / g.viewport.x) * 2.0 - 1.0,
-        1.0 - (frag.y / g.viewport.y) * 2.0,
-    );
-    let far = g.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
-    let d = normalize(far.xyz / far.w - eye);
+    // Seen through the waves from above: the view ray refracted at the surface, on to the
+    // first receiver under it.
     var t_max = 1e30;
     if gp.w < 0.0 || dot(gp.xyz, gp.xyz) > 0.0 {
         // Something is drawn there: the surface must come before it (or at it).
@@ -282,19 +161,23 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     }
     let eta = 1.0 / water.size.w;
     let r = refract(d, ns, eta);
-    let floor_y = water.centre.y - water.centre.w;
-    if r.y >= 0.0 {
+    if dot(r, r) == 0.0 {
         return vec4<f32>(0.0);
     }
-    let l = (floor_y - s.y) / r.y;
-    let q = s + r * l;
-    // A receiver in between (a rock) is not found here: its pixel stays dark.
-    if !inside_rect(q) || occluded(s + r * 1e-4, r, l - 1e-3) {
+    let o = s + r * 1e-4;
+    let hit = closest_hit(o, r, 1e30);
+    if hit.tri == 0xffffffffu {
         return vec4<f32>(0.0);
     }
-    let m = materials[water.counts.z];
+    let q = o + r * hit.t;
+    let n = blocker_normal(hit.tri, r);
+    if !in_water(q + n * 1e-3) {
+        return vec4<f32>(0.0);
+    }
+    let m = materials[u32(blocker_tris[hit.tri].v0.w)];
     let tr = (1.0 - fresnel_dielectric(-dot(d, ns), eta)) * eta * eta;
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    let e = irradiance(q, up);
-    return vec4<f32>(receiver_brdf(m, up, -r) * e * tr * beer(l), 0.0);
+    // The footprint grows along the refracted ray about as the path's length.
+    let foot = (t + hit.t) * pixel_angle / max(dot(n, -r), 0.25);
+    let e = irradiance_at(q, n, foot);
+    return vec4<f32>(receiver_brdf(m, n, -r) * e * tr * beer(hit.t), 0.0);
 }

@@ -39,7 +39,8 @@ pub struct WaterArgs {
     /// physical (default) or article.
     #[serde(default)]
     pub mode: Option<Mode>,
-    /// pixel (default), texture, vertex or shader (the article's per-pixel pass on the GPU).
+    /// pixel (default), texture or vertex on the CPU; shader (per pixel) or shader_texture (a
+    /// mipmapped light map) on the GPU.
     #[serde(default)]
     pub variant: Option<Variant>,
     /// Physical: sun rays per side of each water rectangle, 16..=2048 (default 512).
@@ -123,15 +124,8 @@ impl MethodImpl for Water {
         };
         check_scene(world)?;
         let mut params = a.params();
-        if params.variant == Variant::Shader && params.mode != Mode::Article {
-            return Err(ParamError::new(
-                "water.variant",
-                "variant shader (the article's per-pixel pass on the GPU) takes the article's \
-                 mode only: add water_mode article (--water-mode article)",
-            ));
-        }
-        if params.variant == Variant::Shader {
-            crate::render::water::gpu::WaterGpuLayer::build(world, &params)
+        if params.variant.on_gpu() {
+            WaterGpuLayer::build(world, &params)
                 .map_err(|e| ParamError::new("water.variant", e))?;
         }
         let pixels = u64::from(world.camera.width) * u64::from(world.camera.height);
@@ -142,8 +136,8 @@ impl MethodImpl for Water {
                 params.pixel_samples -= 1;
             }
         }
-        // The shader takes no CPU points.
-        if params.variant != Variant::Shader && points(params.pixel_samples) > MAX_POINTS {
+        // The shaders take no CPU points.
+        if !params.variant.on_gpu() && points(params.pixel_samples) > MAX_POINTS {
             return Err(ParamError::new(
                 if a.pixel_samples.is_some() {
                     "water.pixel_samples"
@@ -207,13 +201,13 @@ fn receiver_keys(world: &World) -> Vec<ReceiverKey> {
 }
 
 impl Plan {
-    /// Variant `shader`: the article's per-pixel pass in the GPU's frame.
+    /// Variants `shader` and `shader_texture`: the water passes in the GPU's frame.
     fn frames_on_the_gpu(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
         let mut timings = Vec::new();
         let t = Instant::now();
         let layer = WaterGpuLayer::build(world, &self.params)
             .map_err(|e| ParamError::new("water.variant", e))?;
-        timings.push(("calibration".into(), t.elapsed()));
+        timings.push(("plan".into(), t.elapsed()));
         env.check()?;
         (env.progress)(0.2, "render");
         let out = env.render(&mut timings, |r| {
@@ -221,16 +215,36 @@ impl Plan {
         })?;
         let mut frames = Frames::from_output(out, timings);
         let p = &self.params;
+        let map = layer.map.as_ref();
         frames.statistics = Some(serde_json::json!({
             "mode": p.mode.name(),
             "variant": p.variant.name(),
+            "grid": (p.mode == Mode::Physical).then_some(p.grid),
+            "sun_samples": (p.mode == Mode::Physical).then_some(p.sun_samples),
+            "map_resolution": map.map(|m| m.resolution),
+            "map_levels": map.map(|m| m.levels),
             "sun_map_width_deg": p.sun_map_width.to_degrees(),
-            "article_calibration": [layer.calibration],
+            "article_calibration": layer.calibration.map(|k| vec![k]).unwrap_or_default(),
         }));
-        frames.notes.push(format!(
-            "water, article mode, shader variant (GPU), brightness calibration {:.4}",
-            layer.calibration
-        ));
+        frames.notes.push(match (p.mode, map) {
+            (Mode::Article, None) => format!(
+                "water, article mode per pixel on the GPU, brightness calibration {:.4}",
+                layer.calibration.unwrap_or(1.0)
+            ),
+            (Mode::Article, Some(m)) => format!(
+                "water, article mode in a {0}×{0} light map on the GPU ({1} mip levels), \
+                 brightness calibration {2:.4}",
+                m.resolution,
+                m.levels,
+                layer.calibration.unwrap_or(1.0)
+            ),
+            (Mode::Physical, Some(m)) => format!(
+                "water, physical mode on the GPU: a {0}×{0} grid of sun rays × {1} directions \
+                 splatted into a {2}×{2} light map ({3} mip levels)",
+                p.grid, p.sun_samples, m.resolution, m.levels
+            ),
+            (Mode::Physical, None) => unreachable!("the physical mode always has a map"),
+        });
         Ok(frames)
     }
 
@@ -255,7 +269,7 @@ impl RenderPlan for Plan {
     }
 
     fn frames(&self, world: &World, env: &Env) -> Result<Frames, MethodError> {
-        if self.params.variant == Variant::Shader {
+        if self.params.variant.on_gpu() {
             return self.frames_on_the_gpu(world, env);
         }
         let mut timings = Vec::new();

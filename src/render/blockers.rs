@@ -30,7 +30,8 @@ pub struct GpuBvhNode {
 }
 
 /// `BlockerTri` of occlusion.inc.wgsl: v0 and the two edges (layout checked in
-/// `render::shaders`).
+/// `render::shaders`); `v0[3]` is the triangle's material index as a float (exact below 2²⁴),
+/// for passes that shade what a ray finds.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuTriangle {
@@ -51,6 +52,7 @@ impl Blockers {
     /// Every triangle of `world` whose object index `keep` accepts, in world space.
     pub fn build(world: &World, keep: impl Fn(usize) -> bool) -> Blockers {
         let mut tris = Vec::new();
+        let mut materials = Vec::new();
         for (oi, o) in world.objects.iter().enumerate() {
             if !keep(oi) {
                 continue;
@@ -64,13 +66,21 @@ impl Blockers {
                     .collect();
                 for t in &p.mesh.indices {
                     tris.push([pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]]);
+                    materials.push(p.material);
                 }
             }
         }
-        Self::from_triangles(&tris)
+        Self::from_tagged(&tris, &materials)
     }
 
+    /// Untagged triangles (material 0).
     pub fn from_triangles(tris: &[[Vec3; 3]]) -> Blockers {
+        Self::from_tagged(tris, &vec![0; tris.len()])
+    }
+
+    /// Triangles and their material indices.
+    pub fn from_tagged(tris: &[[Vec3; 3]], materials: &[u32]) -> Blockers {
+        assert_eq!(tris.len(), materials.len(), "one material a triangle");
         let empty = GpuBvhNode {
             lo: [1.0; 3],
             first: 0,
@@ -142,7 +152,7 @@ impl Blockers {
             .map(|&i| {
                 let [a, b, c] = tris[i as usize];
                 GpuTriangle {
-                    v0: a.extend(0.0).to_array(),
+                    v0: a.extend(materials[i as usize] as f32).to_array(),
                     e1: (b - a).extend(0.0).to_array(),
                     e2: (c - a).extend(0.0).to_array(),
                 }
@@ -190,6 +200,9 @@ fn slab(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, t_max: f32) -> bool {
     tn <= tf
 }
 
+/// How far outside a triangle, in barycentric units, a hit still counts (the shader's too).
+const EDGE_SLACK: f32 = 1e-5;
+
 fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<f32> {
     let p = d.cross(e2);
     let det = e1.dot(p);
@@ -198,13 +211,15 @@ fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<f32
     }
     let inv = 1.0 / det;
     let s = o - v0;
+    // Edges are widened by EDGE_SLACK (in barycentric units) so that a ray through the
+    // shared edge of two triangles meets at least one of them.
     let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
+    if !(-EDGE_SLACK..=1.0 + EDGE_SLACK).contains(&u) {
         return None;
     }
     let q = s.cross(e1);
     let v = d.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -EDGE_SLACK || u + v > 1.0 + EDGE_SLACK {
         return None;
     }
     Some(e2.dot(q) * inv)

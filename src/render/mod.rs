@@ -51,7 +51,7 @@ pub enum Caustics<'a> {
     Csl(&'a CslLayer),
     Transport(&'a TransportLayer),
     Pinhole(&'a PinholeLayer),
-    /// The article's per-pixel water pass (method `water`, variant `shader`).
+    /// The water passes (method `water`, variants `shader` and `shader_texture`).
     Water(&'a water::gpu::WaterGpuLayer),
 }
 
@@ -338,8 +338,8 @@ impl Renderer {
         self.render_with(world, opts, Caustics::Pinhole(layer))
     }
 
-    /// Renders `world` and its caustics layer by the article's per-pixel water pass
-    /// (`RenderOutput::caustics` is then `Some`).
+    /// Renders `world` and its caustics layer by the water passes (`RenderOutput::caustics` is
+    /// then `Some`).
     pub fn render_water(
         &mut self,
         world: &World,
@@ -438,8 +438,8 @@ impl Renderer {
         let c = &mut self.cache;
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan);
-            // Shadow maps, direct, transport or pinhole.
-            timestamps::Timestamps::new(&self.ctx, dev, 3)
+            // Shadow maps, direct, transport, pinhole or water (with the water's light map).
+            timestamps::Timestamps::new(&self.ctx, dev, 4)
         })?;
         let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
         let (frame, volumes, pinhole_buffers, water_buffers, generation) =
@@ -514,11 +514,14 @@ impl Renderer {
                     ts.as_mut(),
                 );
             }
-            if let (Some(wb), Some(wp), Some(gb)) = (&water_buffers, &c.water, &c.gbuffer) {
+            if let (Some(wl), Some(wb), Some(wp), Some(gb)) =
+                (plan.water, &water_buffers, &c.water, &c.gbuffer)
+            {
                 water::gpu::encode(
                     dev,
                     &mut enc,
                     wp,
+                    wl,
                     gb,
                     scene,
                     &frame.globals,

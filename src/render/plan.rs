@@ -210,6 +210,23 @@ impl<'a> FramePlan<'a> {
                 )));
             }
         }
+        if let Some(m) = water.and_then(|w| w.map.as_ref()) {
+            let bytes = m.landing_bytes().max(m.pyramid_bytes());
+            if bytes > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "the water's {bytes} bytes of landed sun rays or light map levels are over \
+                     the adapter's storage binding limit of {max_storage}; ask for a smaller \
+                     water.grid, fewer water.sun_samples or a smaller water.map_resolution"
+                )));
+            }
+            if m.resolution > dev.max_texture_2d {
+                return Err(RenderError::Limit(format!(
+                    "the water's light map of {} texels a side is over the adapter's texture \
+                     limit of {}; ask for a smaller water.map_resolution",
+                    m.resolution, dev.max_texture_2d
+                )));
+            }
+        }
         // Pinhole points are shadowed by every object, their own included.
         let caustic_objects = csl
             .as_ref()

@@ -16,6 +16,14 @@ pub const FILES: &[(&str, &str)] = &[
     ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
     ("water.wgsl", include_str!("../../shaders/water.wgsl")),
     (
+        "water.inc.wgsl",
+        include_str!("../../shaders/water.inc.wgsl"),
+    ),
+    (
+        "water_map.wgsl",
+        include_str!("../../shaders/water_map.wgsl"),
+    ),
+    (
         "transport.wgsl",
         include_str!("../../shaders/transport.wgsl"),
     ),
@@ -288,6 +296,10 @@ mod tests {
                 ("sun", offset_of!(GpuWater, sun)),
                 ("beam", offset_of!(GpuWater, beam)),
                 ("up", offset_of!(GpuWater, up)),
+                ("map", offset_of!(GpuWater, map)),
+                ("grid", offset_of!(GpuWater, grid)),
+                ("sun_e", offset_of!(GpuWater, sun_e)),
+                ("splat", offset_of!(GpuWater, splat)),
             ],
         );
     }

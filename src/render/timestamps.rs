@@ -67,6 +67,20 @@ impl Timestamps {
         }
     }
 
+    /// [`Self::writes`] for a compute pass.
+    pub fn compute_writes(
+        &self,
+        k: u32,
+        begin: bool,
+        end: bool,
+    ) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: begin.then_some(2 * k),
+            end_of_pass_write_index: end.then_some(2 * k + 1),
+        }
+    }
+
     /// Resolves the slots of the passes given (every one of them must have been written).
     pub fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
         let n = 2 * self.names.len() as u32;

@@ -493,18 +493,86 @@ fn the_articles_pixel_shader_on_the_gpu_gives_the_cpus_frame() {
         assert!((flux - 1.0).abs() < 0.01, "{scene}: {flux}");
         assert!(gpu.pixels.iter().any(|p| p.x > 0.0), "{scene}: lit");
     }
-    // The physical mode has no shader.
-    let w = at("sea-floor-low-sun", SEA_CAMERA, 0.0);
-    let args = caustica::methods::MethodArgs {
-        water: Some(serde_json::json!({"variant": "shader"})),
+}
+
+/// The caustics layer the GPU's water passes render for `w` with `p`.
+fn gpu_layer(w: &World, p: &WaterParams) -> Frame {
+    use caustica::render::water::gpu::WaterGpuLayer;
+    let layer = WaterGpuLayer::build(w, p).unwrap();
+    let out = crate::support::gpu::renderer()
+        .render_water(w, &Default::default(), &layer)
+        .unwrap();
+    out.caustics.expect("a caustics layer")
+}
+
+#[test]
+fn the_physical_mode_on_the_gpu_agrees_with_the_reference_and_the_cpu() {
+    // Under the surface against the stored references; both variants (the light map at its
+    // finest level, and mipmapped at the pixel's footprint).
+    for (scene, camera, floor) in [
+        ("pool-noon", POOL_CAMERA, "pool-floor"),
+        ("sea-floor-low-sun", SEA_CAMERA, "sea-floor"),
+    ] {
+        let w = at(scene, camera, 0.7);
+        let stored = images::stored_reference(&format!("{scene}.t0.7.caustics.32M.exr"));
+        for variant in [Variant::Shader, Variant::ShaderTexture] {
+            let p = WaterParams {
+                variant,
+                ..Default::default()
+            };
+            let img = gpu_layer(&w, &p);
+            let (l1, flux) = error(&w, &img, &stored, floor);
+            eprintln!(
+                "{scene} {}: against the reference rel L1 {l1:.4}, flux ratio {flux:.4}",
+                variant.name()
+            );
+            assert!(l1 <= 0.10, "{scene} {}: rel L1 {l1}", variant.name());
+            assert!((flux - 1.0).abs() <= 0.03, "{scene}: flux ratio {flux}");
+        }
+    }
+    // From above, through the waves, onto the floor and the rock (the pixels that see the
+    // water's surface): against the CPU's layer.
+    let mut w = scenes::load("sea-floor-low-sun");
+    w.camera.width = 96;
+    w.camera.height = 72;
+    let p = WaterParams {
+        variant: Variant::Shader,
         ..Default::default()
     };
-    let e = caustica::methods::Method::Water
-        .imp()
-        .plan(&w, &args)
-        .err()
-        .expect("refused");
-    assert_eq!(e.field, "water.variant", "{e}");
+    let gpu = gpu_layer(&w, &p);
+    let (cpu, _) = layer_of(&w, &p);
+    let (l1, flux) = error(&w, &gpu, &cpu, "sea");
+    eprintln!("from above: GPU against CPU rel L1 {l1:.4}, flux ratio {flux:.4}");
+    assert!(l1 <= 0.10, "{l1}");
+    assert!((flux - 1.0).abs() <= 0.03, "{flux}");
+}
+
+#[test]
+fn the_articles_light_map_on_the_gpu_follows_the_pixels_area_average() {
+    // The mipmapped map read at the pixel's footprint against the CPU's article mode at 3 × 3
+    // points a pixel (the per-pixel shader takes one point, and aliases).
+    for (scene, camera, object) in [
+        ("sea-floor-low-sun", Some(SEA_CAMERA), "sea-floor"),
+        ("pool-noon", None, "pool"),
+    ] {
+        let mut w = match camera {
+            Some(c) => at(scene, c, 0.7),
+            None => scenes::load(scene),
+        };
+        w.camera.width = 96;
+        w.camera.height = 72;
+        let p = WaterParams {
+            mode: Mode::Article,
+            variant: Variant::ShaderTexture,
+            ..Default::default()
+        };
+        let map = gpu_layer(&w, &p);
+        let (cpu, _) = layer_of(&w, &p);
+        let (l1, flux) = error(&w, &map, &cpu, object);
+        eprintln!("{scene}: GPU light map against CPU 3 × 3 rel L1 {l1:.4}, flux ratio {flux:.4}");
+        assert!(l1 < 0.08, "{scene}: {l1}");
+        assert!((flux - 1.0).abs() < 0.03, "{scene}: {flux}");
+    }
 }
 
 /// The CPU layer with `p`'s variant taken as per pixel.

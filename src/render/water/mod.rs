@@ -54,9 +54,15 @@ pub enum Variant {
     Texture,
     /// A grid of vertices interpolated bilinearly (the article's per-vertex version).
     Vertex,
-    /// The article's mode per pixel in a fragment shader on the GPU ([`gpu`]; the CPU's
-    /// [`render_layer`] takes it as `Pixel`).
+    /// Per pixel in a fragment shader on the GPU ([`gpu`]): the article's method evaluated
+    /// per pixel, or the physical mode's refracted grid splatted into a light map read at its
+    /// finest level. The CPU's [`render_layer`] takes it as `Pixel`.
     Shader,
+    /// In texture space on the GPU ([`gpu`]): a mipmapped light map (the article's
+    /// irradiance per texel, or the physical mode's splat) read trilinearly at the pixel's
+    /// footprint. The CPU's [`render_layer`] takes it as `Texture`.
+    #[value(name = "shader_texture", alias = "shader-texture")]
+    ShaderTexture,
 }
 
 impl Mode {
@@ -75,7 +81,13 @@ impl Variant {
             Variant::Texture => "texture",
             Variant::Vertex => "vertex",
             Variant::Shader => "shader",
+            Variant::ShaderTexture => "shader_texture",
         }
+    }
+
+    /// Whether the GPU computes the layer.
+    pub fn on_gpu(self) -> bool {
+        matches!(self, Variant::Shader | Variant::ShaderTexture)
     }
 }
 
@@ -172,26 +184,32 @@ pub struct Receivers {
     pub top: f32,
 }
 
+/// The highest point of any receiver of `world` (every object but the water surfaces; −∞
+/// without any).
+pub fn receivers_top(world: &World) -> f32 {
+    let keep = |i: usize| world.water_of(i as u32).is_none();
+    world
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| keep(*i))
+        .flat_map(|(_, o)| {
+            o.parts.iter().flat_map(move |p| {
+                p.mesh
+                    .positions
+                    .iter()
+                    .map(move |v| o.transform.transform_point3(*v).y)
+            })
+        })
+        .fold(f32::NEG_INFINITY, f32::max)
+}
+
 impl Receivers {
     pub fn build(world: &World) -> Receivers {
         let keep = |i: usize| world.water_of(i as u32).is_none();
-        let top = world
-            .objects
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| keep(*i))
-            .flat_map(|(_, o)| {
-                o.parts.iter().flat_map(move |p| {
-                    p.mesh
-                        .positions
-                        .iter()
-                        .map(move |v| o.transform.transform_point3(*v).y)
-                })
-            })
-            .fold(f32::NEG_INFINITY, f32::max);
         Receivers {
             accel: Accel::build_with(world, keep, obvhs::BvhBuildParams::fast_build()),
-            top,
+            top: receivers_top(world),
         }
     }
 }
@@ -281,7 +299,7 @@ pub fn render_layer(
             Variant::Pixel | Variant::Shader => {
                 irradiance(world, recv, body, params, &pts, None, stats)
             }
-            Variant::Texture | Variant::Vertex => {
+            Variant::Texture | Variant::ShaderTexture | Variant::Vertex => {
                 let vertex = params.variant == Variant::Vertex;
                 let res = if vertex {
                     params.mesh_resolution + 1
