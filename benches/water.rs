@@ -2,8 +2,8 @@
 //! `direct_frame_*`), `sea-floor-low-sun` seen from above through the waves, at 800×600 and
 //! 1920×1080, in the physical and the article's mode, per pixel (3 × 3 points a pixel, the
 //! default, or one), in the light map and per vertex, the receivers' BVH built once as a
-//! sequence keeps it; and the article's per-pixel pass on the GPU (variant `shader`), whole
-//! frames. Quote the medians with the machine (cores) and the adapter.
+//! sequence keeps it; and on the GPU (variants `shader` and `shader_texture`, both modes),
+//! whole frames. Quote the medians with the machine (cores) and the adapter.
 
 use caustica::render::water::{Mode, Receivers, Variant, WaterParams, WaterStats, render_layer};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -59,9 +59,10 @@ fn bench_water(c: &mut Criterion) {
     g.finish();
 }
 
-/// The article's per-pixel pass on the GPU (variant `shader`): the whole frame (shadow maps,
-/// direct, G-buffer, the water pass, readback) at 800×600 and 1920×1080, on whatever adapter
-/// `GpuContext` picks; the water pass's own GPU time is printed from the frame's timestamps.
+/// The water on the GPU (variants `shader` and `shader_texture`, physical and article): the
+/// whole frame (shadow maps, direct, G-buffer, the light map, the water pass, readback) at
+/// 800×600 and 1920×1080, on whatever adapter `GpuContext` picks; the passes' own GPU times are
+/// printed from the frame's timestamps (`gpu:water_map`, `gpu:water`).
 fn bench_water_shader(c: &mut Criterion) {
     use caustica::gpu::{GpuConfig, GpuContext};
     use caustica::render::water::gpu::WaterGpuLayer;
@@ -72,27 +73,38 @@ fn bench_water_shader(c: &mut Criterion) {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sea-floor-low-sun.json");
     let base = caustica::scene::load_scene_file(&path, &Default::default()).expect("scene");
-    let p = WaterParams {
-        mode: Mode::Article,
-        variant: Variant::Shader,
-        ..Default::default()
-    };
     let mut g = c.benchmark_group("water");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     for (w, h) in [(800, 600), (1920, 1080)] {
         let mut world = base.clone();
         world.camera.width = w;
         world.camera.height = h;
-        let layer = WaterGpuLayer::build(&world, &p).expect("layer");
-        let opts = RenderOptions::default();
-        for _ in 0..2 {
-            let out = renderer.render_water(&world, &opts, &layer).expect("frame");
-            println!("article shader {w}x{h}: {:?}", out.timings);
+        for (mode, variant) in [
+            (Mode::Physical, Variant::Shader),
+            (Mode::Physical, Variant::ShaderTexture),
+            (Mode::Article, Variant::Shader),
+            (Mode::Article, Variant::ShaderTexture),
+        ] {
+            let p = WaterParams {
+                mode,
+                variant,
+                ..Default::default()
+            };
+            let layer = WaterGpuLayer::build(&world, &p).expect("layer");
+            let opts = RenderOptions::default();
+            let name = format!(
+                "{}_{}_frame_{w}x{h}_sea_floor_low_sun",
+                mode.name(),
+                variant.name()
+            );
+            for _ in 0..2 {
+                let out = renderer.render_water(&world, &opts, &layer).expect("frame");
+                println!("{name}: {:?}", out.timings);
+            }
+            g.bench_function(name, |b| {
+                b.iter(|| renderer.render_water(&world, &opts, &layer).expect("frame"))
+            });
         }
-        g.bench_function(
-            format!("article_shader_frame_{w}x{h}_sea_floor_low_sun"),
-            |b| b.iter(|| renderer.render_water(&world, &opts, &layer).expect("frame")),
-        );
     }
     g.finish();
 }

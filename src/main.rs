@@ -111,9 +111,10 @@ enum Cmd {
         /// or article (Sánchez-Crespo 2003's sun-map lookup).
         #[arg(long, value_enum)]
         water_mode: Option<caustica::render::water::Mode>,
-        /// Water: where the caustics are computed: pixel (default), texture (a mipmapped light
-        /// map), vertex (a coarse grid, the article's first version) or shader (the article's
-        /// per-pixel pass on the GPU; --water-mode article).
+        /// Water: where the caustics are computed: on the GPU, shader (per pixel; the default
+        /// for one water shape under one sun) or shader_texture (a mipmapped light map); on the
+        /// CPU, pixel (the default otherwise, or with --pixel-samples), texture (a mipmapped
+        /// light map) or vertex (a coarse grid, the article's first version).
         #[arg(long, value_enum)]
         water_variant: Option<caustica::render::water::Variant>,
         /// Water, physical: sun rays per side of the water's rectangle (default 512).

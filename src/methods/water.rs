@@ -9,7 +9,7 @@ use super::{
     RenderPlan, from_value,
 };
 use crate::render::RenderOptions;
-use crate::render::water::gpu::WaterGpuLayer;
+use crate::render::water::gpu::{MapSource, WaterGpuLayer};
 use crate::render::water::{
     MAX_GRID, MAX_MAP, MAX_PIXEL_SAMPLES, MAX_POINTS, MAX_SUN_SAMPLES, Mode, Receivers, Variant,
     WaterParams, WaterStats, render_layer, suns,
@@ -39,8 +39,9 @@ pub struct WaterArgs {
     /// physical (default) or article.
     #[serde(default)]
     pub mode: Option<Mode>,
-    /// pixel (default), texture or vertex on the CPU; shader (per pixel) or shader_texture (a
-    /// mipmapped light map) on the GPU.
+    /// shader (per pixel) or shader_texture (a mipmapped light map) on the GPU; pixel,
+    /// texture or vertex on the CPU. Default: shader where the scene has one water shape
+    /// and one directional light and no pixel_samples are given, pixel otherwise.
     #[serde(default)]
     pub variant: Option<Variant>,
     /// Physical: sun rays per side of each water rectangle, 16..=2048 (default 512).
@@ -124,6 +125,17 @@ impl MethodImpl for Water {
         };
         check_scene(world)?;
         let mut params = a.params();
+        if a.variant.is_none() && a.pixel_samples.is_none() {
+            // The default: on the GPU (variant shader) where it takes the scene (one water
+            // shape under one sun), per pixel on the CPU otherwise.
+            let gpu = WaterParams {
+                variant: Variant::Shader,
+                ..params.clone()
+            };
+            if WaterGpuLayer::build(world, &gpu).is_ok() {
+                params = gpu;
+            }
+        }
         if params.variant.on_gpu() {
             WaterGpuLayer::build(world, &params)
                 .map_err(|e| ParamError::new("water.variant", e))?;
@@ -216,11 +228,17 @@ impl Plan {
         let mut frames = Frames::from_output(out, timings);
         let p = &self.params;
         let map = layer.map.as_ref();
+        // Sun rays the landing pass traced (physical mode).
+        let rays = map.and_then(|m| match &m.source {
+            MapSource::Splat { grid, dirs } => Some(u64::from(grid + 1).pow(2) * dirs.len() as u64),
+            MapSource::Article => None,
+        });
         frames.statistics = Some(serde_json::json!({
             "mode": p.mode.name(),
             "variant": p.variant.name(),
             "grid": (p.mode == Mode::Physical).then_some(p.grid),
             "sun_samples": (p.mode == Mode::Physical).then_some(p.sun_samples),
+            "rays": rays,
             "map_resolution": map.map(|m| m.resolution),
             "map_levels": map.map(|m| m.levels),
             "sun_map_width_deg": p.sun_map_width.to_degrees(),

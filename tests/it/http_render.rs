@@ -513,7 +513,7 @@ async fn water_renders_frames_at_a_time_and_sequences_as_animated_png() {
     scene["camera"]["height"] = 30.into();
     let req = serde_json::json!({"scene": scene, "method": "water", "format": "exr",
         "component": "caustics", "time": 1.25, "water_mode": "physical",
-        "water": {"grid": 128, "sun_samples": 2}});
+        "water": {"grid": 128, "sun_samples": 2, "variant": "pixel"}});
     let r = srv.post_json("/v1/renders", &req).await;
     assert_eq!(r.status(), 200, "{:?}", r.text().await);
     let loc = r.headers()["location"].to_str().unwrap().to_string();
@@ -521,8 +521,23 @@ async fn water_renders_frames_at_a_time_and_sequences_as_animated_png() {
     let (_, rec) = srv.get_json(&loc).await;
     let stats = &rec["info"]["statistics"];
     assert_eq!(stats["mode"], "physical", "{rec}");
+    assert_eq!(stats["variant"], "pixel", "{rec}");
     assert_eq!(stats["grid"], 128, "{rec}");
     assert_eq!(stats["rays"], 2 * 129 * 129, "{rec}");
+    // Without a variant, one water shape under one sun renders on the GPU.
+    let mut req = req.clone();
+    req["water"] = serde_json::json!({"grid": 128, "sun_samples": 2});
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let on_gpu = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    let stats = &rec["info"]["statistics"];
+    assert_eq!(stats["variant"], "shader", "{rec}");
+    assert_eq!(stats["rays"], 2 * 129 * 129, "{rec}");
+    let sum = |f: &caustica::frame::Frame| f.pixels.iter().map(|p| p.x as f64).sum::<f64>();
+    let ratio = sum(&on_gpu) / sum(&served);
+    assert!((ratio - 1.0).abs() < 0.05, "GPU against CPU flux {ratio}");
 
     let seq = serde_json::json!({"scene": scene, "method": "water", "frames": 4, "fps": 30,
         "water": {"grid": 64}});
