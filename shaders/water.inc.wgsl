@@ -18,8 +18,8 @@ struct Water {
     // 2 pi, reduced on the CPU in f64).
     article: vec4<f32>,
     // x: octaves; y: sine waves; z: mip levels of the light map; w: how the pass finds the
-    // irradiance: 0 the article per pixel, 1 the light map's finest level (bilinear), 2 the
-    // light map at the pixel's footprint (trilinear).
+    // irradiance: 0 the article per pixel, 1 the light map at 3 x 3 points over the pixel's
+    // footprint, 2 the light map once at the footprint's level.
     counts: vec4<u32>,
     // xyz: the sun's travel direction; w: the sun map's width (radians).
     sun: vec4<f32>,

@@ -10,8 +10,9 @@
 //      surface's irradiance and Beer-Lambert along |q - s|, shadowed by blockers on the way;
 //   1, 2: the light map (water_map.wgsl: the physical mode's splatted refracted grid, or the
 //      article's irradiance per texel), read at q's texel where nothing lies between q and the
-//      surface along the refracted sun: bilinear at the finest level (1), or trilinear at the
-//      pixel's footprint (2).
+//      surface along the refracted sun: at 3 x 3 points over the pixel's footprint, each
+//      trilinearly at the level of a third of it (1), or once, trilinearly at the level of
+//      the whole footprint (2).
 // The receiver reflects it (albedo / pi, or its glossy lobe) towards the camera, attenuated
 // along the water the view ray crosses and, from above, by the surface's Fresnel
 // transmittance times eta^2.
@@ -70,6 +71,15 @@ fn map_level(uv: vec2<f32>, level: u32) -> vec3<f32> {
     return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
 }
 
+// The light map read trilinearly where a footprint spans `texels` finest texels.
+fn map_trilinear(uv: vec2<f32>, texels: f32) -> vec3<f32> {
+    let top = f32(water.counts.z - 1u);
+    let lod = clamp(log2(max(texels, 1.0)), 0.0, top);
+    let l0 = u32(floor(lod));
+    let l1 = min(l0 + 1u, water.counts.z - 1u);
+    return mix(map_level(uv, l0), map_level(uv, l1), lod - f32(l0));
+}
+
 // The light map's irradiance at q (unit normal n), `foot` metres across the pixel's footprint.
 fn map_irradiance(q: vec3<f32>, n: vec3<f32>, foot: f32) -> vec3<f32> {
     let u = water.up.xyz;
@@ -84,22 +94,19 @@ fn map_irradiance(q: vec3<f32>, n: vec3<f32>, foot: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let uv = map_uv(q);
+    let texel = max(water.map.z, water.map.w) / f32(water.grid.w);
     if water.counts.w == 1u {
         // The pixel's area average, as the CPU's 3 x 3 points a pixel: 3 x 3 reads over a
-        // square of the footprint's side.
+        // square of the footprint's side, each at the level of its third of it.
         let h = foot / max(water.map.z, water.map.w);
         var sum = vec3<f32>(0.0);
         for (var k = 0; k < 9; k++) {
             let o = vec2<f32>(f32(k % 3 - 1), f32(k / 3 - 1)) * (h / 3.0);
-            sum += map_level(uv + o, 0u);
+            sum += map_trilinear(uv + o, foot / (3.0 * texel));
         }
         return sum / 9.0;
     }
-    let texel = max(water.map.z, water.map.w) / f32(water.grid.w);
-    let lod = clamp(log2(max(foot / texel, 1.0)), 0.0, f32(water.counts.z - 1u));
-    let l0 = u32(floor(lod));
-    let l1 = min(l0 + 1u, water.counts.z - 1u);
-    return mix(map_level(uv, l0), map_level(uv, l1), lod - f32(l0));
+    return map_trilinear(uv, foot / texel);
 }
 
 // The irradiance at q (unit normal n) under the water, the way the pass was asked for.
@@ -139,7 +146,7 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         }
         let n = normalize(gn.xyz);
         let wo = normalize(eye - q);
-        let foot = distance(eye, q) * pixel_angle / max(dot(n, wo), 0.25);
+        let foot = distance(eye, q) * pixel_angle / sqrt(max(dot(n, wo), 0.0625));
         let e = irradiance_at(q, n, foot);
         return vec4<f32>(receiver_brdf(m, n, wo) * e * through, 0.0);
     }
@@ -176,8 +183,9 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     }
     let m = materials[u32(blocker_tris[hit.tri].v0.w)];
     let tr = (1.0 - fresnel_dielectric(-dot(d, ns), eta)) * eta * eta;
-    // The footprint grows along the refracted ray about as the path's length.
-    let foot = (t + hit.t) * pixel_angle / max(dot(n, -r), 0.25);
+    // The footprint grows along the refracted ray about as the path's length; its side is
+    // the geometric mean of its axes (1 across, 1 / cos along the receiver's slope).
+    let foot = (t + hit.t) * pixel_angle / sqrt(max(dot(n, -r), 0.0625));
     let e = irradiance_at(q, n, foot);
     return vec4<f32>(receiver_brdf(m, n, -r) * e * tr * beer(hit.t), 0.0);
 }

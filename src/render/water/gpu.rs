@@ -17,8 +17,10 @@
 //!     each adding its flux over the area its landed corners span (the CPU's
 //!     [`super::physical`] on the GPU, with texels in place of pixel points);
 //!   - the article's mode in texture space: its irradiance at the receiver under each texel.
-//! - `shader` reads the physical map bilinearly at its finest level; `shader_texture` gives
-//!   the map 2 × 2 box mips and reads it trilinearly at the pixel's footprint.
+//! - The map gets 2 × 2 box mips; `shader` reads it at 3 × 3 points over the pixel's footprint,
+//!   each at the level of a third of it (the pixel's area average, as the CPU's 3 × 3 points);
+//!   `shader_texture` reads it once, at the level of the whole footprint (the article's
+//!   texture-space variant).
 
 use super::{
     Mode, Sun, Variant, WaterParams, article, physical, receivers_top, refracted_sun, suns,
@@ -68,7 +70,7 @@ pub enum MapSource {
 /// The light map of a frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MapLayer {
-    /// Texels a side, and mip levels (1: the finest only).
+    /// Texels a side, and mip levels.
     pub resolution: u32,
     pub levels: u32,
     pub source: MapSource,
@@ -193,12 +195,8 @@ impl WaterGpuLayer {
         let texel = side / res as f32;
         let map = match (params.mode, params.variant) {
             (Mode::Article, Variant::Shader) => None,
-            (mode, variant) => {
-                let levels = if variant == Variant::ShaderTexture {
-                    level_sizes(res).len() as u32
-                } else {
-                    1
-                };
+            (mode, _) => {
+                let levels = level_sizes(res).len() as u32;
                 let source = match mode {
                     Mode::Article => MapSource::Article,
                     Mode::Physical => {
@@ -244,8 +242,8 @@ impl WaterGpuLayer {
         };
         let (mode_flag, levels) = match &map {
             None => (0, 1),
-            Some(m) if m.levels > 1 => (2, m.levels),
-            Some(m) => (1, m.levels),
+            Some(m) if params.variant == Variant::Shader => (1, m.levels),
+            Some(m) => (2, m.levels),
         };
         WaterGpuLayer {
             uniform: GpuWater {
