@@ -188,6 +188,9 @@ impl WaterGpuLayer {
                     .collect(),
             ),
         };
+        // The directions over the sun's disc (the physical mode traces those above the
+        // horizon, each with its share of the irradiance).
+        let disc = physical::disc_directions(sun.dir, sun.radius, params.sun_samples);
         // The map: the rectangle and a margin, square texels over its longer side.
         let res = params.map_resolution.max(1);
         let side = s.size.max_element() * (1.0 + 2.0 * MAP_MARGIN);
@@ -200,9 +203,7 @@ impl WaterGpuLayer {
                 let source = match mode {
                     Mode::Article => MapSource::Article,
                     Mode::Physical => {
-                        let all =
-                            physical::disc_directions(sun.dir, sun.radius, params.sun_samples);
-                        let dirs = all
+                        let dirs = disc
                             .iter()
                             .filter(|l| l.y < 0.0)
                             .map(|l| l.extend(0.0).to_array())
@@ -223,8 +224,7 @@ impl WaterGpuLayer {
         // The physical splat's constants, as the CPU's (physical::irradiance).
         let g = params.grid.max(1);
         let cell = Vec2::new(s.size.x / g as f32, s.size.y / g as f32);
-        let n_dirs =
-            physical::disc_directions(sun.dir, sun.radius, params.sun_samples).len() as f32;
+        let n_dirs = disc.len() as f32;
         let blur = {
             let cos_i = -sun.dir.y;
             let cos_t = refract(sun.dir, Vec3::Y, 1.0 / body.ior).map_or(1.0, |t| -t.y);
