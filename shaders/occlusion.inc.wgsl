@@ -57,46 +57,16 @@ fn blocker_hit(t: BlockerTri, o: vec3<f32>, d: vec3<f32>) -> f32 {
     return dot(t.e2.xyz, q) * inv;
 }
 
-// Whether an occluder lies on origin + t*dir, 0 < t < t_max.
-fn occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
-    let inv = 1.0 / d;
-    var stack: array<u32, 48>;
-    var sp = 1u;
-    stack[0] = 0u;
-    while sp > 0u {
-        sp -= 1u;
-        let n = blocker_nodes[stack[sp]];
-        if !bvh_slab(n.lo, n.hi, o, inv, t_max) {
-            continue;
-        }
-        if n.count == 0u {
-            if sp + 2u <= BVH_STACK {
-                stack[sp] = n.first;
-                stack[sp + 1u] = n.first + 1u;
-                sp += 2u;
-            }
-            continue;
-        }
-        for (var k = n.first; k < n.first + n.count; k++) {
-            let t = blocker_hit(blocker_tris[k], o, d);
-            if t > 0.0 && t < t_max {
-                return true;
-            }
-        }
-    }
-    return false;
-}
-
-// The nearest occluder triangle on origin + t*dir, 0 < t < t_max: its distance and index
-// (tri == 0xffffffff: none). The same tree, kept for passes that follow a ray to whatever it
-// meets first (the water's refracted sun rays and view rays); v0.w holds the triangle's
-// material index.
+// The nearest occluder triangle on origin + t*dir, 0 < t < t_max (with `first_found`, the
+// first one found): its distance and index (tri == 0xffffffff: none). v0.w holds the
+// triangle's material index, for passes that follow a ray to whatever it meets first (the
+// water's refracted sun rays and view rays).
 struct BlockerHit {
     t: f32,
     tri: u32,
 }
 
-fn closest_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BlockerHit {
+fn traverse(o: vec3<f32>, d: vec3<f32>, t_max: f32, first_found: bool) -> BlockerHit {
     let inv = 1.0 / d;
     var best = BlockerHit(t_max, 0xffffffffu);
     var stack: array<u32, 48>;
@@ -120,10 +90,23 @@ fn closest_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BlockerHit {
             let t = blocker_hit(blocker_tris[k], o, d);
             if t > 0.0 && t < best.t {
                 best = BlockerHit(t, k);
+                if first_found {
+                    return best;
+                }
             }
         }
     }
     return best;
+}
+
+// Whether an occluder lies on origin + t*dir, 0 < t < t_max.
+fn occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    return traverse(o, d, t_max, true).tri != 0xffffffffu;
+}
+
+// The nearest occluder on origin + t*dir, 0 < t < t_max.
+fn closest_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BlockerHit {
+    return traverse(o, d, t_max, false);
 }
 
 // The unit geometric normal of blocker triangle k, facing against d.

@@ -123,7 +123,8 @@ enum Cmd {
         /// Water, physical: directions over the sun's disc (default 4).
         #[arg(long)]
         sun_samples: Option<u32>,
-        /// Water, texture: texels per side of the light map (default 1024).
+        /// Water, texture, shader, shader_texture: texels per side of the light map (default
+        /// 1024).
         #[arg(long)]
         map_resolution: Option<u32>,
         /// Water, vertex: quads per side of the receiver grid (default 128).

@@ -50,7 +50,8 @@ pub struct WaterArgs {
     /// Physical: directions over the sun's disc, 1..=64 (default 4).
     #[serde(default)]
     pub sun_samples: Option<u32>,
-    /// Texture: texels per side of the light map, 16..=2048 (default 1024).
+    /// Texture, shader, shader_texture: texels per side of the light map, 16..=2048 (default
+    /// 1024).
     #[serde(default)]
     pub map_resolution: Option<u32>,
     /// Vertex: quads per side of the receiver grid, 4..=2048 (default 128).

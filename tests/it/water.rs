@@ -460,32 +460,36 @@ fn the_reference_agrees_with_mitsuba_on_a_wavy_frame() {
     assert!(caustics.flux_ratio < total.flux_ratio, "{caustics:?}");
 }
 
-#[test]
-fn the_articles_pixel_shader_on_the_gpu_gives_the_cpus_frame() {
-    use caustica::render::water::gpu::WaterGpuLayer;
-    // Under the surface (receivers from the G-buffer, the rock's shadow from the blockers) and
-    // from above (the floor plane through the waves), one point a pixel on both sides.
-    for (scene, camera, object) in [
-        ("sea-floor-low-sun", Some(SEA_CAMERA), "sea-floor"),
-        ("pool-noon", None, "pool"),
-    ] {
-        let mut w = match camera {
-            Some(c) => at(scene, c, 0.7),
-            None => scenes::load(scene),
-        };
+/// The article's GPU tests' frames, 96 × 72: the sea floor under its surface at t = 0.7, and
+/// the pool from above; each with the object whose pixels are compared.
+fn article_frames() -> [(&'static str, World, &'static str); 2] {
+    let sized = |mut w: World| {
         w.camera.width = 96;
         w.camera.height = 72;
+        w
+    };
+    [
+        (
+            "sea-floor-low-sun",
+            sized(at("sea-floor-low-sun", SEA_CAMERA, 0.7)),
+            "sea-floor",
+        ),
+        ("pool-noon", sized(scenes::load("pool-noon")), "pool"),
+    ]
+}
+
+#[test]
+fn the_articles_pixel_shader_on_the_gpu_gives_the_cpus_frame() {
+    // Under the surface (receivers from the G-buffer, the rock's shadow from the blockers) and
+    // from above (the first receiver through the waves), one point a pixel on both sides.
+    for (scene, w, object) in article_frames() {
         let p = WaterParams {
             mode: Mode::Article,
             variant: Variant::Shader,
             pixel_samples: 1,
             ..Default::default()
         };
-        let layer = WaterGpuLayer::build(&w, &p).unwrap();
-        let out = crate::support::gpu::renderer()
-            .render_water(&w, &Default::default(), &layer)
-            .unwrap();
-        let gpu = out.caustics.expect("a caustics layer");
+        let gpu = gpu_layer(&w, &p);
         let (cpu, _) = layer_of(&w, &p);
         let (l1, flux) = error(&w, &gpu, &cpu, object);
         eprintln!("{scene}: GPU against CPU rel L1 {l1:.4}, flux ratio {flux:.4}");
@@ -562,16 +566,7 @@ fn the_physical_mode_on_the_gpu_agrees_with_the_reference_and_the_cpu() {
 fn the_articles_light_map_on_the_gpu_follows_the_pixels_area_average() {
     // The mipmapped map read at the pixel's footprint against the CPU's article mode at 3 × 3
     // points a pixel (the per-pixel shader takes one point, and aliases).
-    for (scene, camera, object) in [
-        ("sea-floor-low-sun", Some(SEA_CAMERA), "sea-floor"),
-        ("pool-noon", None, "pool"),
-    ] {
-        let mut w = match camera {
-            Some(c) => at(scene, c, 0.7),
-            None => scenes::load(scene),
-        };
-        w.camera.width = 96;
-        w.camera.height = 72;
+    for (scene, w, object) in article_frames() {
         let p = WaterParams {
             mode: Mode::Article,
             variant: Variant::ShaderTexture,

@@ -1,5 +1,6 @@
 //! The caustics layer of method `water` (Sánchez-Crespo 2003): sunlight refracted by a
-//! procedural water surface onto what lies below it, on the CPU.
+//! procedural water surface onto what lies below it, on the CPU (the GPU's passes, variants
+//! `shader` and `shader_texture`, are in [`gpu`]).
 //!
 //! Two modes compute the irradiance E at receiver points under the water:
 //! - [`Mode::Physical`] ([`physical`]): a grid of the sun's rays is refracted at the analytic
@@ -18,7 +19,8 @@
 //! [`Variant::Texture`] (a light map of fixed resolution over the water's rectangle, on the
 //! receivers seen from above, mipmapped and sampled per pixel); [`Variant::Vertex`] (the
 //! article's first version: a coarser grid of vertices, interpolated bilinearly, normals by
-//! finite differences in the article mode).
+//! finite differences in the article mode). [`Variant::Shader`] and [`Variant::ShaderTexture`]
+//! compute it on the GPU ([`gpu`]); [`render_layer`] takes them as `Pixel` and `Texture`.
 
 pub mod article;
 pub mod gpu;
@@ -109,7 +111,7 @@ pub struct WaterParams {
     pub grid: u32,
     /// Physical: directions over the sun's disc (1 when the light has no disc).
     pub sun_samples: u32,
-    /// Texture: texels per side of the light map.
+    /// Texture, shader, shader_texture: texels per side of the light map.
     pub map_resolution: u32,
     /// Vertex: quads per side of the receiver grid.
     pub mesh_resolution: u32,
