@@ -60,6 +60,7 @@ fn glass_sphere_world() -> World {
         ],
         warnings: vec![],
         water: vec![],
+        media: vec![],
     }
 }
 

@@ -66,16 +66,23 @@ pub enum Component {
     /// Every other path of two or more bounces: diffuse interreflection, and light a diffuse
     /// surface sends through glass (L D S+ D E).
     Indirect,
+    /// Light scattered towards the camera by a participating medium (L … V E), except:
+    Volume,
+    /// light that went through glass or off mirrors and then scattered once in the medium
+    /// towards the camera (L S+ V E): the volumetric caustic.
+    VolumeCaustics,
 }
 
 impl Component {
     /// Every component, `total` first: the order of a frame's layers.
-    pub const ALL: [Component; 5] = [
+    pub const ALL: [Component; 7] = [
         Component::Total,
         Component::Direct,
         Component::Caustics,
         Component::Specular,
         Component::Indirect,
+        Component::Volume,
+        Component::VolumeCaustics,
     ];
 
     pub fn name(self) -> &'static str {
@@ -85,6 +92,8 @@ impl Component {
             Component::Caustics => "caustics",
             Component::Specular => "specular",
             Component::Indirect => "indirect",
+            Component::Volume => "volume",
+            Component::VolumeCaustics => "volume_caustics",
         }
     }
 }

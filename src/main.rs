@@ -71,6 +71,10 @@ enum Cmd {
         /// Reference: stop tracing photons after this many seconds.
         #[arg(long)]
         time_budget: Option<f64>,
+        /// Reference: scatterings in the scene's medium a light path may have (1: single
+        /// scattering; default: unlimited).
+        #[arg(long)]
+        volume_bounces: Option<u32>,
         /// CSL: a baked CSL set (`caustica bake csl`; a `--dynamic` one gives the set for the
         /// scene's light direction by interpolation) for the scene's caustic object; without
         /// it every caustic object is baked (kept by content hash in CAUSTICA_CACHE or the
@@ -261,6 +265,7 @@ fn main() -> Result<()> {
             spp,
             seed,
             time_budget,
+            volume_bounces,
             bake,
             line_points,
             samples,
@@ -318,6 +323,7 @@ fn main() -> Result<()> {
                 spp: Some(spp),
                 seed: Some(seed),
                 time_budget,
+                volume_bounces,
                 csl: None,
                 line_points: Some(line_points),
                 pinhole,

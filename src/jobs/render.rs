@@ -59,6 +59,10 @@ pub struct RenderParams {
     pub spp: Option<u32>,
     #[serde(default)]
     pub seed: Option<u64>,
+    /// Reference: scatterings in the scene's medium a light path may have (1: single
+    /// scattering), 1..=1000 (default: unlimited).
+    #[serde(default)]
+    pub volume_bounces: Option<u32>,
     /// CSL: the bake's parameters, `{"preset": "paper" | "fast", "grid": 16..=4096}` as for
     /// `POST /v1/bakes` (default: the paper's).
     #[serde(default)]
@@ -153,6 +157,7 @@ impl RenderParams {
             photons: self.photons,
             spp: self.spp,
             seed: self.seed,
+            volume_bounces: self.volume_bounces,
             csl: self.csl.clone(),
             pinhole: self.pinhole.clone(),
             water: match (&self.water, self.water_mode) {

@@ -169,6 +169,7 @@ fn gltf_scene(
             material: None,
             transform: Default::default(),
         }],
+        media: Vec::new(),
     };
     Ok((desc, file.to_string(), warnings))
 }

@@ -212,6 +212,8 @@ pub struct MethodArgs {
     pub seed: Option<u64>,
     /// Reference: stop tracing photons after this many seconds (CLI).
     pub time_budget: Option<f64>,
+    /// Reference: scatterings in the scene's medium a light path may have, 1..=1000.
+    pub volume_bounces: Option<u32>,
     /// CSL: the bake's parameters, as for a `csl` bake.
     pub csl: Option<serde_json::Value>,
     /// Transport, pinhole: point lights a line light is split into, 1..=256 (CLI).
@@ -236,6 +238,9 @@ impl MethodArgs {
         }
         if let Some(n) = self.spp {
             ParamError::range("spp", n, 1, 1024)?;
+        }
+        if let Some(n) = self.volume_bounces {
+            ParamError::range("volume_bounces", n, 1, 1000)?;
         }
         if let Some(t) = self.time_budget
             && !(t.is_finite() && t > 0.0)

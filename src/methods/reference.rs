@@ -19,7 +19,7 @@ pub static INFO: MethodInfo = MethodInfo {
     lane: Lane::Cpu,
     gpu: false,
     bake: true,
-    args: &["photons", "spp", "seed", "time_budget"],
+    args: &["photons", "spp", "seed", "time_budget", "volume_bounces"],
 };
 
 pub struct Reference;
@@ -37,6 +37,7 @@ impl MethodImpl for Reference {
             photons: args.photons.unwrap_or(d.photons),
             spp: args.spp.unwrap_or(d.spp),
             time_budget: args.time_budget.map(Duration::from_secs_f64),
+            volume_bounces: args.volume_bounces.unwrap_or(d.volume_bounces),
             ..d
         })))
     }

@@ -33,6 +33,7 @@ pub mod compare;
 
 use crate::frame::Frame;
 use crate::sampling::*;
+use crate::scene::medium::{hg, sample_hg};
 use crate::scene::{EnvSampler, Light, Material, World};
 use crate::trace::optics::{brdf, sample_specular, segment_transmittance};
 use crate::trace::{Accel, Hit};
@@ -55,6 +56,9 @@ pub struct ReferenceParams {
     pub time_budget: Option<Duration>,
     /// Shadow-ray samples for line and environment lights at each shading point.
     pub area_light_samples: u32,
+    /// Scattering events in the scene's medium a light path may have: 1 for single scattering
+    /// (the beam methods' model), `u32::MAX` for multiple scattering.
+    pub volume_bounces: u32,
 }
 
 impl Default for ReferenceParams {
@@ -66,6 +70,7 @@ impl Default for ReferenceParams {
             max_depth: 16,
             time_budget: None,
             area_light_samples: 8,
+            volume_bounces: u32::MAX,
         }
     }
 }
@@ -77,6 +82,10 @@ pub struct Components {
     pub caustics: Frame,
     pub indirect: Frame,
     pub specular: Frame,
+    /// Light scattered in the medium towards the camera: after specular objects
+    /// (`volume_caustics`, L S+ V … E) and the rest (`volume`).
+    pub volume: Frame,
+    pub volume_caustics: Frame,
 }
 
 impl Components {
@@ -85,6 +94,8 @@ impl Components {
             .add(&self.caustics)
             .add(&self.indirect)
             .add(&self.specular)
+            .add(&self.volume)
+            .add(&self.volume_caustics)
     }
 
     /// One component of the frame.
@@ -95,6 +106,8 @@ impl Components {
             C::Caustics => self.caustics.clone(),
             C::Indirect => self.indirect.clone(),
             C::Specular => self.specular.clone(),
+            C::Volume => self.volume.clone(),
+            C::VolumeCaustics => self.volume_caustics.clone(),
             C::Total => self.total(),
         }
     }
@@ -142,11 +155,20 @@ struct Photon {
     pop: u32,
 }
 
+/// The light-traced images a splat adds to.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Target {
+    Caustics = 0,
+    Indirect = 1,
+    Volume = 2,
+    VolumeCaustics = 3,
+}
+
 /// One splat of light tracing into a pixel.
 struct Splat {
     pixel: u32,
     value: Vec3,
-    caustic: bool,
+    target: Target,
 }
 
 /// Render every component of the reference.
@@ -176,8 +198,9 @@ pub fn render(
 
     // --- Photon pass -----------------------------------------------------------------------
     let pops = populations(world, params.photons);
-    let mut caustics = vec![Vec3::ZERO; (w * h) as usize];
-    let mut indirect = vec![Vec3::ZERO; (w * h) as usize];
+    // Caustics, indirect, volume, volume caustics (Target's order).
+    let blank = || vec![Vec3::ZERO; (w * h) as usize];
+    let mut traced: [Vec<Vec3>; 4] = [blank(), blank(), blank(), blank()];
     let mut photons: Vec<Photon> = Vec::new();
     let mut emitted = vec![0u64; pops.len()];
     // Chunks listed round-robin over populations so that stopping early (time budget) leaves
@@ -198,19 +221,17 @@ pub fn render(
     }
     let batch = (rayon::current_num_threads() * 8).max(1);
     let mut done = 0usize;
-    let mut per_pop_splat: Vec<(Vec<Vec3>, Vec<Vec3>)> = Vec::new();
     let multi = pops.len() > 1;
-    if multi {
-        per_pop_splat = pops
-            .iter()
-            .map(|_| {
-                (
-                    vec![Vec3::ZERO; (w * h) as usize],
-                    vec![Vec3::ZERO; (w * h) as usize],
-                )
-            })
-            .collect();
-    }
+    // Per population when there are several (each is normalised by its own count); the
+    // volume images only where the scene has a medium.
+    let images = if world.media.is_empty() { 2 } else { 4 };
+    let mut per_pop_splat: Vec<Vec<Vec<Vec3>>> = if multi {
+        pops.iter()
+            .map(|_| (0..images).map(|_| blank()).collect())
+            .collect()
+    } else {
+        Vec::new()
+    };
     while done < chunks.len() {
         let end = (done + batch).min(chunks.len());
         let results: Vec<(Vec<Splat>, Vec<Photon>)> = chunks[done..end]
@@ -221,18 +242,13 @@ pub fn render(
             .collect();
         for (&(pi, _, n), (splats, ph)) in chunks[done..end].iter().zip(results) {
             emitted[pi] += n;
-            let (c_img, i_img) = if multi {
-                let e = &mut per_pop_splat[pi];
-                (&mut e.0, &mut e.1)
-            } else {
-                (&mut caustics, &mut indirect)
-            };
             for s in splats {
-                if s.caustic {
-                    c_img[s.pixel as usize] += s.value;
+                let img = if multi {
+                    &mut per_pop_splat[pi][s.target as usize]
                 } else {
-                    i_img[s.pixel as usize] += s.value;
-                }
+                    &mut traced[s.target as usize]
+                };
+                img[s.pixel as usize] += s.value;
             }
             photons.extend(ph);
         }
@@ -251,15 +267,17 @@ pub fn render(
         .map(|&n| if n > 0 { 1.0 / n as f32 } else { 0.0 })
         .collect();
     if multi {
-        for (pi, (c, i)) in per_pop_splat.iter().enumerate() {
-            for k in 0..c.len() {
-                caustics[k] += c[k] * norm[pi];
-                indirect[k] += i[k] * norm[pi];
+        for (pi, imgs) in per_pop_splat.iter().enumerate() {
+            for (t, img) in imgs.iter().enumerate() {
+                for (acc, v) in traced[t].iter_mut().zip(img) {
+                    *acc += *v * norm[pi];
+                }
             }
         }
     } else if let Some(&s) = norm.first() {
-        caustics.iter_mut().for_each(|v| *v *= s);
-        indirect.iter_mut().for_each(|v| *v *= s);
+        traced
+            .iter_mut()
+            .for_each(|img| img.iter_mut().for_each(|v| *v *= s));
     }
     for p in &mut photons {
         p.flux *= norm[p.pop as usize];
@@ -308,20 +326,19 @@ pub fn render(
             specular.pixels[y * w as usize + x] = s;
         }
     }
+    let [caustics, indirect, volume, volume_caustics] = traced.map(|pixels| Frame {
+        width: w,
+        height: h,
+        pixels,
+    });
     Ok((
         Components {
             direct,
-            caustics: Frame {
-                width: w,
-                height: h,
-                pixels: caustics,
-            },
-            indirect: Frame {
-                width: w,
-                height: h,
-                pixels: indirect,
-            },
+            caustics,
+            indirect,
             specular,
+            volume,
+            volume_caustics,
         },
         stats,
     ))
@@ -388,7 +405,8 @@ fn cone_cos(p: Vec3, c: Vec3, r: f32) -> f32 {
 
 fn populations(world: &World, photons: u64) -> Vec<Population> {
     let specular_objects = world.objects_with(Material::is_specular);
-    let (lo, hi) = world.bounds();
+    // The global population covers the media too: light scatters there before any surface.
+    let (lo, hi) = world.bounds_with_media();
     let scene_centre = (lo + hi) * 0.5;
     let scene_radius = ((hi - lo).length() * 0.5).max(1e-3) * 1.001;
     let mut targeted = Vec::new();
@@ -556,10 +574,73 @@ fn trace_photon_chunk(
         let Some((mut o, mut d, mut flux)) = emit(world, env, pop, &mut rng) else {
             continue;
         };
+        // A targeted population's photon starts in front of its object: the medium between
+        // where the light enters it and that start attenuates it (a scattering there is the
+        // global population's).
+        if pop.target.is_some() && !world.media.is_empty() {
+            flux *= world.media_transmittance_ray(o, -d, f32::INFINITY);
+        }
         let mut specular_seen = false;
         let mut diffuse_vertices = 0u32;
+        let mut volume_vertices = 0u32;
         for depth in 0..params.max_depth {
-            let Some(hit) = intersect(world, accel, o, d) else {
+            let hit = intersect(world, accel, o, d);
+            // A free flight through the medium (no number is drawn without one). A scattering
+            // before the first surface belongs to the global population.
+            if let Some(m) = world.media.first()
+                && hit.as_ref().is_none_or(|h| !inside_glass(world, accel, h))
+            {
+                match free_flight(
+                    m,
+                    o,
+                    d,
+                    hit.as_ref().map_or(f32::INFINITY, |h| h.t),
+                    &mut rng,
+                ) {
+                    Flight::Pass(weight) => flux *= weight,
+                    Flight::Scatter(t, weight) => {
+                        if depth == 0 && pop.target.is_some() {
+                            break;
+                        }
+                        flux *= weight;
+                        volume_vertices += 1;
+                        let p = o + d * t;
+                        if let Some((pixel, value)) =
+                            connect_medium_to_camera(world, accel, m, p, d, flux, pixel_area)
+                        {
+                            splats.push(Splat {
+                                pixel,
+                                value,
+                                // Through specular objects, and no other vertex before this.
+                                target: if specular_seen
+                                    && diffuse_vertices == 0
+                                    && volume_vertices == 1
+                                {
+                                    Target::VolumeCaustics
+                                } else {
+                                    Target::Volume
+                                },
+                            });
+                        }
+                        if volume_vertices >= params.volume_bounces {
+                            break;
+                        }
+                        let albedo = m.sigma_s / m.sigma_t().max(Vec3::splat(1e-12));
+                        if depth >= 3 {
+                            let keep = albedo.max_element().clamp(0.05, 0.95);
+                            if rng.f32() >= keep {
+                                break;
+                            }
+                            flux /= keep;
+                        }
+                        o = p;
+                        d = sample_hg(m.g, d, rng.f32(), rng.f32());
+                        continue;
+                    }
+                    Flight::Outside => {}
+                }
+            }
+            let Some(hit) = hit else {
                 break;
             };
             let mat = accel.material(&hit);
@@ -572,7 +653,8 @@ fn trace_photon_chunk(
                     break;
                 }
             }
-            flux *= segment_transmittance(&hit, mat) * world.medium_transmittance(o, hit.point);
+            // The water's absorption (the medium's was the free flight's).
+            flux *= segment_transmittance(&hit, mat) * world.water_transmittance(o, hit.point);
             if mat.is_specular() {
                 let Some(b) = sample_specular(&hit, d, mat, rng.f32()) else {
                     break;
@@ -586,16 +668,21 @@ fn trace_photon_chunk(
             // Non-specular vertex: splat to the camera unless it is the direct component's.
             diffuse_vertices += 1;
             let wi = -d;
-            if specular_seen || diffuse_vertices >= 2 {
+            // L S+ D: only specular vertices before this, the first diffuse one.
+            let caustic = specular_seen && diffuse_vertices == 1 && volume_vertices == 0;
+            if specular_seen || diffuse_vertices >= 2 || volume_vertices > 0 {
                 if let Some(s) = connect_to_camera(world, accel, &hit, mat, wi, flux, pixel_area) {
                     splats.push(Splat {
                         pixel: s.0,
                         value: s.1,
-                        // L S+ D: only specular vertices before this, the first diffuse one.
-                        caustic: specular_seen && diffuse_vertices == 1,
+                        target: if caustic {
+                            Target::Caustics
+                        } else {
+                            Target::Indirect
+                        },
                     });
                 }
-                if specular_seen && diffuse_vertices == 1 {
+                if caustic {
                     stored.push(Photon {
                         pos: hit.point,
                         wi,
@@ -665,6 +752,87 @@ fn connect_to_camera(
         * f
         * world.medium_transmittance(hit.point, cam.eye)
         * (cos_x / (dist * dist * cos_c.powi(3) * pixel_area));
+    Some((pixel, value))
+}
+
+/// Whether the segment that ends at `hit` ran inside a glass object (it ends on the back of a
+/// dielectric that is not a water surface): no medium there.
+fn inside_glass(world: &World, accel: &Accel, hit: &Hit) -> bool {
+    !hit.front_face
+        && matches!(accel.material(hit), Material::Dielectric { .. })
+        && world.water_of(hit.object).is_none()
+}
+
+/// The medium's part of a segment's transmittance: none inside glass.
+fn fog(world: &World, accel: &Accel, a: Vec3, end: &Hit) -> Vec3 {
+    if world.media.is_empty() || inside_glass(world, accel, end) {
+        Vec3::ONE
+    } else {
+        world.media_transmittance_ray(a, (end.point - a).normalize_or_zero(), end.t)
+    }
+}
+
+/// What a free flight through the medium did along o + t·d, 0 ≤ t ≤ t_end.
+enum Flight {
+    /// The segment misses the medium.
+    Outside,
+    /// It crossed it; the path's weight is multiplied by T / P(crossing).
+    Pass(Vec3),
+    /// It scattered at distance t (from o); weight σs·T(t) / pdf(t).
+    Scatter(f32, Vec3),
+}
+
+/// Samples where light along o + t·d first interacts with the medium: a channel chosen
+/// uniformly, a distance from its exponential, weighted by the mixture of the three
+/// channels' densities (spectral MIS, the one-sample model).
+fn free_flight(m: &crate::scene::Medium, o: Vec3, d: Vec3, t_end: f32, rng: &mut Pcg) -> Flight {
+    let Some((t0, t1)) = m.interval(o, d, t_end) else {
+        return Flight::Outside;
+    };
+    let st = m.sigma_t();
+    let c = ((rng.f32() * 3.0) as usize).min(2);
+    let u = rng.f32();
+    let t = if st[c] > 0.0 {
+        -(1.0 - u).ln() / st[c]
+    } else {
+        f32::INFINITY
+    };
+    let len = t1 - t0;
+    if t < len {
+        let tr = (-st * t).exp();
+        let pdf = (st * tr).element_sum() / 3.0;
+        Flight::Scatter(t0 + t, m.sigma_s * tr / pdf)
+    } else {
+        let tr = (-st * len).exp();
+        Flight::Pass(tr / (tr.element_sum() / 3.0))
+    }
+}
+
+/// Light-tracing connection of a scattering in the medium at `p` (light travelling along
+/// `d`) to the pinhole: Φ·p_HG·T / (dist²·cos³θc·A_pixel).
+fn connect_medium_to_camera(
+    world: &World,
+    accel: &Accel,
+    m: &crate::scene::Medium,
+    p: Vec3,
+    d: Vec3,
+    flux: Vec3,
+    pixel_area: f32,
+) -> Option<(u32, Vec3)> {
+    let cam = &world.camera;
+    let to_cam = cam.eye - p;
+    let dist = to_cam.length();
+    let wo = to_cam / dist;
+    let (px, py, cos_c) = cam.project(p)?;
+    if px < 0.0 || py < 0.0 || px >= cam.width as f32 || py >= cam.height as f32 {
+        return None;
+    }
+    if accel.occluded(p, wo, dist * (1.0 - 1e-5)) {
+        return None;
+    }
+    let pixel = py as u32 * cam.width + px as u32;
+    let value = flux * hg(m.g, d, wo) * world.medium_transmittance(p, cam.eye)
+        / (dist * dist * cos_c.powi(3) * pixel_area);
     Some((pixel, value))
 }
 
@@ -753,11 +921,13 @@ fn camera_pixel(
         let j = (cell + rng.vec2()) / k as f32;
         let d = rays.dir(x as f32 + j.x, y as f32 + j.y);
         let Some(hit) = intersect(world, accel, cam.eye, d) else {
-            direct += background(world, d);
+            direct +=
+                background(world, d) * world.media_transmittance_ray(cam.eye, d, f32::INFINITY);
             continue;
         };
         let mat = accel.material(&hit);
-        let medium = world.medium_transmittance(cam.eye, hit.point);
+        let medium =
+            world.water_transmittance(cam.eye, hit.point) * fog(world, accel, cam.eye, &hit);
         if !mat.is_specular() {
             direct += medium * shade(world, accel, params, env, &hit, mat, -d, &mut rng);
             continue;
@@ -789,11 +959,13 @@ fn camera_pixel(
             dir = b.dir;
             match intersect(world, accel, o, dir) {
                 Some(n) => {
-                    throughput *= world.medium_transmittance(o, n.point);
+                    throughput *= world.water_transmittance(o, n.point) * fog(world, accel, o, &n);
                     h = n
                 }
                 None => {
-                    spec += throughput * background(world, dir);
+                    spec += throughput
+                        * background(world, dir)
+                        * world.media_transmittance_ray(o, dir, f32::INFINITY);
                     break;
                 }
             }
@@ -876,7 +1048,10 @@ fn shade(
                     && n.dot(wi) > 0.0
                     && !accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
                 {
-                    sum += brdf(mat, n, wi, wo) * *irradiance * n.dot(wi);
+                    sum += brdf(mat, n, wi, wo)
+                        * *irradiance
+                        * world.media_transmittance_ray(hit.point, wi, f32::INFINITY)
+                        * n.dot(wi);
                 }
             }
             Light::Point {
@@ -925,7 +1100,11 @@ fn shade(
             }
             Light::Environment { map, radiance } => {
                 let m = params.area_light_samples.max(1);
-                let le = |wi: Vec3| *radiance * map.as_ref().map_or(Vec3::ONE, |e| e.lookup(wi));
+                let le = |wi: Vec3| {
+                    *radiance
+                        * map.as_ref().map_or(Vec3::ONE, |e| e.lookup(wi))
+                        * world.media_transmittance_ray(hit.point, wi, f32::INFINITY)
+                };
                 let visible = |wi: Vec3| {
                     wi.dot(hit.geo_normal) > 0.0
                         && n.dot(wi) > 0.0

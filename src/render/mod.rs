@@ -112,8 +112,8 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
-    /// Every component, in [`Component::ALL`]'s order (`indirect`, which no GPU pass
-    /// computes, and `caustics` when no caustics method ran, are black).
+    /// Every component, in [`Component::ALL`]'s order (`indirect` and the volume components,
+    /// which no GPU pass computes, and `caustics` when no caustics method ran, are black).
     pub fn components(&self) -> Vec<(Component, Frame)> {
         let black = || Frame::new(self.direct.width, self.direct.height);
         Component::ALL
@@ -124,7 +124,7 @@ impl RenderOutput {
                     Component::Direct => self.direct.clone(),
                     Component::Caustics => self.caustics.clone().unwrap_or_else(black),
                     Component::Specular => self.specular.clone(),
-                    Component::Indirect => black(),
+                    Component::Indirect | Component::Volume | Component::VolumeCaustics => black(),
                 };
                 (c, f)
             })

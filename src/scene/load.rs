@@ -690,6 +690,14 @@ pub fn resolve(
             ),
         });
     }
+    let media = resolve_media(&desc.media, &objects, &camera)?;
+    if !media.is_empty() {
+        warnings.push(
+            "the scene's medium is rendered by method reference only; the other methods ignore \
+             it"
+            .into(),
+        );
+    }
     Ok(World {
         name: desc.name.clone(),
         camera,
@@ -698,7 +706,81 @@ pub fn resolve(
         objects,
         warnings,
         water,
+        media,
     })
+}
+
+/// Checks the scene's media and places them: a box, or the whole scene (every object and the
+/// camera's eye, 1 % larger and at least 1 cm more on each side).
+fn resolve_media(
+    media: &[MediumDesc],
+    objects: &[Object],
+    camera: &Camera,
+) -> Result<Vec<crate::scene::Medium>, SceneError> {
+    if media.len() > 1 {
+        return Err(SceneError::invalid(
+            "media",
+            "at most one medium a scene, for now",
+        ));
+    }
+    let mut out = Vec::new();
+    for (i, m) in media.iter().enumerate() {
+        let p = |f: &str| format!("media[{i}].{f}");
+        let sigma_s = nonneg_rgb(&p("sigma_s"), m.sigma_s)?;
+        let sigma_a = match m.sigma_a {
+            Some(c) => nonneg_rgb(&p("sigma_a"), c)?,
+            None => Vec3::ZERO,
+        };
+        if !(m.g.is_finite() && m.g.abs() < 1.0) {
+            return Err(SceneError::invalid(p("g"), "must lie in (-1, 1)"));
+        }
+        if (sigma_s + sigma_a).max_element() > 1e6 {
+            return Err(SceneError::invalid(
+                p("sigma_s"),
+                "sigma_s + sigma_a must be at most 1e6 per metre",
+            ));
+        }
+        let (transform, half) = match &m.bounds {
+            MediumBoundsDesc::Box { size, transform } => {
+                let s = finite3(&p("bounds.size"), *size)?;
+                if s.min_element() <= 0.0 {
+                    return Err(SceneError::invalid(
+                        p("bounds.size"),
+                        "must be three finite numbers > 0",
+                    ));
+                }
+                let t = transform.matrix();
+                if !t.is_finite() || t.determinant().abs() < 1e-12 {
+                    return Err(SceneError::invalid(
+                        p("bounds.transform"),
+                        "must be finite and invertible",
+                    ));
+                }
+                (t, s * 0.5)
+            }
+            MediumBoundsDesc::Scene => {
+                let (mut lo, mut hi) = (camera.eye, camera.eye);
+                for o in objects {
+                    for part in &o.parts {
+                        for v in &part.mesh.positions {
+                            let w = o.transform.transform_point3(*v);
+                            lo = lo.min(w);
+                            hi = hi.max(w);
+                        }
+                    }
+                }
+                let pad = Vec3::splat(0.01) + (hi - lo) * 0.01;
+                (
+                    glam::Mat4::from_translation((lo + hi) * 0.5),
+                    (hi - lo) * 0.5 + pad,
+                )
+            }
+        };
+        out.push(crate::scene::Medium::new(
+            sigma_s, sigma_a, m.g, transform, half,
+        ));
+    }
+    Ok(out)
 }
 
 /// Checks a water shape and builds its body, its surface mesh and its floor's mesh (in the

@@ -6,6 +6,7 @@ pub mod curvature;
 pub mod gltf;
 pub mod image;
 pub mod load;
+pub mod medium;
 pub mod shapes;
 pub mod types;
 pub mod water;
@@ -15,6 +16,7 @@ pub use load::{
     AssetSource, DirSource, Limits, MapSource, SceneError, load_scene_file, load_scene_json,
     parse_scene, resolve,
 };
+pub use medium::Medium;
 pub use types::SceneDesc;
 pub use water::{WaterBody, WaterSurface, Waves};
 pub use world::{Camera, EnvMap, EnvSampler, Light, Material, Mesh, Object, Part, World};

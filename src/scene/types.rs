@@ -46,6 +46,42 @@ pub struct SceneDesc {
     pub materials: std::collections::BTreeMap<String, MaterialDesc>,
     #[serde(default)]
     pub objects: Vec<ObjectDesc>,
+    /// Participating media (fog): at most one, for now.
+    #[serde(default)]
+    pub media: Vec<MediumDesc>,
+}
+
+/// A homogeneous participating medium: coefficients per metre and channel, a
+/// Henyey-Greenstein phase function, and where it is.
+#[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MediumDesc {
+    /// Scattering coefficient σs, per metre (a number or [r, g, b]), ≥ 0.
+    pub sigma_s: Rgb,
+    /// Absorption coefficient σa, per metre, ≥ 0 (default 0).
+    #[serde(default)]
+    pub sigma_a: Option<Rgb>,
+    /// Henyey-Greenstein asymmetry, −1 < g < 1: 0 isotropic (default), > 0 forward.
+    #[serde(default)]
+    pub g: f32,
+    /// Where the medium is (default: the whole scene).
+    #[serde(default)]
+    pub bounds: MediumBoundsDesc,
+}
+
+/// Where a medium is.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MediumBoundsDesc {
+    /// The whole scene: a box around every object and the camera, 1 % larger.
+    #[default]
+    Scene,
+    /// A box of `size` (metres, centred on the origin), placed by `transform`.
+    Box {
+        size: [f32; 3],
+        #[serde(default)]
+        transform: TransformDesc,
+    },
 }
 
 /// Perspective pinhole camera.

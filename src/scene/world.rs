@@ -447,6 +447,8 @@ pub struct World {
     pub warnings: Vec<String>,
     /// Water bodies (`water` shapes): their surfaces are objects too, their media absorb.
     pub water: Vec<super::water::WaterBody>,
+    /// Participating media (the scene's `media`).
+    pub media: Vec<super::medium::Medium>,
 }
 
 impl World {
@@ -469,7 +471,7 @@ impl World {
         self.objects.iter().map(Object::triangle_count).sum()
     }
 
-    /// World-space bounds of all geometry.
+    /// World-space bounds of all geometry (not the media: [`Self::bounds_with_media`]).
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -489,16 +491,51 @@ impl World {
         }
     }
 
+    /// World-space bounds of all geometry and the media's boxes.
+    pub fn bounds_with_media(&self) -> (Vec3, Vec3) {
+        if self.media.is_empty() {
+            return self.bounds();
+        }
+        let (mut lo, mut hi) = if self.objects.is_empty() {
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))
+        } else {
+            self.bounds()
+        };
+        for m in &self.media {
+            let (a, b) = m.bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        (lo, hi)
+    }
+
     pub fn object(&self, name: &str) -> Option<&Object> {
         self.objects.iter().find(|o| o.name == name)
     }
 
     /// Transmittance of the straight segment a → b (which crosses no surface) through the
-    /// water bodies' media.
+    /// water bodies' media and the participating media.
     pub fn medium_transmittance(&self, a: Vec3, b: Vec3) -> Vec3 {
+        self.media
+            .iter()
+            .fold(self.water_transmittance(a, b), |t, m| {
+                t * m.transmittance(a, b)
+            })
+    }
+
+    /// Transmittance of the straight segment a → b through the water bodies' media alone.
+    pub fn water_transmittance(&self, a: Vec3, b: Vec3) -> Vec3 {
         self.water
             .iter()
             .fold(Vec3::ONE, |t, w| t * w.transmittance(a, b))
+    }
+
+    /// Transmittance of the participating media along o + t·d (unit d), 0 ≤ t ≤ t_max (which
+    /// may be infinite: a shadow ray towards a directional light).
+    pub fn media_transmittance_ray(&self, o: Vec3, d: Vec3, t_max: f32) -> Vec3 {
+        self.media
+            .iter()
+            .fold(Vec3::ONE, |t, m| t * m.transmittance_ray(o, d, t_max))
     }
 
     /// The water body whose surface is object `object`.

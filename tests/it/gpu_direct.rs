@@ -67,6 +67,7 @@ fn world(receiver: Material, spheres: &[(Vec3, f32)], lights: Vec<Light>) -> Wor
         objects,
         warnings: vec![],
         water: vec![],
+        media: vec![],
     }
 }
 
@@ -588,6 +589,7 @@ fn environment_map_orientation_follows_mitsuba() {
             objects: vec![object("ball", shapes::sphere(0.5, 64), 0, Mat4::IDENTITY)],
             warnings: vec![],
             water: vec![],
+            media: vec![],
         };
         let out = r.render(&w, &RenderOptions::default()).unwrap();
         let f = if layer == 0 {

@@ -165,7 +165,15 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
         .collect();
     assert_eq!(
         names,
-        ["total", "direct", "caustics", "specular", "indirect"]
+        [
+            "total",
+            "direct",
+            "caustics",
+            "specular",
+            "indirect",
+            "volume",
+            "volume_caustics"
+        ]
     );
     // Asking again after success: still the same job, no new work.
     let again: serde_json::Value = srv

@@ -265,6 +265,7 @@ fn wave_sheet_world() -> World {
         ],
         warnings: vec![],
         water: vec![],
+        media: vec![],
     }
 }
 

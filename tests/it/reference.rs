@@ -296,3 +296,109 @@ fn environment_map_file_is_loaded_scaled_and_oriented() {
         c.direct.at(2, 2)
     );
 }
+
+/// A slab of fog 1 m thick (a 4 m × 1 m × 4 m box) under a slanted sun, seen from above with
+/// nothing else in the scene. Single-scattered radiance along a view ray v (μv = |v·y|) from a
+/// directional light of irradiance E along l (μl = |l·y|) is
+/// L = E σs p(l, −v) (1 − e^{−σt H k}) / (σt μv k), k = 1/μv + 1/μl: the in-scattering
+/// ∫ σs p E e^{−σt z/μl} e^{−σt s} ds over the ray's path s in the slab, at depth z = s μv.
+#[test]
+fn single_scattering_in_a_fog_slab_is_the_closed_form() {
+    let (sigma_s, sigma_a, g) = (Vec3::new(0.3, 0.5, 0.8), Vec3::new(0.1, 0.05, 0.2), 0.4f32);
+    let world = parse(&format!(
+        r#"{{
+        "camera": {{"eye": [0, 3, 1.2], "target": [0, 0.5, 0], "fov_y": 20, "width": 40, "height": 30}},
+        "lights": [{{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}}],
+        "media": [{{"sigma_s": [{}, {}, {}], "sigma_a": [{}, {}, {}], "g": {g},
+                    "bounds": {{"type": "box", "size": [4, 1, 4],
+                                "transform": {{"translation": [0, 0.5, 0]}}}}}}]
+        }}"#,
+        sigma_s.x, sigma_s.y, sigma_s.z, sigma_a.x, sigma_a.y, sigma_a.z
+    ));
+    let accel = Accel::build(&world);
+    let params = ReferenceParams {
+        photons: 3_000_000,
+        spp: 1,
+        seed: 5,
+        volume_bounces: 1,
+        ..Default::default()
+    };
+    let (c, _) = reference::render(&world, &accel, &params, &|_| true).expect("renders");
+    let l = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let mu_l = -l.y;
+    let st = sigma_s + sigma_a;
+    let cam = &world.camera;
+    let rays = cam.rays();
+    let (mut got, mut want) = (0.0f64, 0.0f64);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let v = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
+            let mu_v = -v.y;
+            let k = 1.0 / mu_v + 1.0 / mu_l;
+            let p = caustica::scene::medium::hg(g, l, -v);
+            let e = 2.0 * sigma_s * p * (Vec3::ONE - (-st * k).exp()) / (st * mu_v * k);
+            let i = (y * cam.width + x) as usize;
+            got += f64::from(c.volume.pixels[i].element_sum());
+            want += f64::from(e.element_sum());
+            // Nothing else: no surface, no light through glass.
+            assert_eq!(c.volume_caustics.pixels[i], Vec3::ZERO);
+            assert_eq!(c.direct.pixels[i], Vec3::ZERO);
+        }
+    }
+    let ratio = got / want;
+    eprintln!("single scattering in the slab: reference / closed form {ratio:.4}");
+    assert!((ratio - 1.0).abs() < 0.02, "{ratio}");
+    // Multiple scattering adds light.
+    let (m, _) = reference::render(
+        &world,
+        &accel,
+        &ReferenceParams {
+            volume_bounces: u32::MAX,
+            ..params
+        },
+        &|_| true,
+    )
+    .expect("renders");
+    let ms: f64 = m
+        .volume
+        .pixels
+        .iter()
+        .map(|p| f64::from(p.element_sum()))
+        .sum();
+    eprintln!("multiple / single scattering {:.4}", ms / got);
+    assert!(ms > got * 1.05, "{ms} {got}");
+}
+
+#[test]
+fn bad_media_are_refused_with_their_field() {
+    let scene = |medium: &str| {
+        format!(
+            r#"{{"camera": {{"eye": [0, 3, 1], "target": [0, 0, 0]}},
+            "lights": [{{"type": "directional", "direction": [0, -1, 0], "irradiance": 1}}],
+            "media": [{medium}]}}"#
+        )
+    };
+    for (medium, field) in [
+        (r#"{"sigma_s": -0.1}"#, "media[0].sigma_s"),
+        (
+            r#"{"sigma_s": 0.1, "sigma_a": [0, -1, 0]}"#,
+            "media[0].sigma_a",
+        ),
+        (r#"{"sigma_s": 0.1, "g": 1.0}"#, "media[0].g"),
+        (r#"{"sigma_s": 0.1, "g": -1.5}"#, "media[0].g"),
+        (
+            r#"{"sigma_s": 0.1, "bounds": {"type": "box", "size": [1, 0, 1]}}"#,
+            "media[0].bounds.size",
+        ),
+        (r#"{"sigma_s": 0.1}, {"sigma_s": 0.2}"#, "media"),
+    ] {
+        let e = scene::load_scene_json(scene(medium).as_bytes()).unwrap_err();
+        assert_eq!(e.field(), field, "{medium}: {e}");
+    }
+    // A good one loads, with a warning that only the reference renders it.
+    let w = parse(&scene(r#"{"sigma_s": [0.1, 0.2, 0.3], "g": 0.7}"#));
+    assert_eq!(w.media.len(), 1);
+    assert!(w.warnings.iter().any(|m| m.contains("medium")));
+    // A whole-scene medium spans the camera.
+    assert!(w.media[0].contains(w.camera.eye));
+}

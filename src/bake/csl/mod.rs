@@ -377,6 +377,7 @@ pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
         }],
         warnings: Vec::new(),
         water: Vec::new(),
+        media: Vec::new(),
     }
 }
 
