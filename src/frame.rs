@@ -66,10 +66,12 @@ pub enum Component {
     /// Every other path of two or more bounces: diffuse interreflection, and light a diffuse
     /// surface sends through glass (L D S+ D E).
     Indirect,
-    /// Light scattered towards the camera by a participating medium (L … V E), except:
+    /// Light scattered towards the camera by a participating medium (L … V E), other than
+    /// `volume_caustics`.
     Volume,
-    /// light that went through glass or off mirrors and then scattered once in the medium
+    /// Light that went through glass or off mirrors and then scattered once in the medium
     /// towards the camera (L S+ V E): the volumetric caustic.
+    #[value(name = "volume_caustics", alias = "volume-caustics")]
     VolumeCaustics,
 }
 

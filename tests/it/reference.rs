@@ -402,3 +402,27 @@ fn bad_media_are_refused_with_their_field() {
     // A whole-scene medium spans the camera.
     assert!(w.media[0].contains(w.camera.eye));
 }
+
+/// A spot light in a box of fog over a diffuse floor, against Mitsuba 3's `volpath`
+/// (tests/data/mitsuba/README.md): every pixel sees the fog, most of them the floor behind it.
+#[test]
+fn fog_with_a_spot_light_matches_mitsubas_volpath() {
+    let world = scenes::parse(
+        &std::fs::read_to_string(crate::support::repo_path(
+            "tests/data/mitsuba/fog-spot.json",
+        ))
+        .unwrap(),
+    );
+    let c = render(&world, 8_000_000, 16, 3);
+    let ours = c.total();
+    let theirs = mitsuba("fog-spot-volpath-131072spp.exr");
+    let all = vec![true; ours.pixels.len()];
+    let e = compare::compare(&ours, &theirs, &all);
+    eprintln!("fog and spot light against volpath: {e:?}");
+    assert!(e.rel_l1 <= 0.05, "{e:?}");
+    assert!((e.flux_ratio - 1.0).abs() <= 0.03, "{e:?}");
+    // The fog's own light is a good part of it.
+    let volume: f32 = c.volume.pixels.iter().map(|p| p.element_sum()).sum();
+    let total: f32 = ours.pixels.iter().map(|p| p.element_sum()).sum();
+    assert!(volume > 0.2 * total, "{volume} of {total}");
+}
