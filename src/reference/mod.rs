@@ -574,10 +574,17 @@ fn trace_photon_chunk(
         let Some((mut o, mut d, mut flux)) = emit(world, env, pop, &mut rng) else {
             continue;
         };
-        // A targeted population's photon starts in front of its object: the medium between
-        // where the light enters it and that start attenuates it (a scattering there is the
-        // global population's).
-        if pop.target.is_some() && !world.media.is_empty() {
+        // A targeted population's photon from a far light (directional, environment) starts
+        // on a disc in front of its object: the medium between where the light enters it and
+        // that start attenuates it (a scattering there is the global population's). Point,
+        // spot and line lights emit from the light itself.
+        if pop.target.is_some()
+            && !world.media.is_empty()
+            && matches!(
+                world.lights[pop.light],
+                Light::Directional { .. } | Light::Environment { .. }
+            )
+        {
             flux *= world.media_transmittance_ray(o, -d, f32::INFINITY);
         }
         let mut specular_seen = false;

@@ -690,7 +690,7 @@ pub fn resolve(
             ),
         });
     }
-    let media = resolve_media(&desc.media, &objects, &camera)?;
+    let media = resolve_media(&desc.media, &objects, &camera, &lights)?;
     if !media.is_empty() {
         warnings.push(
             "the scene's medium is rendered by method reference only; the other methods ignore \
@@ -710,12 +710,13 @@ pub fn resolve(
     })
 }
 
-/// Checks the scene's media and places them: a box, or the whole scene (every object and the
-/// camera's eye, 1 % larger and at least 1 cm more on each side).
+/// Checks the scene's media and places them: a box, or the whole scene (every object, the
+/// camera's eye and the lights' positions, 1 % larger and at least 1 cm more on each side).
 fn resolve_media(
     media: &[MediumDesc],
     objects: &[Object],
     camera: &Camera,
+    lights: &[Light],
 ) -> Result<Vec<crate::scene::Medium>, SceneError> {
     if media.len() > 1 {
         return Err(SceneError::invalid(
@@ -760,6 +761,19 @@ fn resolve_media(
             }
             MediumBoundsDesc::Scene => {
                 let (mut lo, mut hi) = (camera.eye, camera.eye);
+                for l in lights {
+                    let points: &[Vec3] = match l {
+                        Light::Point { position, .. } | Light::Spot { position, .. } => {
+                            std::slice::from_ref(position)
+                        }
+                        Light::Line { start, end, .. } => &[*start, *end],
+                        _ => &[],
+                    };
+                    for p in points {
+                        lo = lo.min(*p);
+                        hi = hi.max(*p);
+                    }
+                }
                 for o in objects {
                     for part in &o.parts {
                         for v in &part.mesh.positions {

@@ -104,6 +104,8 @@ impl Medium {
 /// `wo` (both unit, travel directions): (1 − g²) / (4π (1 + g² − 2g cosθ)^{3/2}), cosθ = wi·wo;
 /// g > 0 scatters forward (Mitsuba's convention).
 pub fn hg(g: f32, wi: Vec3, wo: Vec3) -> f32 {
+    // Isotropic below the threshold where [`sample_hg`] is, so that both agree exactly.
+    let g = if g.abs() < 1e-3 { 0.0 } else { g };
     let c = wi.dot(wo).clamp(-1.0, 1.0);
     let d = 1.0 + g * g - 2.0 * g * c;
     (1.0 - g * g) / (4.0 * PI * d * d.max(1e-12).sqrt())

@@ -73,7 +73,7 @@ pub struct MediumDesc {
 #[derive(Clone, Debug, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MediumBoundsDesc {
-    /// The whole scene: a box around every object and the camera, 1 % larger.
+    /// The whole scene: a box around every object, the camera and the lights, 1 % larger.
     #[default]
     Scene,
     /// A box of `size` (metres, centred on the origin), placed by `transform`.

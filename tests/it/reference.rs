@@ -426,3 +426,51 @@ fn fog_with_a_spot_light_matches_mitsubas_volpath() {
     let total: f32 = ours.pixels.iter().map(|p| p.element_sum()).sum();
     assert!(volume > 0.2 * total, "{volume} of {total}");
 }
+
+/// The caustic under the glass slab of `slab_scene` with an absorbing fog above the slab, from
+/// its top (0.85 m) to 6 m, higher than where the slab's photons start: the caustic is the
+/// slab's times e^{−σa·5.15} (the photons are attenuated from where the light enters the fog,
+/// not from where they start).
+#[test]
+fn a_caustic_under_absorbing_fog_is_attenuated_over_the_whole_fog() {
+    let sigma_a = 0.1f32;
+    let mut desc: serde_json::Value = serde_json::from_str(&format!(
+        r#"{{
+        "camera": {{"eye": [0, 0.3, 3], "target": [0, 0, 0], "fov_y": 15, "width": 48, "height": 48}},
+        "lights": [{{"type": "directional", "direction": [0, -1, 0], "irradiance": 2.0}}],
+        "materials": {{"floor": {{"type": "diffuse", "albedo": 0.1}},
+                      "glass": {{"type": "dielectric", "ior": 1.5}}}},
+        "objects": [
+            {{"name": "floor", "shape": {{"type": "plane", "size": [40, 40]}}, "material": "floor"}},
+            {{"name": "slab", "shape": {{"type": "box", "size": [2, 0.1, 2]}}, "material": "glass",
+             "transform": {{"translation": [0, 0.8, 0]}}}}
+        ],
+        "media": [{{"sigma_s": 0, "sigma_a": {sigma_a},
+                    "bounds": {{"type": "box", "size": [3, 5.15, 3],
+                                "transform": {{"translation": [0, 3.425, 0]}}}}}}]
+        }}"#
+    ))
+    .unwrap();
+    let world = parse(&desc.to_string());
+    let c = render(&world, 600_000, 1, 11);
+    let expect = 0.1 / PI * 2.0 * slab_transmittance(0.0, 0.1) * (-sigma_a * 5.15).exp();
+    let mean = |c: &Components| {
+        let mut sum = 0.0;
+        for y in 21..32 {
+            for x in 4..44 {
+                sum += c.caustics.at(x, y).x;
+            }
+        }
+        sum / (11.0 * 40.0)
+    };
+    let m = mean(&c);
+    eprintln!("caustic under fog {m}, expected {expect}");
+    assert!((m / expect - 1.0).abs() < 0.03, "{m} vs {expect}");
+    // Without the fog, the slab's own.
+    desc["media"] = serde_json::json!([]);
+    let clear = mean(&render(&parse(&desc.to_string()), 600_000, 1, 11));
+    assert!(
+        (clear / m - (sigma_a * 5.15).exp()).abs() < 0.05,
+        "{clear} {m}"
+    );
+}

@@ -92,7 +92,7 @@ pub fn view_point(world: &World, recv: &Receivers, eye: Vec3, d: Vec3) -> Option
                 .water
                 .iter()
                 .position(|b| b.contains(h.point + h.geo_normal * 1e-3))?;
-            seen(h, bi, -d, world.medium_transmittance(eye, h.point))
+            seen(h, bi, -d, world.water_transmittance(eye, h.point))
         }
     }
 }
