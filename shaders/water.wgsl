@@ -43,18 +43,26 @@ fn receiver_brdf(m: Material, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return m.albedo.rgb / PI;
 }
 
-// Bilinear read of the light map's level `level` at map coordinates uv; 0 outside the map.
-fn map_level(uv: vec2<f32>, level: u32) -> vec3<f32> {
-    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
-        return vec3<f32>(0.0);
-    }
-    // Level k has ceil(res / 2^k) texels a side, after those of the finer levels.
+// Where level `level` of the light map lies in the pyramid: its first texel (x) and its texels
+// a side (y). Level k has ceil(res / 2^k) texels a side, after those of the finer levels.
+fn map_level(level: u32) -> vec2<u32> {
     var first = 0u;
     var n = water.grid.w;
     for (var k = 0u; k < level; k++) {
         first += n * n;
         n = (n + 1u) >> 1u;
     }
+    return vec2<u32>(first, n);
+}
+
+// Bilinear read of the light map's level at `lv` (map_level's) at map coordinates uv; 0
+// outside the map.
+fn map_read(uv: vec2<f32>, lv: vec2<u32>) -> vec3<f32> {
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) {
+        return vec3<f32>(0.0);
+    }
+    let first = lv.x;
+    let n = lv.y;
     let c = uv * f32(n) - 0.5;
     let f = floor(c);
     let w = c - f;
@@ -71,13 +79,25 @@ fn map_level(uv: vec2<f32>, level: u32) -> vec3<f32> {
     return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
 }
 
-// The light map read trilinearly where a footprint spans `texels` finest texels.
-fn map_trilinear(uv: vec2<f32>, texels: f32) -> vec3<f32> {
+// The two levels a footprint of `texels` finest texels falls between, and the weight of the
+// coarser one.
+struct MapLod {
+    fine: vec2<u32>,
+    coarse: vec2<u32>,
+    t: f32,
+}
+
+fn map_lod(texels: f32) -> MapLod {
     let top = f32(water.counts.z - 1u);
     let lod = clamp(log2(max(texels, 1.0)), 0.0, top);
     let l0 = u32(floor(lod));
     let l1 = min(l0 + 1u, water.counts.z - 1u);
-    return mix(map_level(uv, l0), map_level(uv, l1), lod - f32(l0));
+    return MapLod(map_level(l0), map_level(l1), lod - f32(l0));
+}
+
+// The light map read trilinearly at uv between the levels of `lod`.
+fn map_trilinear(uv: vec2<f32>, lod: MapLod) -> vec3<f32> {
+    return mix(map_read(uv, lod.fine), map_read(uv, lod.coarse), lod.t);
 }
 
 // The light map's irradiance at q (unit normal n), `foot` metres across the pixel's footprint.
@@ -99,14 +119,15 @@ fn map_irradiance(q: vec3<f32>, n: vec3<f32>, foot: f32) -> vec3<f32> {
         // The pixel's area average, as the CPU's 3 x 3 points a pixel: 3 x 3 reads over a
         // square of the footprint's side, each at the level of its third of it.
         let h = foot / max(water.map.z, water.map.w);
+        let lod = map_lod(foot / (3.0 * texel));
         var sum = vec3<f32>(0.0);
         for (var k = 0; k < 9; k++) {
             let o = vec2<f32>(f32(k % 3 - 1), f32(k / 3 - 1)) * (h / 3.0);
-            sum += map_trilinear(uv + o, foot / (3.0 * texel));
+            sum += map_trilinear(uv + o, lod);
         }
         return sum / 9.0;
     }
-    return map_trilinear(uv, foot / texel);
+    return map_trilinear(uv, map_lod(foot / texel));
 }
 
 // The irradiance at q (unit normal n) under the water, the way the pass was asked for.

@@ -136,8 +136,7 @@ impl MethodImpl for Water {
             if WaterGpuLayer::build(world, &gpu).is_ok() {
                 params = gpu;
             }
-        }
-        if params.variant.on_gpu() {
+        } else if params.variant.on_gpu() {
             WaterGpuLayer::build(world, &params)
                 .map_err(|e| ParamError::new("water.variant", e))?;
         }

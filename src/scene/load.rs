@@ -760,7 +760,8 @@ fn resolve_media(
                 (t, s * 0.5)
             }
             MediumBoundsDesc::Scene => {
-                let (mut lo, mut hi) = (camera.eye, camera.eye);
+                let (lo, hi) = objects_extent(objects);
+                let (mut lo, mut hi) = (lo.min(camera.eye), hi.max(camera.eye));
                 for l in lights {
                     let points: &[Vec3] = match l {
                         Light::Point { position, .. } | Light::Spot { position, .. } => {
@@ -772,15 +773,6 @@ fn resolve_media(
                     for p in points {
                         lo = lo.min(*p);
                         hi = hi.max(*p);
-                    }
-                }
-                for o in objects {
-                    for part in &o.parts {
-                        for v in &part.mesh.positions {
-                            let w = o.transform.transform_point3(*v);
-                            lo = lo.min(w);
-                            hi = hi.max(w);
-                        }
                     }
                 }
                 let pad = Vec3::splat(0.01) + (hi - lo) * 0.01;

@@ -435,6 +435,31 @@ impl Object {
     }
 }
 
+/// The world-space extent (lo, hi) of `objects`' vertices; lo > hi when there are none.
+pub fn objects_extent(objects: &[Object]) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for o in objects {
+        for p in &o.parts {
+            for v in &p.mesh.positions {
+                let w = o.transform.transform_point3(*v);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// An extent, or the origin's point when it is empty.
+fn or_origin((lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
+    if lo.x > hi.x {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (lo, hi)
+    }
+}
+
 /// The resolved scene.
 #[derive(Clone, Debug)]
 pub struct World {
@@ -473,40 +498,19 @@ impl World {
 
     /// World-space bounds of all geometry (not the media: [`Self::bounds_with_media`]).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for o in &self.objects {
-            for p in &o.parts {
-                for v in &p.mesh.positions {
-                    let w = o.transform.transform_point3(*v);
-                    lo = lo.min(w);
-                    hi = hi.max(w);
-                }
-            }
-        }
-        if lo.x > hi.x {
-            (Vec3::ZERO, Vec3::ZERO)
-        } else {
-            (lo, hi)
-        }
+        or_origin(objects_extent(&self.objects))
     }
 
     /// World-space bounds of all geometry and the media's boxes.
     pub fn bounds_with_media(&self) -> (Vec3, Vec3) {
-        if self.media.is_empty() {
-            return self.bounds();
-        }
-        let (mut lo, mut hi) = if self.objects.is_empty() {
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))
-        } else {
-            self.bounds()
-        };
-        for m in &self.media {
-            let (a, b) = m.bounds();
-            lo = lo.min(a);
-            hi = hi.max(b);
-        }
-        (lo, hi)
+        let extent = self
+            .media
+            .iter()
+            .fold(objects_extent(&self.objects), |(lo, hi), m| {
+                let (a, b) = m.bounds();
+                (lo.min(a), hi.max(b))
+            });
+        or_origin(extent)
     }
 
     pub fn object(&self, name: &str) -> Option<&Object> {

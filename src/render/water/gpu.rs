@@ -682,6 +682,7 @@ fn encode_map(
         label: Some("water mips"),
         timestamp_writes: ts.map(|(t, k)| t.compute_writes(k, false, true)),
     });
+    let sizes = level_sizes(m.resolution);
     for (k, uniform) in buffers.levels.iter().enumerate() {
         let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("water mips"),
@@ -697,7 +698,7 @@ fn encode_map(
         });
         pass.set_pipeline(if k == 0 { &p.mip0 } else { &p.mip });
         pass.set_bind_group(0, &bg, &[]);
-        let n = level_sizes(m.resolution)[k].div_ceil(8);
+        let n = sizes[k].div_ceil(8);
         pass.dispatch_workgroups(n, n, 1);
     }
 }
