@@ -140,6 +140,28 @@ enum Cmd {
         /// Water: receiver points per pixel side (default 3: 9 a pixel).
         #[arg(long)]
         pixel_samples: Option<u32>,
+        /// Beams: grid cells a side, 32, 64, 128 (default) or 256.
+        #[arg(long)]
+        grid: Option<u32>,
+        /// Beams: samples along a view ray per beam, 1..=16 (default 1).
+        #[arg(long)]
+        beam_samples: Option<u32>,
+        /// Beams: the paper's unshadowed beams, which run through every object.
+        #[arg(long)]
+        no_beam_shadows: bool,
+        /// Beams: the paper's one-sided refraction (beams leave the glass's entry surface).
+        #[arg(long)]
+        one_sided: bool,
+        /// Beams: no surface caustics, only the volume.
+        #[arg(long)]
+        no_surface: bool,
+        /// Beams: the volume at 1/2 or 1/4 of the resolution, upsampled edge-aware.
+        #[arg(long)]
+        downsample: Option<u32>,
+        /// Beams: grid cells across a silhouette are split N × N, 1..=8 (default 4; 1: the
+        /// paper's uniform grid).
+        #[arg(long)]
+        refine: Option<u32>,
         /// Scenes with water: the waves' time in seconds (every method).
         #[arg(long, allow_negative_numbers = true)]
         time: Option<f32>,
@@ -283,10 +305,28 @@ fn main() -> Result<()> {
             mesh_resolution,
             sun_map_width,
             pixel_samples,
+            grid,
+            beam_samples,
+            no_beam_shadows,
+            one_sided,
+            no_surface,
+            downsample,
+            refine,
             time,
             frames,
             fps,
         } => {
+            let beams_args = caustica::methods::beams::BeamsArgs {
+                grid,
+                samples: beam_samples,
+                shadows: no_beam_shadows.then_some(false),
+                two_sided: one_sided.then_some(false),
+                surface: no_surface.then_some(false),
+                downsample,
+                refine,
+            };
+            let beams = (beams_args != Default::default())
+                .then(|| serde_json::to_value(beams_args).expect("beams arguments serialise"));
             let water_args = caustica::methods::water::WaterArgs {
                 mode: water_mode,
                 variant: water_variant,
@@ -328,6 +368,7 @@ fn main() -> Result<()> {
                 line_points: Some(line_points),
                 pinhole,
                 water,
+                beams,
                 bake,
             };
             let png = PngSettings { exposure, tone_map };

@@ -79,6 +79,10 @@ pub struct RenderParams {
     /// "sun_map_width": degrees, "pixel_samples": 1..=8}` (`methods::water::WaterArgs`).
     #[serde(default)]
     pub water: Option<serde_json::Value>,
+    /// Beams: `{"grid": 32 | 64 | 128 | 256, "samples": 1..=16, "shadows": bool, "two_sided":
+    /// bool, "surface": bool, "downsample": 1 | 2 | 4}` (`methods::beams::BeamsArgs`).
+    #[serde(default)]
+    pub beams: Option<serde_json::Value>,
     /// Scenes with water: the waves' time in seconds (any method); the first frame's time of a
     /// sequence.
     #[serde(default)]
@@ -160,6 +164,7 @@ impl RenderParams {
             volume_bounces: self.volume_bounces,
             csl: self.csl.clone(),
             pinhole: self.pinhole.clone(),
+            beams: self.beams.clone(),
             water: match (&self.water, self.water_mode) {
                 (w, None) => w.clone(),
                 (w, Some(mode)) => {

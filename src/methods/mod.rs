@@ -5,6 +5,7 @@
 //! caustics), [`reference`](mod@reference) (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
 //! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), [`pinhole`] (pinhole
 //! caustics, Wand and Straßer 2003), [`water`] (underwater caustics, Sánchez-Crespo 2003), and
+//! [`beams`] (volumetric caustics with projected light beams, Liktor and Dachsbacher 2010) and
 //! [`auto`], which picks one of them from the scene. Each module implements [`MethodImpl`]:
 //!
 //! - its [`MethodInfo`] (name, lane, whether it needs the GPU, whether it bakes, its fields);
@@ -19,6 +20,7 @@
 //! (`bake/`) if it has one, a variant of [`Method`] and one line in [`Method::imp`].
 
 pub mod auto;
+pub mod beams;
 pub mod csl;
 pub mod direct;
 pub mod pinhole;
@@ -61,11 +63,15 @@ pub enum Method {
     /// Underwater caustics (Sánchez-Crespo 2003): sunlight refracted by a procedural water
     /// surface onto what lies below it; the article's mode or a physical one.
     Water,
+    /// Volumetric caustics with projected light beams (Liktor and Dachsbacher 2010): beams
+    /// from a grid projected onto the glass and mirrors, intersected per pixel in the scene's
+    /// medium; they also give the surface caustics.
+    Beams,
 }
 
 impl Method {
     /// Every method, in the order of the registry's listings.
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::Auto,
         Method::Direct,
         Method::Reference,
@@ -73,6 +79,7 @@ impl Method {
         Method::Transport,
         Method::Pinhole,
         Method::Water,
+        Method::Beams,
     ];
 
     /// The registry: the implementation of each method.
@@ -85,6 +92,7 @@ impl Method {
             Method::Transport => &transport::Transport,
             Method::Pinhole => &pinhole::Pinhole,
             Method::Water => &water::Water,
+            Method::Beams => &beams::Beams,
         }
     }
 
@@ -222,6 +230,8 @@ pub struct MethodArgs {
     pub pinhole: Option<serde_json::Value>,
     /// Water: its parameters (`methods::water::WaterArgs`).
     pub water: Option<serde_json::Value>,
+    /// Beams: its parameters (`methods::beams::BeamsArgs`).
+    pub beams: Option<serde_json::Value>,
     /// CSL, transport: a bake made beforehand (CLI: `--bake FILE`).
     pub bake: Option<PathBuf>,
 }
@@ -258,6 +268,7 @@ impl MethodArgs {
             ("bake", self.bake.is_some()),
             ("pinhole", self.pinhole.is_some()),
             ("water", self.water.is_some()),
+            ("beams", self.beams.is_some()),
         ] {
             if given && !info.args.contains(&field) {
                 let takers = names(|i| i.args.contains(&field));

@@ -16,6 +16,7 @@
 //! targets are kept per image size, the scene's buffers and the occluders per scene
 //! ([`scene::SceneCache`]). Each pass module has its shader of the same name in `shaders/`.
 
+pub mod beams;
 pub mod blockers;
 pub mod csl;
 pub mod direct;
@@ -53,6 +54,8 @@ pub enum Caustics<'a> {
     Pinhole(&'a PinholeLayer),
     /// The water passes (method `water`, variants `shader` and `shader_texture`).
     Water(&'a water::gpu::WaterGpuLayer),
+    /// The projected light beams (method `beams`).
+    Beams(&'a beams::BeamsLayer),
 }
 
 /// Which layers to compute and read back.
@@ -104,6 +107,8 @@ pub struct RenderOutput {
     pub specular: Frame,
     /// Added by the caustics methods; `None` when none ran.
     pub caustics: Option<Frame>,
+    /// The volumetric caustics (method `beams`); `None` when no pass made them.
+    pub volume_caustics: Option<Frame>,
     /// CPU stages ("prepare", "submit", "gpu_wait", "readback", "total") and GPU passes from
     /// timestamp queries ("gpu:shadow_maps", "gpu:direct") when the adapter has them.
     pub timings: Vec<(String, Duration)>,
@@ -112,8 +117,8 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
-    /// Every component, in [`Component::ALL`]'s order (`indirect` and the volume components,
-    /// which no GPU pass computes, and `caustics` when no caustics method ran, are black).
+    /// Every component, in [`Component::ALL`]'s order (`indirect` and `volume`, which no GPU
+    /// pass computes, and `caustics` and `volume_caustics` when no pass made them, are black).
     pub fn components(&self) -> Vec<(Component, Frame)> {
         let black = || Frame::new(self.direct.width, self.direct.height);
         Component::ALL
@@ -124,17 +129,20 @@ impl RenderOutput {
                     Component::Direct => self.direct.clone(),
                     Component::Caustics => self.caustics.clone().unwrap_or_else(black),
                     Component::Specular => self.specular.clone(),
-                    Component::Indirect | Component::Volume | Component::VolumeCaustics => black(),
+                    Component::VolumeCaustics => {
+                        self.volume_caustics.clone().unwrap_or_else(black)
+                    }
+                    Component::Indirect | Component::Volume => black(),
                 };
                 (c, f)
             })
             .collect()
     }
 
-    /// direct + caustics + specular.
+    /// direct + caustics + specular + volume_caustics.
     pub fn total(&self) -> Frame {
         let mut t = self.direct.add(&self.specular);
-        if let Some(c) = &self.caustics {
+        for c in [&self.caustics, &self.volume_caustics].into_iter().flatten() {
             t = t.add(c);
         }
         t
@@ -162,6 +170,8 @@ struct DeviceCache {
     pinhole: Option<pinhole::PinholePipeline>,
     /// Built on the first water frame.
     water: Option<water::gpu::WaterPipeline>,
+    /// Built on the first beams frame.
+    beams: Option<beams::gpu::BeamsPipeline>,
     /// Built on the first frame that needs a G-buffer (transport, pinhole, water).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
@@ -217,6 +227,11 @@ impl DeviceCache {
         }
         if plan.water.is_some() && self.water.is_none() {
             self.water = Some(water::gpu::WaterPipeline::new(dev));
+        }
+        if let Some(l) = plan.beams {
+            self.beams
+                .get_or_insert_with(|| beams::gpu::BeamsPipeline::new(dev))
+                .fit(dev, size, l.params.downsample.max(1));
         }
         if plan.needs_gbuffer() {
             if self.gbuffer_pipeline.is_none() {
@@ -275,6 +290,7 @@ impl Renderer {
             transport: None,
             pinhole: None,
             water: None,
+            beams: None,
             gbuffer_pipeline: None,
             targets: None,
             gbuffer: None,
@@ -347,6 +363,18 @@ impl Renderer {
         layer: &water::gpu::WaterGpuLayer,
     ) -> Result<RenderOutput, RenderError> {
         self.render_with(world, opts, Caustics::Water(layer))
+    }
+
+    /// Renders `world`, its volumetric caustics and, with `layer.params.surface`, its caustics
+    /// layer from the beams of `layer` (`RenderOutput::volume_caustics` and `caustics` are
+    /// then `Some`).
+    pub fn render_beams(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &beams::BeamsLayer,
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_with(world, opts, Caustics::Beams(layer))
     }
 
     /// Replaces the loop iterations one shader invocation is taken to be allowed
@@ -439,10 +467,10 @@ impl Renderer {
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan);
             // Shadow maps, direct, transport, pinhole or water (with the water's light map).
-            timestamps::Timestamps::new(&self.ctx, dev, 4)
+            timestamps::Timestamps::new(&self.ctx, dev, 6)
         })?;
         let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
-        let (frame, volumes, pinhole_buffers, water_buffers, generation) =
+        let (frame, volumes, pinhole_buffers, water_buffers, beams_buffers, generation) =
             self.ctx.scoped(dev, || {
                 let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
                 (
@@ -454,6 +482,8 @@ impl Renderer {
                         pinhole::PinholeBuffers::upload(dev, l, env, loop_budget, cap)
                     }),
                     plan.water.map(|l| water::gpu::WaterBuffers::upload(dev, l)),
+                    plan.beams
+                        .map(|l| beams::gpu::BeamsBuffers::upload(dev, l, (width, height))),
                     generation,
                 )
             })?;
@@ -548,6 +578,19 @@ impl Renderer {
                     ts.as_mut(),
                 );
             }
+            if let (Some(bb), Some(bp), Some(gb)) = (&beams_buffers, &c.beams, &c.gbuffer) {
+                beams::gpu::encode(
+                    dev,
+                    &mut enc,
+                    bp,
+                    gb,
+                    scene,
+                    &frame.globals,
+                    bb,
+                    &targets.caustics,
+                    ts.as_mut(),
+                );
+            }
             if let Some(t) = &ts {
                 t.resolve(&mut enc);
             }
@@ -597,6 +640,10 @@ impl Renderer {
         } else {
             (None, None)
         };
+        let volume_caustics = match (&plan.beams, &c.beams) {
+            (Some(_), Some(bp)) => Some(read(true, bp.volume())?.0),
+            _ => None,
+        };
         timings.push(("readback".to_string(), t3.elapsed()));
         timings.push(("total".to_string(), t0.elapsed()));
         for e in self.ctx.take_uncaptured_errors() {
@@ -607,6 +654,7 @@ impl Renderer {
                 direct: direct_frame,
                 specular: specular_frame,
                 caustics: caustics_frame,
+                volume_caustics,
                 timings,
                 adapter: self.ctx.adapter_info().to_string(),
             },

@@ -46,7 +46,7 @@ impl DeviceLimits {
     pub fn transport_unsupported(&self) -> Option<String> {
         (!self.float32_blendable).then(|| {
             format!(
-                "method transport blends into a 32-bit float layer, which adapter {} cannot \
+                "methods transport and beams blend into 32-bit float layers, which adapter {} cannot \
                  (no FLOAT32_BLENDABLE; use a Vulkan adapter, e.g. CAUSTICA_BACKEND=vulkan)",
                 self.adapter
             )
@@ -74,6 +74,7 @@ pub struct FramePlan<'a> {
     pub transport: Option<&'a TransportLayer>,
     pub pinhole: Option<&'a PinholeLayer>,
     pub water: Option<&'a super::water::gpu::WaterGpuLayer>,
+    pub beams: Option<&'a super::beams::BeamsLayer>,
     /// The objects whose own caustic light nothing else occludes (the caustic objects of the
     /// method), when the frame has caustics.
     pub caustic_objects: Option<&'a [usize]>,
@@ -86,14 +87,15 @@ impl<'a> FramePlan<'a> {
         caustics: Caustics<'a>,
         dev: &DeviceLimits,
     ) -> Result<FramePlan<'a>, RenderError> {
-        let (csl, transport, pinhole, water) = match caustics {
-            Caustics::None => (None, None, None, None),
-            Caustics::Csl(l) => (Some(l), None, None, None),
-            Caustics::Transport(l) => (None, Some(l), None, None),
-            Caustics::Pinhole(l) => (None, None, Some(l), None),
-            Caustics::Water(l) => (None, None, None, Some(l)),
+        let (csl, transport, pinhole, water, beams) = match caustics {
+            Caustics::None => (None, None, None, None, None),
+            Caustics::Csl(l) => (Some(l), None, None, None, None),
+            Caustics::Transport(l) => (None, Some(l), None, None, None),
+            Caustics::Pinhole(l) => (None, None, Some(l), None, None),
+            Caustics::Water(l) => (None, None, None, Some(l), None),
+            Caustics::Beams(l) => (None, None, None, None, Some(l)),
         };
-        if transport.is_some()
+        if (transport.is_some() || beams.is_some())
             && let Some(why) = dev.transport_unsupported()
         {
             return Err(RenderError::Limit(why));
@@ -227,13 +229,24 @@ impl<'a> FramePlan<'a> {
                 )));
             }
         }
+        if let Some(l) = beams {
+            let bytes = super::beams::gpu::BeamsBuffers::storage_bytes(l);
+            if bytes > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "{} beams ({bytes} bytes) over the adapter's storage binding limit of \
+                     {max_storage}; ask for a smaller beams.grid",
+                    l.beams.len()
+                )));
+            }
+        }
         // Pinhole points are shadowed by every object, their own included.
         let caustic_objects = csl
             .as_ref()
             .map(|c| c.layer.caustic_objects.as_slice())
             .or(transport.map(|t| t.caustic_objects.as_slice()))
             .or(pinhole.map(|_| &[][..]))
-            .or(water.map(|w| w.surfaces.as_slice()));
+            .or(water.map(|w| w.surfaces.as_slice()))
+            .or(beams.map(|b| b.generators.as_slice()));
         Ok(FramePlan {
             width,
             height,
@@ -244,6 +257,7 @@ impl<'a> FramePlan<'a> {
             transport,
             pinhole,
             water,
+            beams,
             caustic_objects,
         })
     }
@@ -254,11 +268,15 @@ impl<'a> FramePlan<'a> {
             || self.transport.is_some()
             || self.pinhole.is_some()
             || self.water.is_some()
+            || self.beams.is_some()
     }
 
     /// Whether a pass gathers caustics per pixel over the G-buffer of the receivers.
     pub fn needs_gbuffer(&self) -> bool {
-        self.transport.is_some() || self.pinhole.is_some() || self.water.is_some()
+        self.transport.is_some()
+            || self.pinhole.is_some()
+            || self.water.is_some()
+            || self.beams.is_some()
     }
 }
 

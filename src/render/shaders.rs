@@ -15,6 +15,7 @@ pub const FILES: &[(&str, &str)] = &[
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
     ("water.wgsl", include_str!("../../shaders/water.wgsl")),
+    ("beams.wgsl", include_str!("../../shaders/beams.wgsl")),
     (
         "water.inc.wgsl",
         include_str!("../../shaders/water.inc.wgsl"),
@@ -300,6 +301,41 @@ mod tests {
                 ("grid", offset_of!(GpuWater, grid)),
                 ("sun_e", offset_of!(GpuWater, sun_e)),
                 ("splat", offset_of!(GpuWater, splat)),
+            ],
+        );
+    }
+
+    #[test]
+    fn the_beams_structs_have_the_wgsl_layout() {
+        use crate::render::beams::GpuBeam as B;
+        use crate::render::beams::gpu::GpuBeamsParams as P;
+        mirror(
+            "beams.wgsl",
+            "Beam",
+            size_of::<B>(),
+            &[
+                ("origin", offset_of!(B, origin)),
+                ("ax", offset_of!(B, ax)),
+                ("ay", offset_of!(B, ay)),
+                ("az", offset_of!(B, az)),
+                ("k", offset_of!(B, k)),
+                ("d01", offset_of!(B, d01)),
+                ("d2", offset_of!(B, d2)),
+                ("abc", offset_of!(B, abc)),
+                ("rho", offset_of!(B, rho)),
+            ],
+        );
+        mirror(
+            "beams.wgsl",
+            "Params",
+            size_of::<P>(),
+            &[
+                ("medium_to_local", offset_of!(P, medium_to_local)),
+                ("medium_half", offset_of!(P, medium_half)),
+                ("sigma_s", offset_of!(P, sigma_s)),
+                ("sigma_t", offset_of!(P, sigma_t)),
+                ("counts", offset_of!(P, counts)),
+                ("misc", offset_of!(P, misc)),
             ],
         );
     }

@@ -547,6 +547,18 @@ pub fn resolve(
                 ),
                 need_material()?,
             )],
+            ShapeDesc::Paraboloid {
+                focal_length,
+                radius,
+                segments,
+            } => vec![(
+                shapes::paraboloid(
+                    positive(&sp("focal_length"), *focal_length)?,
+                    positive(&sp("radius"), *radius)?,
+                    check_segments(&sp("segments"), *segments, limits)?,
+                ),
+                need_material()?,
+            )],
             ShapeDesc::Cylinder {
                 radius,
                 height,
@@ -693,8 +705,8 @@ pub fn resolve(
     let media = resolve_media(&desc.media, &objects, &camera, &lights)?;
     if !media.is_empty() {
         warnings.push(
-            "the scene's medium is rendered by method reference only; the other methods ignore \
-             it"
+            "the scene's medium is rendered by method reference (all of it) and method beams (its \
+             volumetric caustics); the other methods ignore it"
             .into(),
         );
     }

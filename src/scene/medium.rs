@@ -35,6 +35,16 @@ impl Medium {
         }
     }
 
+    /// World → the box's frame, where it spans [−half, half].
+    pub fn to_local(&self) -> Mat4 {
+        self.to_local
+    }
+
+    /// The box's half extents in its frame.
+    pub fn half(&self) -> Vec3 {
+        self.half
+    }
+
     /// Extinction σt = σs + σa.
     pub fn sigma_t(&self) -> Vec3 {
         self.sigma_s + self.sigma_a

@@ -150,9 +150,65 @@ pub fn cylinder(radius: f32, height: f32, segments: u32) -> Mesh {
     m
 }
 
+/// A paraboloid dish y = r²/(4f) around the local Y axis, r ≤ `radius`, open at the rim: its
+/// focus is at (0, f, 0); normals face the concave side (+Y at the vertex).
+pub fn paraboloid(focal: f32, radius: f32, segments: u32) -> Mesh {
+    let seg = segments.max(3);
+    let rings = (seg / 2).max(2);
+    let mut m = Mesh::default();
+    let at = |r: f32, phi: f32| {
+        let p = Vec3::new(r * phi.cos(), r * r / (4.0 * focal), -r * phi.sin());
+        let n = Vec3::new(-p.x / (2.0 * focal), 1.0, -p.z / (2.0 * focal)).normalize();
+        (p, n)
+    };
+    m.positions.push(Vec3::ZERO);
+    m.normals.push(Vec3::Y);
+    for i in 1..=rings {
+        let r = radius * i as f32 / rings as f32;
+        for j in 0..seg {
+            let (p, n) = at(r, TAU * j as f32 / seg as f32);
+            m.positions.push(p);
+            m.normals.push(n);
+        }
+    }
+    let v = |i: u32, j: u32| if i == 0 { 0 } else { 1 + (i - 1) * seg + j % seg };
+    for i in 0..rings {
+        for j in 0..seg {
+            let (a, b) = (v(i, j), v(i, j + 1));
+            let (c, d) = (v(i + 1, j), v(i + 1, j + 1));
+            if i > 0 {
+                m.indices.push([a, c, b]);
+            }
+            m.indices.push([b, c, d]);
+        }
+    }
+    // Wind every face towards its normals' side.
+    for t in &mut m.indices {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let n = t.map(|i| m.normals[i as usize]);
+        if (b - a).cross(c - a).dot(n[0] + n[1] + n[2]) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_paraboloid_reflects_light_along_its_axis_into_its_focus() {
+        let f = 0.4;
+        let m = paraboloid(f, 0.8, 48);
+        for (p, n) in m.positions.iter().zip(&m.normals).skip(1) {
+            let d = crate::trace::optics::reflect(Vec3::NEG_Y, *n);
+            // The reflected ray passes (0, f, 0).
+            let t = (Vec3::new(0.0, f, 0.0) - *p).dot(d);
+            let miss = (*p + d * t - Vec3::new(0.0, f, 0.0)).length();
+            assert!(miss < 1e-4, "{p}: misses the focus by {miss}");
+        }
+    }
 
     /// Every face's geometric normal agrees with its vertex normals (outward, CCW winding).
     fn check_winding(m: &Mesh) {
@@ -175,6 +231,7 @@ mod tests {
             cuboid(Vec3::new(1.0, 2.0, 3.0)),
             torus(1.0, 0.25, 24),
             cylinder(0.5, 1.0, 24),
+            paraboloid(0.4, 0.8, 24),
         ] {
             check_winding(&m);
         }

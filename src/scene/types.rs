@@ -256,6 +256,15 @@ pub enum ShapeDesc {
         #[serde(default = "default_segments")]
         segments: u32,
     },
+    /// A paraboloid dish y = r²/(4·focal_length) around the local Y axis, r ≤ `radius`, open
+    /// at the rim, normals on the concave side: light along −Y meets at its focus (0,
+    /// focal_length, 0). `segments` around (rings = segments/2).
+    Paraboloid {
+        focal_length: f32,
+        radius: f32,
+        #[serde(default = "default_segments")]
+        segments: u32,
+    },
     /// A glTF 2.0 file (`.glb` or `.gltf` with embedded data), resolved relative to the scene.
     Gltf { path: String },
     /// A procedural water surface over a rectangle (local y = 0 is the mean surface), the water

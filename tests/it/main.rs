@@ -4,6 +4,7 @@
 
 mod support;
 
+mod beams;
 mod cli;
 mod csl_bake;
 mod csl_cli;
