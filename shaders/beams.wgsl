@@ -421,7 +421,7 @@ fn volume_at(b: Beam, xy: vec2<f32>) -> vec3<f32> {
 // The receiver under full-resolution position xy, averaged over the pixel's footprint:
 // SURFACE_SAMPLES² rays through the pixel meet the receiver's tangent plane (a caustic's focus
 // is far smaller than a pixel; its centre alone would miss it or take its peak).
-const SURFACE_SAMPLES: u32 = 4u;
+const SURFACE_SAMPLES: u32 = 8u;
 
 // Two numbers in [0, 1) from three integers (PCG-style integer hashing).
 fn hash2(v: vec3<u32>) -> vec2<f32> {
@@ -441,6 +441,23 @@ fn surface_at(b: Beam, xy: vec2<f32>) -> vec3<f32> {
     if gp.w <= 0.0 {
         return vec3<f32>(0.0);
     }
+    // Most beams over a pixel pass through the fog and end elsewhere: the receiver point under
+    // the pixel's centre, with the footprint's reach as margin, lies outside their slice.
+    let c = to_beam(b, gp.xyz);
+    let reach = 2.0 * gp.w;
+    if c.y < -reach || c.y > b.origin.w * 1.05 + 1e-3 + reach {
+        return vec3<f32>(0.0);
+    }
+    let sl = slice_at(b, c);
+    let a0 = c.y * b.d01.xy;
+    let a1 = b.k.xy + c.y * b.d01.zw;
+    let a2 = b.k.zw + c.y * b.d2.xy;
+    let longest = max(distance(a0, a1), max(distance(a1, a2), distance(a2, a0)));
+    // β of a point `reach` outside an edge is about −reach / altitude, altitude = |A| / edge.
+    let margin = reach * longest / max(abs(sl.area), 1e-20) + 1e-4;
+    if min(sl.beta.x, min(sl.beta.y, sl.beta.z)) < -margin {
+        return vec3<f32>(0.0);
+    }
     let gn = textureLoad(gbuf_normal, px, 0);
     let n = normalize(gn.xyz);
     let mat = materials[u32(gn.w)];
@@ -454,11 +471,11 @@ fn surface_at(b: Beam, xy: vec2<f32>) -> vec3<f32> {
             let h = hash2(vec3<u32>(vec2<u32>(xy), j * SURFACE_SAMPLES + i));
             let off = (vec2<f32>(f32(i), f32(j)) + h) / f32(SURFACE_SAMPLES) - 0.5;
             let d = view_dir(floor(xy) + vec2<f32>(0.5) + off);
-            let c = dot(d, n);
-            if abs(c) < 1e-6 {
+            let cd = dot(d, n);
+            if abs(cd) < 1e-6 {
                 continue;
             }
-            sum += beam_surface(b, eye + d * (plane / c), n, mat, eye);
+            sum += beam_surface(b, eye + d * (plane / cd), n, mat, eye);
         }
     }
     return sum / f32(SURFACE_SAMPLES * SURFACE_SAMPLES);

@@ -3,12 +3,14 @@
 //! The rule, first match wins:
 //! 0. a water shape and a directional light (the sun) → `water`;
 //! 1. no object has a glass or mirror part → `direct` (nothing casts caustics);
-//! 2. every caustic part is glass (dielectric) and a directional, point, spot or line light
+//! 2. a participating medium and a directional, spot or point light → `beams` (the volumetric
+//!    caustics, and the surface caustics from the same beams);
+//! 3. every caustic part is glass (dielectric) and a directional, point, spot or line light
 //!    lights the scene → `transport` (every delta light type, the light may move freely);
-//! 3. every caustic part is a mirror and an environment light lights the scene → `pinhole`
+//! 4. every caustic part is a mirror and an environment light lights the scene → `pinhole`
 //!    (one reflection of the environment and of the other lights);
-//! 4. a directional light → `csl` (mirrors too);
-//! 5. otherwise → `reference` (e.g. mirrors under a point light, glass under only
+//! 5. a directional light → `csl` (mirrors too);
+//! 6. otherwise → `reference` (e.g. mirrors under a point light, glass under only
 //!    environment light).
 
 use super::{
@@ -43,6 +45,20 @@ pub fn choose(world: &World) -> (Method, &'static str) {
         return (
             Method::Direct,
             "no object has a glass or mirror part: nothing casts caustics",
+        );
+    }
+    if !world.media.is_empty()
+        && world.lights.iter().any(|l| {
+            matches!(
+                l,
+                Light::Directional { .. } | Light::Spot { .. } | Light::Point { .. }
+            )
+        })
+    {
+        return (
+            Method::Beams,
+            "glass or mirrors in a participating medium under a directional, spot or point \
+             light: volumetric caustics",
         );
     }
     let all_glass = caustic.iter().all(|&i| {
@@ -161,6 +177,22 @@ mod tests {
         assert_eq!(choose(&with(mirror, bulb)).0, Method::Reference);
         assert_eq!(choose(&with(glass, sky)).0, Method::Reference);
         assert_eq!(choose(&with(mirror, sky)).0, Method::Pinhole);
+        // In fog: the beams, for a delta light they take.
+        let fog = |m: &str, l: &str| {
+            let mut w = with(m, l);
+            w.media.push(crate::scene::medium::Medium::new(
+                glam::Vec3::splat(0.1),
+                glam::Vec3::ZERO,
+                0.0,
+                glam::Mat4::IDENTITY,
+                glam::Vec3::splat(3.0),
+            ));
+            w
+        };
+        assert_eq!(choose(&fog(glass, bulb)).0, Method::Beams);
+        assert_eq!(choose(&fog(mirror, sun)).0, Method::Beams);
+        assert_eq!(choose(&fog(paint, sun)).0, Method::Direct);
+        assert_eq!(choose(&fog(mirror, sky)).0, Method::Pinhole);
         // The plan is the chosen method's, and says why.
         let plan = Auto
             .plan(&with(mirror, sun), &MethodArgs::default())
