@@ -184,27 +184,7 @@ fn view_dir(xy: vec2<f32>) -> vec3<f32> {
 
 // The part [t0, t1] of o + t·d (t ≥ 0) inside the medium's box; t0 > t1 when none.
 fn medium_interval(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
-    let h = prm.medium_half.xyz;
-    if h.x <= 0.0 {
-        return vec2<f32>(1.0, 0.0);
-    }
-    let lo = (prm.medium_to_local * vec4<f32>(o, 1.0)).xyz;
-    let ld = (prm.medium_to_local * vec4<f32>(d, 0.0)).xyz;
-    var t0 = 0.0;
-    var t1 = FAR;
-    for (var k = 0; k < 3; k++) {
-        if abs(ld[k]) < 1e-20 {
-            if abs(lo[k]) > h[k] {
-                return vec2<f32>(1.0, 0.0);
-            }
-        } else {
-            let a = (-h[k] - lo[k]) / ld[k];
-            let b = (h[k] - lo[k]) / ld[k];
-            t0 = max(t0, min(a, b));
-            t1 = min(t1, max(a, b));
-        }
-    }
-    return vec2<f32>(t0, t1);
+    return box_interval(prm.medium_to_local, prm.medium_half.xyz, o, d);
 }
 
 // Transmittance of the medium over the segment a → b.
@@ -509,6 +489,27 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
 @fragment
 fn fs_surface(in: VsOut) -> @location(0) vec4<f32> {
     return vec4<f32>(surface_at(beams[in.beam], in.clip.xy), 0.0);
+}
+
+// The fog between the eye and what each pixel sees: the direct and specular layers are
+// multiplied by its transmittance (the blend state multiplies).
+@fragment
+fn fs_fog(@builtin(position) frag: vec4<f32>) -> BothOut {
+    let px = vec2<i32>(frag.xy);
+    let eye = g.eye.xyz;
+    let d = view_dir(frag.xy);
+    let gn = textureLoad(gbuf_normal, px, 0);
+    var len = FAR;
+    if dot(gn.xyz, gn.xyz) > 0.0 {
+        len = distance(textureLoad(gbuf_position, px, 0).xyz, eye);
+    }
+    let m = medium_interval(eye, d);
+    let inside = max(min(m.y, len) - m.x, 0.0);
+    let t = vec4<f32>(exp(-prm.sigma_t.xyz * inside), 1.0);
+    var out: BothOut;
+    out.volume = t;
+    out.surface = t;
+    return out;
 }
 
 // Edge-aware upsampling of the low-resolution volume: the four nearest low-resolution pixels,

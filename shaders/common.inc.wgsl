@@ -33,6 +33,11 @@ struct Globals {
     sh: array<vec4<f32>, 9>,
     // rgb: irradiance (W/m²) of the directional light the caustic spot lights carry.
     csl_irradiance: vec4<f32>,
+    // The participating medium the direct light crosses on its way to a surface (method beams
+    // sets it; medium_half.x = 0: none): world → its box's frame, the box's half extents, σt.
+    medium_to_local: mat4x4<f32>,
+    medium_half: vec4<f32>,
+    medium_sigma_t: vec4<f32>,
 }
 
 // A shadowed delta light. Line lights arrive as several point lights.
@@ -62,6 +67,31 @@ struct Material {
     albedo: vec4<f32>,
     // rgb: F0 of the glossy lobe.
     specular: vec4<f32>,
+}
+
+// The part [t0, t1] of o + t·d (t ≥ 0) inside the box of half extents `h` in the frame that
+// `to_local` maps the world into; t0 > t1 when none (or when h.x is 0: no box).
+fn box_interval(to_local: mat4x4<f32>, h: vec3<f32>, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    if h.x <= 0.0 {
+        return vec2<f32>(1.0, 0.0);
+    }
+    let lo = (to_local * vec4<f32>(o, 1.0)).xyz;
+    let ld = (to_local * vec4<f32>(d, 0.0)).xyz;
+    var t0 = 0.0;
+    var t1 = 1e30;
+    for (var k = 0; k < 3; k++) {
+        if abs(ld[k]) < 1e-20 {
+            if abs(lo[k]) > h[k] {
+                return vec2<f32>(1.0, 0.0);
+            }
+        } else {
+            let a = (-h[k] - lo[k]) / ld[k];
+            let b = (h[k] - lo[k]) / ld[k];
+            t0 = max(t0, min(a, b));
+            t1 = min(t1, max(a, b));
+        }
+    }
+    return vec2<f32>(t0, t1);
 }
 
 // Mitsuba's spot: 1 inside the beam width, linear in angle down to 0 at the cutoff.

@@ -198,6 +198,15 @@ fn fs_main(in: VsOut) -> FsOut {
         if vis <= 0.0 {
             continue;
         }
+        // The medium on the light's way here (method beams; none otherwise).
+        let fog = box_interval(g.medium_to_local, g.medium_half.xyz, p, wi);
+        if fog.x < fog.y {
+            var reach = 1e30;
+            if kind != LIGHT_DIRECTIONAL {
+                reach = dist;
+            }
+            e *= exp(-g.medium_sigma_t.rgb * max(min(fog.y, reach) - fog.x, 0.0));
+        }
         var f = albedo / PI;
         if m.kind == MAT_GLOSSY {
             f = glossy_brdf(n, wi, v, albedo, m.specular.rgb, m.roughness);

@@ -131,9 +131,7 @@ impl MethodImpl for Beams {
                 "method beams needs a directional, spot or point light",
             ));
         }
-        Ok(Box::new(Plan {
-            params: a.params(),
-        }))
+        Ok(Box::new(Plan { params: a.params() }))
     }
 }
 
@@ -202,9 +200,9 @@ impl RenderPlan for Plan {
                 .push("the scene has no medium: only the surface caustics are drawn".into());
         }
         for k in &s.skipped_lights {
-            frames
-                .notes
-                .push(format!("a {k} light casts no beams (directional, spot and point do)"));
+            frames.notes.push(format!(
+                "a {k} light casts no beams (directional, spot and point do)"
+            ));
         }
         Ok(frames)
     }

@@ -29,6 +29,10 @@ pub struct Globals {
     pub viewport: [f32; 4],
     pub sh: [[f32; 4]; 9],
     pub csl_irradiance: [f32; 4],
+    /// The medium the direct light crosses (set for method `beams`; `medium_half` 0: none).
+    pub medium_to_local: [f32; 16],
+    pub medium_half: [f32; 4],
+    pub medium_sigma_t: [f32; 4],
 }
 
 /// Pipelines and layouts of the direct pass, created once per device.
@@ -381,6 +385,9 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
         viewport: [width as f32, height as f32, 0.0, 0.0],
         sh: plan.env.sh.map(|v| [v.x, v.y, v.z, 0.0]),
         csl_irradiance: [0.0; 4],
+        medium_to_local: glam::Mat4::IDENTITY.to_cols_array(),
+        medium_half: [0.0; 4],
+        medium_sigma_t: [0.0; 4],
     }
 }
 

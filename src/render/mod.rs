@@ -129,9 +129,7 @@ impl RenderOutput {
                     Component::Direct => self.direct.clone(),
                     Component::Caustics => self.caustics.clone().unwrap_or_else(black),
                     Component::Specular => self.specular.clone(),
-                    Component::VolumeCaustics => {
-                        self.volume_caustics.clone().unwrap_or_else(black)
-                    }
+                    Component::VolumeCaustics => self.volume_caustics.clone().unwrap_or_else(black),
                     Component::Indirect | Component::Volume => black(),
                 };
                 (c, f)
@@ -142,7 +140,10 @@ impl RenderOutput {
     /// direct + caustics + specular + volume_caustics.
     pub fn total(&self) -> Frame {
         let mut t = self.direct.add(&self.specular);
-        for c in [&self.caustics, &self.volume_caustics].into_iter().flatten() {
+        for c in [&self.caustics, &self.volume_caustics]
+            .into_iter()
+            .flatten()
+        {
             t = t.add(c);
         }
         t
@@ -587,7 +588,7 @@ impl Renderer {
                     scene,
                     &frame.globals,
                     bb,
-                    &targets.caustics,
+                    targets,
                     ts.as_mut(),
                 );
             }

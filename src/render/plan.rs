@@ -230,6 +230,11 @@ impl<'a> FramePlan<'a> {
             }
         }
         if let Some(l) = beams {
+            // The direct light crosses the fog (the beams pass adds the camera's side).
+            let m = &l.medium;
+            globals.medium_to_local = m.to_local;
+            globals.medium_half = m.half;
+            globals.medium_sigma_t = m.sigma_t;
             let bytes = super::beams::gpu::BeamsBuffers::storage_bytes(l);
             if bytes > max_storage {
                 return Err(RenderError::Limit(format!(

@@ -143,6 +143,9 @@ mod tests {
                 ("viewport", offset_of!(G, viewport)),
                 ("sh", offset_of!(G, sh)),
                 ("csl_irradiance", offset_of!(G, csl_irradiance)),
+                ("medium_to_local", offset_of!(G, medium_to_local)),
+                ("medium_half", offset_of!(G, medium_half)),
+                ("medium_sigma_t", offset_of!(G, medium_sigma_t)),
             ],
         );
         mirror(

@@ -707,7 +707,7 @@ pub fn resolve(
         warnings.push(
             "the scene's medium is rendered by method reference (all of it) and method beams (its \
              volumetric caustics); the other methods ignore it"
-            .into(),
+                .into(),
         );
     }
     Ok(World {

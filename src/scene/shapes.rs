@@ -171,7 +171,13 @@ pub fn paraboloid(focal: f32, radius: f32, segments: u32) -> Mesh {
             m.normals.push(n);
         }
     }
-    let v = |i: u32, j: u32| if i == 0 { 0 } else { 1 + (i - 1) * seg + j % seg };
+    let v = |i: u32, j: u32| {
+        if i == 0 {
+            0
+        } else {
+            1 + (i - 1) * seg + j % seg
+        }
+    };
     for i in 0..rings {
         for j in 0..seg {
             let (a, b) = (v(i, j), v(i, j + 1));

@@ -73,7 +73,10 @@ fn the_paraboloid_in_fog_matches_the_reference() {
     let focus = Vec3::new(0.0, 0.65, 0.0);
     let o = world.camera.eye;
     let miss = (focus - o).cross(d).length();
-    assert!(miss < 0.05, "the brightest pixel's ray passes {miss} m from the focus");
+    assert!(
+        miss < 0.05,
+        "the brightest pixel's ray passes {miss} m from the focus"
+    );
     // The volume at half resolution, upsampled edge-aware (§6), stays close.
     let (half, _) = render(
         &world,
@@ -108,6 +111,10 @@ fn the_glass_sphere_under_a_spot_in_fog_matches_the_reference_and_needs_two_side
     let (sl1, sflux) = error(out.caustics.as_ref().unwrap(), &ref_surface);
     eprintln!("sphere, grid 128: surface {sl1:.4} relative L1, flux {sflux:.4}");
     assert!(sl1 <= 0.15 && (sflux - 1.0).abs() <= 0.1, "{sl1} {sflux}");
+    // The direct light crosses the fog both ways (the direct pass and the fog pass).
+    let (dl1, dflux) = error(&out.direct, &stored("fog-glass-sphere-spot", "direct"));
+    eprintln!("sphere: direct {dl1:.4} relative L1, flux {dflux:.4}");
+    assert!(dl1 <= 0.05 && (dflux - 1.0).abs() <= 0.02, "{dl1} {dflux}");
 
     // The paper's one-sided refraction: beams leave the sphere's front along the refracted
     // directions, through the glass, and no light leaves its back where it should.
@@ -119,7 +126,10 @@ fn the_glass_sphere_under_a_spot_in_fog_matches_the_reference_and_needs_two_side
     let (l1_one, _) = error(out1.volume_caustics.as_ref().unwrap(), &ref_volume);
     let (sl1_one, _) = error(out1.caustics.as_ref().unwrap(), &ref_surface);
     eprintln!("one-sided: volume {l1_one:.4}, surface {sl1_one:.4}");
-    assert!(l1_one > 2.0 * l1 && sl1_one > 2.0 * sl1, "{l1_one} {sl1_one}");
+    assert!(
+        l1_one > 2.0 * l1 && sl1_one > 2.0 * sl1,
+        "{l1_one} {sl1_one}"
+    );
 }
 
 /// A shelf over the right part of the paraboloid's cone: with shadows its beams end on it and
@@ -142,7 +152,13 @@ fn an_occluder_cuts_the_beams() {
         let p = cam.eye + d * t;
         p.x > 0.8 && p.x < 1.6 && p.y > 1.6
     };
-    assert!((0..H).flat_map(|y| (0..W).map(move |x| (x, y))).filter(|&(x, y)| above(x, y)).count() > 30);
+    assert!(
+        (0..H)
+            .flat_map(|y| (0..W).map(move |x| (x, y)))
+            .filter(|&(x, y)| above(x, y))
+            .count()
+            > 30
+    );
     let (shadowed, _) = render(&world, &BeamsParams::default());
     let (through, _) = render(
         &world,

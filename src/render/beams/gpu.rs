@@ -3,7 +3,7 @@
 //! surface caustics into the caustics layer; or, downsampled, the volume at a fraction of the
 //! resolution, upsampled with depth-aware weights, and the surface caustics at full resolution.
 
-use super::super::direct::HDR_FORMAT;
+use super::super::direct::{HDR_FORMAT, Targets};
 use super::super::gbuffer::GBuffer;
 use super::super::scene::SceneBuffers;
 use super::super::shaders;
@@ -69,11 +69,13 @@ pub struct BeamsPipeline {
     volume: wgpu::RenderPipeline,
     surface: wgpu::RenderPipeline,
     upsample: wgpu::RenderPipeline,
+    /// Multiplies the direct and specular layers by the fog's transmittance.
+    fog: wgpu::RenderPipeline,
     /// The volume layer at full resolution, and the low-resolution one.
-    targets: Option<Targets>,
+    targets: Option<BeamTargets>,
 }
 
-struct Targets {
+struct BeamTargets {
     size: (u32, u32),
     ds: u32,
     volume: wgpu::Texture,
@@ -166,7 +168,26 @@ impl BeamsPipeline {
                 cache: None,
             })
         };
+        let multiply = wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::Src,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+        };
         BeamsPipeline {
+            fog: make(
+                "beams fog",
+                &layout,
+                "vs_full",
+                "fs_fog",
+                &[target(Some(multiply)), target(Some(multiply))],
+            ),
             both: make(
                 "beams",
                 &layout,
@@ -211,7 +232,7 @@ impl BeamsPipeline {
             return;
         }
         let color = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
-        self.targets = Some(Targets {
+        self.targets = Some(BeamTargets {
             size,
             ds,
             volume: super::super::texture_2d(device, "beams volume", size, HDR_FORMAT, color),
@@ -239,6 +260,8 @@ pub struct BeamsBuffers {
     beams: wgpu::Buffer,
     count: u32,
     surface: bool,
+    /// The scene has a medium.
+    medium: bool,
 }
 
 impl BeamsBuffers {
@@ -263,6 +286,7 @@ impl BeamsBuffers {
             }),
             count: layer.beams.len() as u32,
             surface: layer.params.surface,
+            medium: layer.medium.half[0] > 0.0,
         }
     }
 
@@ -273,7 +297,10 @@ impl BeamsBuffers {
 }
 
 /// A colour attachment that `load`s or clears.
-fn attachment(view: &wgpu::TextureView, clear: bool) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+fn attachment(
+    view: &wgpu::TextureView,
+    clear: bool,
+) -> Option<wgpu::RenderPassColorAttachment<'_>> {
     Some(wgpu::RenderPassColorAttachment {
         view,
         depth_slice: None,
@@ -289,7 +316,8 @@ fn attachment(view: &wgpu::TextureView, clear: bool) -> Option<wgpu::RenderPassC
     })
 }
 
-/// Encodes the beams passes: the volume layer (cleared first) and, with surface caustics,
+/// Encodes the beams passes: the fog's transmittance over the `direct` and `specular` layers
+/// (when the scene has a medium), the volume layer (cleared first) and, with surface caustics,
 /// additions to the caustics layer `caustics`.
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
@@ -300,9 +328,10 @@ pub fn encode(
     scene: &SceneBuffers,
     globals: &wgpu::Buffer,
     b: &BeamsBuffers,
-    caustics: &wgpu::Texture,
+    targets: &Targets,
     mut timestamps: Option<&mut Timestamps>,
 ) {
+    let caustics = &targets.caustics;
     let t = p.targets.as_ref().expect("fitted");
     let (pos_view, nrm_view) = gbuf.views();
     let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -354,6 +383,20 @@ pub fn encode(
         });
         pass.forget_lifetime()
     };
+    if b.medium {
+        let (dv, sv) = (
+            targets.direct.create_view(&Default::default()),
+            targets.specular.create_view(&Default::default()),
+        );
+        let mut pass = begin(
+            enc,
+            "beams_fog",
+            &[attachment(&dv, false), attachment(&sv, false)],
+        );
+        pass.set_pipeline(&p.fog);
+        pass.set_bind_group(0, &bg, &[]);
+        pass.draw(0..3, 0..1);
+    }
     let Some(low) = &t.low else {
         let surface = b.surface.then(|| attachment(&cv, false)).flatten();
         let mut pass = begin(enc, "beams", &[attachment(&vol_view, true), surface]);

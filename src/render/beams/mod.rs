@@ -428,7 +428,8 @@ impl Ctx<'_> {
         let (e, t0) = if ortho {
             (
                 e,
-                self.world.media_transmittance_ray(h.point, -d, f32::INFINITY),
+                self.world
+                    .media_transmittance_ray(h.point, -d, f32::INFINITY),
             )
         } else {
             (e / (h.t * h.t), self.world.medium_transmittance(o, h.point))
@@ -820,7 +821,10 @@ mod tests {
             let pt = |i: usize| p[i].base + p[i].dir / p[i].dir.y * yy;
             let area = (pt(1) - pt(0)).cross(pt(2) - pt(0)).length();
             let f = (a * yy * yy + b * yy + c).abs();
-            assert!((f - area).abs() < 1e-4 * (1.0 + area), "y {yy}: {f} vs {area}");
+            assert!(
+                (f - area).abs() < 1e-4 * (1.0 + area),
+                "y {yy}: {f} vs {area}"
+            );
         }
         assert!((bm.ax[3] - c.abs()).abs() < 1e-5, "A(Δ) is c");
     }
