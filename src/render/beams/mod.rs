@@ -516,7 +516,8 @@ impl Ctx<'_> {
     }
 }
 
-/// What a grid triangle made.
+/// What a grid triangle made. (Most are beams: boxing them would allocate for each.)
+#[allow(clippy::large_enum_variant)]
 enum Made {
     /// A beam of effect k and its entry triangle.
     Beam(usize, GpuBeam, [Vec3; 3]),
