@@ -4,8 +4,8 @@
 //! A method is a way of making the frames of a scene: [`direct`] (GPU direct lighting, no
 //! caustics), [`reference`](mod@reference) (the CPU ground truth), [`csl`] (caustic spot lights, Liu et al.
 //! 2008), [`transport`] (light transport tables, Iwasaki et al. 2005), [`pinhole`] (pinhole
-//! caustics, Wand and Straßer 2003), [`water`] (underwater caustics, Sánchez-Crespo 2003), and
-//! [`beams`] (volumetric caustics with projected light beams, Liktor and Dachsbacher 2010) and
+//! caustics, Wand and Straßer 2003), [`water`] (underwater caustics, Sánchez-Crespo 2003),
+//! [`beams`] (volumetric caustics with projected light beams, Liktor and Dachsbacher 2010), and
 //! [`auto`], which picks one of them from the scene. Each module implements [`MethodImpl`]:
 //!
 //! - its [`MethodInfo`] (name, lane, whether it needs the GPU, whether it bakes, its fields);
