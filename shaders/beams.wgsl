@@ -6,6 +6,7 @@
 // area ratio at the receiver as in Ernst et al. 2005). Additive blending sums the beams.
 
 #include "common.inc.wgsl"
+#include "hull.inc.wgsl"
 
 struct Beam {
     // xyz: v0 (world); w: Y, the height of the hull's cap.
@@ -39,7 +40,7 @@ struct Params {
     sigma_t: vec4<f32>,
     // x: samples per beam; y: flags (1 shadows); z: downsampling factor; w: beams.
     counts: vec4<u32>,
-    // x: the largest area ratio; y, z: the volume target's size in pixels.
+    // x: the largest area ratio.
     misc: vec4<f32>,
 }
 
@@ -78,100 +79,19 @@ fn corner(b: Beam, i: u32) -> vec3<f32> {
     return b.origin.xyz + b.ax.xyz * p.x + b.ay.xyz * p.y + b.az.xyz * p.z;
 }
 
-// The hull's screen-space outline: the convex hull of its six corners projected, widened by a
-// pixel (so that every sample of a pixel's footprint that a beam covers is drawn), as a fan of
-// up to four triangles. A hull reaching behind the eye covers the whole target.
-const HULL_VERTICES: u32 = 12u;
-
-fn cross_2d(a: vec2<f32>, b: vec2<f32>) -> f32 {
-    return a.x * b.y - a.y * b.x;
-}
-
+// The beam's screen-space outline (hull.inc.wgsl): the convex hull of its six corners
+// projected, widened by a pixel so that every sample of a pixel's footprint that the beam
+// covers is drawn.
 @vertex
 fn vs_beam(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VsOut {
     let b = beams[ii];
-    // Framebuffer pixels of the volume target, y down as NDC's y up flipped.
-    let size = prm.misc.yz;
-    var pts: array<vec2<f32>, 6>;
-    var behind = false;
+    var corners: array<vec3<f32>, 6>;
     for (var i = 0u; i < 6u; i++) {
-        let c = g.view_proj * vec4<f32>(corner(b, i), 1.0);
-        if c.w <= 1e-6 {
-            behind = true;
-        }
-        pts[i] = (c.xy / max(c.w, 1e-6)) * 0.5 * size;
+        corners[i] = corner(b, i);
     }
     var out: VsOut;
     out.beam = ii;
-    if behind {
-        // Two triangles over the target; the other ten vertices collapse.
-        let full = array<vec2<f32>, 6>(
-            vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
-            vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
-        );
-        out.clip = vec4<f32>(full[min(vi, 5u)], 0.5, 1.0);
-        if vi >= 6u {
-            out.clip = vec4<f32>(-1.0, -1.0, 0.5, 1.0);
-        }
-        return out;
-    }
-    // Gift wrapping from the lowest-leftmost point, counter-clockwise.
-    var start = 0u;
-    for (var i = 1u; i < 6u; i++) {
-        if pts[i].x < pts[start].x || (pts[i].x == pts[start].x && pts[i].y < pts[start].y) {
-            start = i;
-        }
-    }
-    var hull: array<vec2<f32>, 6>;
-    var n = 0u;
-    var cur = start;
-    loop {
-        hull[n] = pts[cur];
-        n += 1u;
-        var next = (cur + 1u) % 6u;
-        for (var j = 0u; j < 6u; j++) {
-            let c = cross_2d(pts[next] - pts[cur], pts[j] - pts[cur]);
-            let farther = distance(pts[j], pts[cur]) > distance(pts[next], pts[cur]);
-            if c < 0.0 || (c == 0.0 && farther) {
-                next = j;
-            }
-        }
-        cur = next;
-        if cur == start || n >= 6u {
-            break;
-        }
-    }
-    // Widen by a pixel: each corner moves out along its two edges' normals (a miter, capped).
-    var wide: array<vec2<f32>, 6>;
-    for (var i = 0u; i < n; i++) {
-        let p = hull[(i + n - 1u) % n];
-        let q = hull[i];
-        let r = hull[(i + 1u) % n];
-        let e0 = q - p;
-        let e1 = r - q;
-        // Outward normals of a counter-clockwise polygon.
-        let n0 = select(vec2<f32>(0.0), normalize(vec2<f32>(e0.y, -e0.x)), dot(e0, e0) > 1e-12);
-        let n1 = select(vec2<f32>(0.0), normalize(vec2<f32>(e1.y, -e1.x)), dot(e1, e1) > 1e-12);
-        let m = n0 + n1;
-        var off = vec2<f32>(0.0);
-        if dot(m, m) > 1e-12 {
-            off = m / max(1.0 + dot(n0, n1), 0.25);
-        }
-        wide[i] = q + off * 1.0;
-    }
-    let t = vi / 3u;
-    let k = vi % 3u;
-    var idx = 0u;
-    if k == 1u {
-        idx = t + 1u;
-    } else if k == 2u {
-        idx = t + 2u;
-    }
-    var p = wide[0];
-    if n >= 3u && t + 2u < n {
-        p = wide[idx];
-    }
-    out.clip = vec4<f32>(p / (0.5 * size), 0.5, 1.0);
+    out.clip = hull_outline(corners, vi, 1.0, g.view_proj, g.viewport.xy);
     return out;
 }
 

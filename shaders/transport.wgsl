@@ -12,6 +12,7 @@
 // volumes into the caustics layer.
 
 #include "common.inc.wgsl"
+#include "hull.inc.wgsl"
 #include "occlusion.inc.wgsl"
 
 struct Volume {
@@ -45,14 +46,6 @@ struct VsOut {
     @location(0) @interpolate(flat) volume: u32,
 }
 
-// Most vertices a volume's screen polygon has: the convex hull of its six projected corners,
-// drawn as a fan of at most four triangles.
-const HULL_VERTICES: u32 = 12u;
-
-// Clip-space w of the plane just in front of the eye that volumes crossing behind it are cut
-// at.
-const NEAR_W: f32 = 1e-4;
-
 @vertex
 fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VsOut {
     let v = volumes[ii];
@@ -63,140 +56,7 @@ fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -
     );
     var out: VsOut;
     out.volume = ii;
-    // Pixel coordinates of the corners (y up, like NDC).
-    var pts: array<vec2<f32>, 6>;
-    var clip: array<vec4<f32>, 6>;
-    var behind = false;
-    let half = 0.5 * g.viewport.xy;
-    for (var k = 0u; k < 6u; k++) {
-        let c = g.view_proj * vec4<f32>(corners[k], 1.0);
-        clip[k] = c;
-        if c.w <= NEAR_W {
-            behind = true;
-        } else {
-            pts[k] = (c.xy / c.w + 1.0) * half;
-        }
-    }
-    if behind {
-        // Corners behind the eye: the volume (the convex hull of its corners) cut by the plane
-        // just in front of it has as vertices the corners in front and the points where the
-        // edges between a corner in front and one behind cross that plane; drawn as the
-        // rectangle around them projected (two triangles, the rest degenerate), nothing when
-        // no corner is in front.
-        var lo = vec2<f32>(3.0e38);
-        var hi = vec2<f32>(-3.0e38);
-        for (var i = 0u; i < 6u; i++) {
-            if clip[i].w <= NEAR_W {
-                continue;
-            }
-            lo = min(lo, pts[i]);
-            hi = max(hi, pts[i]);
-            for (var j = 0u; j < 6u; j++) {
-                if clip[j].w > NEAR_W {
-                    continue;
-                }
-                let f = (clip[i].w - NEAR_W) / (clip[i].w - clip[j].w);
-                let c = mix(clip[i], clip[j], f);
-                let q = (c.xy / NEAR_W + 1.0) * half;
-                lo = min(lo, q);
-                hi = max(hi, q);
-            }
-        }
-        if vi >= 6u || lo.x > hi.x {
-            out.clip = vec4<f32>(0.0, 0.0, 0.0, 0.0);
-            return out;
-        }
-        lo = max(lo - vec2<f32>(1.5), vec2<f32>(-1.0));
-        hi = min(hi + vec2<f32>(1.5), g.viewport.xy + vec2<f32>(1.0));
-        var rect = array<vec2<f32>, 6>(
-            lo, vec2<f32>(hi.x, lo.y), hi, lo, hi, vec2<f32>(lo.x, hi.y),
-        );
-        out.clip = vec4<f32>(rect[vi] / half - 1.0, 0.0, 1.0);
-        return out;
-    }
-    // Sort by x, then y (insertion sort of six), then Andrew's monotone chain.
-    for (var i = 1u; i < 6u; i++) {
-        let key = pts[i];
-        var j = i;
-        while j > 0u && (pts[j - 1u].x > key.x || (pts[j - 1u].x == key.x && pts[j - 1u].y > key.y)) {
-            pts[j] = pts[j - 1u];
-            j -= 1u;
-        }
-        pts[j] = key;
-    }
-    var hull: array<vec2<f32>, 12>;
-    var n = 0u;
-    for (var i = 0u; i < 6u; i++) {
-        while n >= 2u && cross2(hull[n - 1u] - hull[n - 2u], pts[i] - hull[n - 2u]) <= 0.0 {
-            n -= 1u;
-        }
-        hull[n] = pts[i];
-        n += 1u;
-    }
-    let lower = n + 1u;
-    for (var i = 4; i >= 0; i--) {
-        let p = pts[u32(i)];
-        while n >= lower && cross2(hull[n - 1u] - hull[n - 2u], p - hull[n - 2u]) <= 0.0 {
-            n -= 1u;
-        }
-        hull[n] = p;
-        n += 1u;
-    }
-    n -= 1u; // the last point repeats the first
-    // Grow the polygon by 1.5 pixels (a footprint reaches about 0.7 beyond its centre): each
-    // vertex moves along its miter, at most 8 pixels.
-    let margin = 1.5;
-    var grown: array<vec2<f32>, 6>;
-    if n < 3u {
-        // Degenerate (all corners on a line or a point): a square around the points.
-        var lo = pts[0];
-        var hi = pts[0];
-        for (var k = 1u; k < 6u; k++) {
-            lo = min(lo, pts[k]);
-            hi = max(hi, pts[k]);
-        }
-        lo -= vec2<f32>(margin);
-        hi += vec2<f32>(margin);
-        grown[0] = lo;
-        grown[1] = vec2<f32>(hi.x, lo.y);
-        grown[2] = hi;
-        grown[3] = vec2<f32>(lo.x, hi.y);
-        n = 4u;
-    } else {
-        for (var k = 0u; k < n; k++) {
-            let prev = hull[(k + n - 1u) % n];
-            let cur = hull[k];
-            let next = hull[(k + 1u) % n];
-            let e1 = normalize(cur - prev);
-            let e2 = normalize(next - cur);
-            // Outward normals of a counter-clockwise polygon.
-            let n1 = vec2<f32>(e1.y, -e1.x);
-            let n2 = vec2<f32>(e2.y, -e2.x);
-            var m = n1 + n2;
-            let ml = length(m);
-            var off = n1 * margin;
-            if ml > 1e-6 {
-                let c = max(dot(n1, m / ml), 1.0 / 8.0);
-                off = (m / ml) * (margin / c);
-            }
-            grown[k] = cur + off;
-        }
-    }
-    // Fan triangle t = vi / 3 uses (0, t + 1, t + 2); triangles past the polygon are degenerate.
-    let t = vi / 3u;
-    let corner = vi % 3u;
-    var idx = 0u;
-    if corner == 1u {
-        idx = t + 1u;
-    } else if corner == 2u {
-        idx = t + 2u;
-    }
-    if t + 2u >= n {
-        out.clip = vec4<f32>(0.0, 0.0, 0.0, 0.0);
-        return out;
-    }
-    let ndc = grown[idx] / half - 1.0;
-    out.clip = vec4<f32>(ndc, 0.0, 1.0);
+    out.clip = hull_outline(corners, vi, 1.5, g.view_proj, g.viewport.xy);
     return out;
 }
 

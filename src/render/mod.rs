@@ -483,8 +483,7 @@ impl Renderer {
                         pinhole::PinholeBuffers::upload(dev, l, env, loop_budget, cap)
                     }),
                     plan.water.map(|l| water::gpu::WaterBuffers::upload(dev, l)),
-                    plan.beams
-                        .map(|l| beams::gpu::BeamsBuffers::upload(dev, l, (width, height))),
+                    plan.beams.map(|l| beams::gpu::BeamsBuffers::upload(dev, l)),
                     generation,
                 )
             })?;

@@ -16,6 +16,7 @@ pub const FILES: &[(&str, &str)] = &[
     ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
     ("water.wgsl", include_str!("../../shaders/water.wgsl")),
     ("beams.wgsl", include_str!("../../shaders/beams.wgsl")),
+    ("hull.inc.wgsl", include_str!("../../shaders/hull.inc.wgsl")),
     (
         "water.inc.wgsl",
         include_str!("../../shaders/water.inc.wgsl"),

@@ -8,12 +8,10 @@ use super::super::gbuffer::GBuffer;
 use super::super::scene::SceneBuffers;
 use super::super::shaders;
 use super::super::timestamps::Timestamps;
+use super::super::transport::HULL_VERTICES;
 use super::{BeamsLayer, GpuBeam, GpuMedium, MAX_AREA_RATIO};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
-
-/// Vertices a beam's screen-space outline is drawn with (beams.wgsl `HULL_VERTICES`).
-const HULL_VERTICES: u32 = 12;
 
 /// `Params` of beams.wgsl.
 #[repr(C)]
@@ -25,12 +23,12 @@ pub struct GpuBeamsParams {
     pub sigma_t: [f32; 4],
     /// Samples per beam, flags (1: shadows), downsampling, beams.
     pub counts: [u32; 4],
-    /// The largest area ratio; the volume target's size.
+    /// The largest area ratio.
     pub misc: [f32; 4],
 }
 
 impl GpuBeamsParams {
-    pub fn new(layer: &BeamsLayer, (width, height): (u32, u32)) -> GpuBeamsParams {
+    pub fn new(layer: &BeamsLayer) -> GpuBeamsParams {
         let GpuMedium {
             to_local,
             half,
@@ -38,8 +36,6 @@ impl GpuBeamsParams {
             sigma_t,
         } = layer.medium;
         let p = &layer.params;
-        let ds = p.downsample.max(1);
-        let size = low_size((width, height), ds);
         GpuBeamsParams {
             medium_to_local: to_local,
             medium_half: half,
@@ -48,10 +44,10 @@ impl GpuBeamsParams {
             counts: [
                 p.samples.max(1),
                 u32::from(p.shadows),
-                ds,
+                p.downsample.max(1),
                 layer.beams.len() as u32,
             ],
-            misc: [MAX_AREA_RATIO, size.0 as f32, size.1 as f32, 0.0],
+            misc: [MAX_AREA_RATIO, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -265,8 +261,8 @@ pub struct BeamsBuffers {
 }
 
 impl BeamsBuffers {
-    pub fn upload(device: &wgpu::Device, layer: &BeamsLayer, size: (u32, u32)) -> BeamsBuffers {
-        let params = GpuBeamsParams::new(layer, size);
+    pub fn upload(device: &wgpu::Device, layer: &BeamsLayer) -> BeamsBuffers {
+        let params = GpuBeamsParams::new(layer);
         let placeholder = [GpuBeam::zeroed()];
         let beams: &[GpuBeam] = if layer.beams.is_empty() {
             &placeholder

@@ -164,7 +164,7 @@ pub struct TransportPipelines {
     pub volume_layout: wgpu::BindGroupLayout,
 }
 
-/// Vertices drawn per volume (`HULL_VERTICES` of transport.wgsl).
+/// Vertices drawn per volume or beam (`HULL_VERTICES` of hull.inc.wgsl).
 pub const HULL_VERTICES: u32 = 12;
 
 impl TransportPipelines {
