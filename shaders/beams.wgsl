@@ -1,5 +1,5 @@
 // Volumetric caustics with projected light beams (Liktor and Dachsbacher 2010; render/beams).
-// One instance per caustic beam covers the screen-space bounds of the beam's hull (the six
+// One instance per caustic beam covers the screen-space outline of the beam's hull (the six
 // corners of its base and cap); per pixel, the view ray is intersected with the beam through the
 // planar triangle of the paper's Fig. 5 and the single-scattering integral is evaluated with one
 // sample or more (§3.2). The beams also light the receivers they end on (surface caustics, the

@@ -120,6 +120,39 @@ pub struct ReferenceStats {
     pub caustic_photons_stored: usize,
     pub camera_samples: u64,
     pub stages: Vec<(String, Duration)>,
+    /// Where the traced light went, in W (None when photons are aimed at specular objects:
+    /// their light is shared between populations by where it first lands).
+    pub flux: Option<FluxBalance>,
+}
+
+/// The light paths' estimate of where the emitted light went, in W per channel: absorbed by the
+/// medium (the collision estimate σa·T/pdf at each sampled scattering), absorbed by surfaces
+/// (1 − albedo or reflectance at each vertex, Beer-Lambert in glass and water), or escaped the
+/// scene. A check of the weights: emitted = absorbed + escaped + cut.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FluxBalance {
+    pub emitted: Vec3,
+    pub absorbed_medium: Vec3,
+    pub absorbed_surfaces: Vec3,
+    pub escaped: Vec3,
+    /// Paths ended by the depth limit or by a direction sampled below the surface: light no
+    /// term accounts for.
+    pub cut: Vec3,
+}
+
+impl FluxBalance {
+    fn add(&mut self, o: &FluxBalance, scale: f32) {
+        self.emitted += o.emitted * scale;
+        self.absorbed_medium += o.absorbed_medium * scale;
+        self.absorbed_surfaces += o.absorbed_surfaces * scale;
+        self.escaped += o.escaped * scale;
+        self.cut += o.cut * scale;
+    }
+
+    /// Absorbed + escaped + cut.
+    pub fn accounted(&self) -> Vec3 {
+        self.absorbed_medium + self.absorbed_surfaces + self.escaped + self.cut
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -203,6 +236,7 @@ pub fn render(
     let mut traced: [Vec<Vec3>; 4] = [blank(), blank(), blank(), blank()];
     let mut photons: Vec<Photon> = Vec::new();
     let mut emitted = vec![0u64; pops.len()];
+    let mut balance = vec![FluxBalance::default(); pops.len()];
     // Chunks listed round-robin over populations so that stopping early (time budget) leaves
     // every population with a fair share; each population is normalised by its own count.
     let mut chunks: Vec<(usize, u64, u64)> = Vec::new(); // (population, first photon, count)
@@ -234,14 +268,15 @@ pub fn render(
     };
     while done < chunks.len() {
         let end = (done + batch).min(chunks.len());
-        let results: Vec<(Vec<Splat>, Vec<Photon>)> = chunks[done..end]
+        let results: Vec<(Vec<Splat>, Vec<Photon>, FluxBalance)> = chunks[done..end]
             .par_iter()
             .map(|&(pi, first, n)| {
                 trace_photon_chunk(world, accel, params, env, &pops, pi, first, n)
             })
             .collect();
-        for (&(pi, _, n), (splats, ph)) in chunks[done..end].iter().zip(results) {
+        for (&(pi, _, n), (splats, ph, fb)) in chunks[done..end].iter().zip(results) {
             emitted[pi] += n;
+            balance[pi].add(&fb, 1.0);
             for s in splats {
                 let img = if multi {
                     &mut per_pop_splat[pi][s.target as usize]
@@ -282,6 +317,13 @@ pub fn render(
     for p in &mut photons {
         p.flux *= norm[p.pop as usize];
     }
+    stats.flux = pops.iter().all(|p| p.target.is_none()).then(|| {
+        let mut total = FluxBalance::default();
+        for (b, s) in balance.iter().zip(&norm) {
+            total.add(b, *s);
+        }
+        total
+    });
     stats.caustic_photons_stored = photons.len();
     stats.stages.push(("photons".into(), t0.elapsed()));
 
@@ -563,8 +605,9 @@ fn trace_photon_chunk(
     pi: usize,
     first: u64,
     n: u64,
-) -> (Vec<Splat>, Vec<Photon>) {
+) -> (Vec<Splat>, Vec<Photon>, FluxBalance) {
     let pop = &pops[pi];
+    let mut fb = FluxBalance::default();
     let cam = &world.camera;
     let pixel_area = cam.pixel_area();
     let mut rng = Pcg::new(params.seed, ((pi as u64) << 40) | (first / CHUNK));
@@ -587,6 +630,8 @@ fn trace_photon_chunk(
         {
             flux *= world.media_transmittance_ray(o, -d, f32::INFINITY);
         }
+        fb.emitted += flux;
+        let mut cut = true;
         let mut specular_seen = false;
         let mut diffuse_vertices = 0u32;
         let mut volume_vertices = 0u32;
@@ -607,9 +652,11 @@ fn trace_photon_chunk(
                     Flight::Pass(weight) => flux *= weight,
                     Flight::Scatter(t, weight) => {
                         if depth == 0 && pop.target.is_some() {
+                            cut = false;
                             break;
                         }
-                        flux *= weight;
+                        fb.absorbed_medium += flux * m.sigma_a * weight;
+                        flux *= m.sigma_s * weight;
                         volume_vertices += 1;
                         let p = o + d * t;
                         if let Some((pixel, value)) =
@@ -636,6 +683,7 @@ fn trace_photon_chunk(
                         if depth >= 3 {
                             let keep = albedo.max_element().clamp(0.05, 0.95);
                             if rng.f32() >= keep {
+                                cut = false;
                                 break;
                             }
                             flux /= keep;
@@ -648,6 +696,8 @@ fn trace_photon_chunk(
                 }
             }
             let Some(hit) = hit else {
+                fb.escaped += flux;
+                cut = false;
                 break;
             };
             let mat = accel.material(&hit);
@@ -657,15 +707,23 @@ fn trace_photon_chunk(
                     None => !mat.is_specular(),
                 };
                 if !ok {
+                    cut = false;
                     break;
                 }
             }
             // The water's absorption (the medium's was the free flight's).
-            flux *= segment_transmittance(&hit, mat) * world.water_transmittance(o, hit.point);
+            let through =
+                segment_transmittance(&hit, mat) * world.water_transmittance(o, hit.point);
+            fb.absorbed_surfaces += flux * (Vec3::ONE - through);
+            flux *= through;
             if mat.is_specular() {
                 let Some(b) = sample_specular(&hit, d, mat, rng.f32()) else {
                     break;
                 };
+                // Glass splits its light without loss; a mirror keeps its reflectance.
+                if let Material::Mirror { reflectance } = mat {
+                    fb.absorbed_surfaces += flux * (Vec3::ONE - *reflectance);
+                }
                 flux *= b.weight;
                 specular_seen = true;
                 o = hit.spawn(b.dir);
@@ -704,23 +762,29 @@ fn trace_photon_chunk(
                 break;
             }
             let weight = brdf(mat, hit.normal, wi, nd) * std::f32::consts::PI;
+            fb.absorbed_surfaces += flux * (Vec3::ONE - weight);
             flux *= weight;
             // Russian roulette after a few bounces keeps long paths cheap but unbiased.
             if depth >= 3 {
                 let keep = weight.max_element().clamp(0.05, 0.95);
                 if rng.f32() >= keep {
+                    cut = false;
                     break;
                 }
                 flux /= keep;
             }
             if flux.max_element() <= 0.0 {
+                cut = false;
                 break;
             }
             o = hit.spawn(nd);
             d = nd;
         }
+        if cut {
+            fb.cut += flux;
+        }
     }
-    (splats, stored)
+    (splats, stored, fb)
 }
 
 /// Light-tracing connection of a photon vertex to the pinhole: the pixel and the radiance it
@@ -785,7 +849,8 @@ enum Flight {
     Outside,
     /// It crossed it; the path's weight is multiplied by T / P(crossing).
     Pass(Vec3),
-    /// It scattered at distance t (from o); weight σs·T(t) / pdf(t).
+    /// It interacted at distance t (from o), with weight T(t) / pdf(t): the path goes on with
+    /// σs times it; σa times it is the light absorbed there.
     Scatter(f32, Vec3),
 }
 
@@ -808,7 +873,7 @@ fn free_flight(m: &crate::scene::Medium, o: Vec3, d: Vec3, t_end: f32, rng: &mut
     if t < len {
         let tr = (-st * t).exp();
         let pdf = (st * tr).element_sum() / 3.0;
-        Flight::Scatter(t0 + t, m.sigma_s * tr / pdf)
+        Flight::Scatter(t0 + t, tr / pdf)
     } else {
         let tr = (-st * len).exp();
         Flight::Pass(tr / (tr.element_sum() / 3.0))

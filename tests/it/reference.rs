@@ -403,6 +403,52 @@ fn bad_media_are_refused_with_their_field() {
     assert!(w.media[0].contains(w.camera.eye));
 }
 
+/// Flux bookkeeping: a point light in a box of coloured fog over a grey floor, multiple
+/// scattering. The light paths' estimate of what the fog absorbs (σa·T/pdf at each sampled
+/// interaction), what the floor absorbs (1 − albedo) and what leaves the box adds up to what the
+/// light emits (4π·I), within 1 % per channel; and each term is a real share of it.
+#[test]
+fn the_light_traced_in_fog_is_absorbed_or_escapes() {
+    let world = parse(
+        r#"{"camera": {"eye": [0, 1.5, 5], "target": [0, 1, 0], "width": 32, "height": 24},
+            "lights": [{"type": "point", "position": [0, 1.2, 0], "intensity": [1, 2, 3]}],
+            "materials": {"floor": {"type": "diffuse", "albedo": 0.5}},
+            "objects": [{"name": "floor", "shape": {"type": "plane", "size": [4, 4]},
+                         "material": "floor"}],
+            "media": [{"sigma_s": [0.4, 0.3, 0.2], "sigma_a": [0.1, 0.2, 0.05], "g": 0.5,
+                       "bounds": {"type": "box", "size": [4, 3, 4],
+                                  "transform": {"translation": [0, 1.5, 0]}}}]}"#,
+    );
+    let accel = Accel::build(&world);
+    let params = ReferenceParams {
+        photons: 400_000,
+        spp: 1,
+        seed: 4,
+        ..Default::default()
+    };
+    let (_, stats) = reference::render(&world, &accel, &params, &|_| true).expect("renders");
+    let b = stats
+        .flux
+        .expect("no targeted photons: the balance is tallied");
+    eprintln!("flux balance: {b:?}");
+    let emitted = Vec3::new(1.0, 2.0, 3.0) * 4.0 * PI;
+    for c in 0..3 {
+        assert!((b.emitted[c] / emitted[c] - 1.0).abs() < 1e-3, "{b:?}");
+        let gap = (b.accounted()[c] - b.emitted[c]).abs() / b.emitted[c];
+        assert!(
+            gap < 0.01,
+            "channel {c}: {gap} of the light unaccounted: {b:?}"
+        );
+        assert!(b.cut[c] < 0.01 * b.emitted[c], "{b:?}");
+        for share in [b.absorbed_medium[c], b.absorbed_surfaces[c], b.escaped[c]] {
+            assert!(share > 0.05 * b.emitted[c], "{b:?}");
+        }
+    }
+    // More absorbing channels absorb more in the fog (σa/σt 0.2, 0.4, 0.2 of each event).
+    let frac = b.absorbed_medium / b.emitted;
+    assert!(frac.y > frac.x && frac.y > frac.z, "{frac}");
+}
+
 /// A spot light in a box of fog over a diffuse floor, against Mitsuba 3's `volpath`
 /// (tests/data/mitsuba/README.md): every pixel sees the fog, most of them the floor behind it.
 #[test]
