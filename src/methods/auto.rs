@@ -3,8 +3,8 @@
 //! The rule, first match wins:
 //! 0. a water shape and a directional light (the sun) → `water`;
 //! 1. no object has a glass or mirror part → `direct` (nothing casts caustics);
-//! 2. a participating medium and a directional, spot or point light → `beams` (the volumetric
-//!    caustics, and the surface caustics from the same beams);
+//! 2. a participating medium in a box or the whole scene and a directional, spot or point
+//!    light → `beams` (the volumetric caustics, and the surface caustics from the same beams);
 //! 3. every caustic part is glass (dielectric) and a directional, point, spot or line light
 //!    lights the scene → `transport` (every delta light type, the light may move freely);
 //! 4. every caustic part is a mirror and an environment light lights the scene → `pinhole`
@@ -48,6 +48,7 @@ pub fn choose(world: &World) -> (Method, &'static str) {
         );
     }
     if !world.media.is_empty()
+        && world.media.iter().all(|m| !m.has_boundary_mesh())
         && world.lights.iter().any(|l| {
             matches!(
                 l,

@@ -118,6 +118,13 @@ impl MethodImpl for Beams {
                 "method beams needs a glass or mirror object to cast beams; the scene has none",
             ));
         }
+        if world.media.iter().any(|m| m.has_boundary_mesh()) {
+            return Err(ParamError::new(
+                "scene.media",
+                "method beams takes a medium in a box or the whole scene; one inside a mesh \
+                 renders with method reference",
+            ));
+        }
         if !world.lights.iter().any(|l| {
             matches!(
                 l,

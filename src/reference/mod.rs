@@ -858,9 +858,10 @@ enum Flight {
 /// uniformly, a distance from its exponential, weighted by the mixture of the three
 /// channels' densities (spectral MIS, the one-sample model).
 fn free_flight(m: &crate::scene::Medium, o: Vec3, d: Vec3, t_end: f32, rng: &mut Pcg) -> Flight {
-    let Some((t0, t1)) = m.interval(o, d, t_end) else {
+    let parts = m.intervals(o, d, t_end);
+    if parts.is_empty() {
         return Flight::Outside;
-    };
+    }
     let st = m.sigma_t();
     let c = ((rng.f32() * 3.0) as usize).min(2);
     let u = rng.f32();
@@ -869,11 +870,21 @@ fn free_flight(m: &crate::scene::Medium, o: Vec3, d: Vec3, t_end: f32, rng: &mut
     } else {
         f32::INFINITY
     };
-    let len = t1 - t0;
+    // The distance counts the medium only: walk the parts of the ray inside it.
+    let len: f32 = parts.iter().map(|(a, b)| b - a).sum();
     if t < len {
         let tr = (-st * t).exp();
         let pdf = (st * tr).element_sum() / 3.0;
-        Flight::Scatter(t0 + t, tr / pdf)
+        let mut left = t;
+        let mut at = parts[0].0 + t;
+        for &(a, b) in &parts {
+            if left < b - a {
+                at = a + left;
+                break;
+            }
+            left -= b - a;
+        }
+        Flight::Scatter(at, tr / pdf)
     } else {
         let tr = (-st * len).exp();
         Flight::Pass(tr / (tr.element_sum() / 3.0))

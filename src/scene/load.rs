@@ -702,7 +702,7 @@ pub fn resolve(
             ),
         });
     }
-    let media = resolve_media(&desc.media, &objects, &camera, &lights)?;
+    let media = resolve_media(&desc.media, &objects, &camera, &lights, limits)?;
     if !media.is_empty() {
         warnings.push(
             "the scene's medium is rendered by method reference (all of it) and method beams (its \
@@ -729,6 +729,7 @@ fn resolve_media(
     objects: &[Object],
     camera: &Camera,
     lights: &[Light],
+    limits: &Limits,
 ) -> Result<Vec<crate::scene::Medium>, SceneError> {
     if media.len() > 1 {
         return Err(SceneError::invalid(
@@ -754,6 +755,64 @@ fn resolve_media(
             ));
         }
         let (transform, half) = match &m.bounds {
+            MediumBoundsDesc::Mesh { shape, transform } => {
+                let t = transform.matrix();
+                if !t.is_finite() || t.determinant().abs() < 1e-12 {
+                    return Err(SceneError::invalid(
+                        p("bounds.transform"),
+                        "must be finite and invertible",
+                    ));
+                }
+                let sp = |f: &str| p(&format!("bounds.shape.{f}"));
+                let mesh = match shape {
+                    ShapeDesc::Sphere { radius, segments } => shapes::sphere(
+                        positive(&sp("radius"), *radius)?,
+                        check_segments(&sp("segments"), *segments, limits)?,
+                    ),
+                    ShapeDesc::Box { size } => {
+                        for (k, s) in size.iter().enumerate() {
+                            positive(&sp(&format!("size[{k}]")), *s)?;
+                        }
+                        shapes::cuboid(Vec3::from(*size))
+                    }
+                    ShapeDesc::Torus {
+                        major_radius,
+                        minor_radius,
+                        segments,
+                    } => shapes::torus(
+                        positive(&sp("major_radius"), *major_radius)?,
+                        positive(&sp("minor_radius"), *minor_radius)?,
+                        check_segments(&sp("segments"), *segments, limits)?,
+                    ),
+                    ShapeDesc::Cylinder {
+                        radius,
+                        height,
+                        segments,
+                    } => shapes::cylinder(
+                        positive(&sp("radius"), *radius)?,
+                        positive(&sp("height"), *height)?,
+                        check_segments(&sp("segments"), *segments, limits)?,
+                    ),
+                    _ => {
+                        return Err(SceneError::invalid(
+                            sp("type"),
+                            "a medium's mesh must be a closed shape: sphere, box, torus or \
+                             cylinder",
+                        ));
+                    }
+                }
+                .transformed(t);
+                if !crate::scene::medium::is_closed(&mesh) {
+                    return Err(SceneError::invalid(
+                        p("bounds.shape"),
+                        "the mesh is not closed",
+                    ));
+                }
+                out.push(crate::scene::Medium::inside_mesh(
+                    sigma_s, sigma_a, m.g, &mesh,
+                ));
+                continue;
+            }
             MediumBoundsDesc::Box { size, transform } => {
                 let s = finite3(&p("bounds.size"), *size)?;
                 if s.min_element() <= 0.0 {

@@ -1,11 +1,25 @@
 //! Homogeneous participating media (fog, haze, murky water): scattering and absorption
 //! coefficients per metre and colour channel and a Henyey-Greenstein phase function, filling a
-//! box (translated, rotated, scaled) or the whole scene (a box around every object and the
-//! camera). The reference traces light through them (free flights, in-scattering towards the
+//! box (translated, rotated, scaled), the whole scene (a box around every object and the
+//! camera) or the inside of a closed mesh (any shape: a ray may cross it several times). The reference traces light through them (free flights, in-scattering towards the
 //! camera); every path segment is attenuated by them.
 
 use glam::{Mat4, Vec3};
 use std::f32::consts::PI;
+use std::sync::Arc;
+
+/// The closed surface a medium fills when it is not a box: its triangles in a BVH.
+#[derive(Clone)]
+pub struct Boundary(Arc<crate::trace::Accel>);
+
+impl std::fmt::Debug for Boundary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Boundary({} triangles)", self.0.triangle_count())
+    }
+}
+
+/// Most crossings of a closed boundary one ray is followed through.
+const MAX_CROSSINGS: usize = 64;
 
 /// A resolved medium: its coefficients and the box it fills.
 #[derive(Clone, Debug)]
@@ -19,6 +33,8 @@ pub struct Medium {
     to_local: Mat4,
     from_local: Mat4,
     half: Vec3,
+    /// A closed mesh the medium fills (the box is then its bounding box).
+    boundary: Option<Boundary>,
 }
 
 impl Medium {
@@ -32,7 +48,112 @@ impl Medium {
             to_local: transform.inverse(),
             from_local: transform,
             half,
+            boundary: None,
         }
+    }
+
+    /// A medium filling the inside of `mesh` (world space), which must be closed (see
+    /// [`is_closed`]).
+    pub fn inside_mesh(sigma_s: Vec3, sigma_a: Vec3, g: f32, mesh: &super::Mesh) -> Medium {
+        let (lo, hi) = mesh.bounds();
+        let world = super::World {
+            name: String::new(),
+            camera: super::Camera {
+                eye: Vec3::ZERO,
+                target: Vec3::Z,
+                up: Vec3::Y,
+                fov_y: 45.0,
+                width: 1,
+                height: 1,
+            },
+            lights: Vec::new(),
+            materials: vec![super::Material::Diffuse { albedo: Vec3::ONE }],
+            objects: vec![super::Object {
+                name: String::new(),
+                parts: vec![super::Part {
+                    mesh: Arc::new(mesh.clone()),
+                    material: 0,
+                }],
+                transform: Mat4::IDENTITY,
+            }],
+            warnings: Vec::new(),
+            water: Vec::new(),
+            media: Vec::new(),
+        };
+        let accel = crate::trace::Accel::build_with(
+            &world,
+            |_| true,
+            obvhs::BvhBuildParams::medium_build(),
+        );
+        let pad = (hi - lo) * 1e-4 + Vec3::splat(1e-5);
+        Medium {
+            boundary: Some(Boundary(Arc::new(accel))),
+            ..Medium::new(
+                sigma_s,
+                sigma_a,
+                g,
+                Mat4::from_translation((lo + hi) * 0.5),
+                (hi - lo) * 0.5 + pad,
+            )
+        }
+    }
+
+    /// Whether the medium fills a closed mesh rather than a box.
+    pub fn has_boundary_mesh(&self) -> bool {
+        self.boundary.is_some()
+    }
+
+    /// The parts of o + t·d, 0 ≤ t ≤ t_max, inside the medium, in order (any d, not only
+    /// unit): one for a box, as many as the ray's crossings of a closed mesh give.
+    pub fn intervals(&self, o: Vec3, d: Vec3, t_max: f32) -> Vec<(f32, f32)> {
+        let Some(Boundary(accel)) = &self.boundary else {
+            return self.box_interval(o, d, t_max).into_iter().collect();
+        };
+        if self.box_interval(o, d, t_max).is_none() {
+            return Vec::new();
+        }
+        let len = d.length();
+        if len <= 0.0 {
+            return Vec::new();
+        }
+        let dn = d / len;
+        let tm = t_max * len;
+        // Inside at o when the first surface along the ray is met from behind.
+        let mut start = accel
+            .intersect(o, dn, f32::INFINITY)
+            .is_some_and(|h| !h.front_face)
+            .then_some(0.0f32);
+        let mut out = Vec::new();
+        let mut t = 0.0f32;
+        for _ in 0..MAX_CROSSINGS {
+            let Some(h) = accel.intersect(o + dn * t, dn, tm - t) else {
+                break;
+            };
+            let th = t + h.t;
+            if h.front_face {
+                start = Some(th);
+            } else if let Some(s) = start.take()
+                && th > s
+            {
+                out.push((s / len, th / len));
+            }
+            t = th + 1e-5 * (1.0 + th.abs());
+            if t >= tm {
+                break;
+            }
+        }
+        if let Some(s) = start
+            && tm.is_finite()
+            && tm > s
+        {
+            out.push((s / len, t_max));
+        }
+        out
+    }
+
+    /// Length of o + t·d (unit d), 0 ≤ t ≤ t_max, inside the medium.
+    fn length_inside(&self, o: Vec3, d: Vec3, t_max: f32) -> f32 {
+        self.intervals(o, d, t_max).iter().map(|(a, b)| b - a).sum()
     }
 
     /// World → the box's frame, where it spans [−half, half].
@@ -50,8 +171,18 @@ impl Medium {
         self.sigma_s + self.sigma_a
     }
 
-    /// The part [t0, t1] of o + t·d, 0 ≤ t ≤ t_max, inside the box (any d, not only unit).
+    /// From where o + t·d, 0 ≤ t ≤ t_max, first enters the medium to where it last leaves it
+    /// (any d, not only unit): the whole part inside for a box, its hull for a closed mesh.
     pub fn interval(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
+        if self.boundary.is_none() {
+            return self.box_interval(o, d, t_max);
+        }
+        let iv = self.intervals(o, d, t_max);
+        Some((iv.first()?.0, iv.last()?.1))
+    }
+
+    /// The part [t0, t1] of o + t·d, 0 ≤ t ≤ t_max, inside the box (any d, not only unit).
+    fn box_interval(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
         let lo_ = self.to_local.transform_point3(o);
         let ld = self.to_local.transform_vector3(d);
         let (mut t0, mut t1) = (0.0f32, t_max);
@@ -73,22 +204,35 @@ impl Medium {
     /// Whether `p` lies inside.
     pub fn contains(&self, p: Vec3) -> bool {
         let l = self.to_local.transform_point3(p);
-        l.abs().cmple(self.half).all()
+        let in_box = l.abs().cmple(self.half).all();
+        match &self.boundary {
+            None => in_box,
+            Some(Boundary(accel)) => {
+                in_box
+                    && accel
+                        .intersect(p, Vec3::new(0.267, 0.535, 0.802), f32::INFINITY)
+                        .is_some_and(|h| !h.front_face)
+            }
+        }
     }
 
     /// Transmittance along o + t·d (unit d), 0 ≤ t ≤ t_max (t_max may be infinite).
     pub fn transmittance_ray(&self, o: Vec3, d: Vec3, t_max: f32) -> Vec3 {
-        match self.interval(o, d, t_max) {
-            Some((t0, t1)) => (-self.sigma_t() * (t1 - t0)).exp(),
-            None => Vec3::ONE,
+        let len = self.length_inside(o, d, t_max);
+        if len > 0.0 {
+            (-self.sigma_t() * len).exp()
+        } else {
+            Vec3::ONE
         }
     }
 
     /// Transmittance of the straight segment a → b.
     pub fn transmittance(&self, a: Vec3, b: Vec3) -> Vec3 {
-        match self.interval(a, b - a, 1.0) {
-            Some((t0, t1)) => (-self.sigma_t() * ((t1 - t0) * a.distance(b))).exp(),
-            None => Vec3::ONE,
+        let len = self.length_inside(a, b - a, 1.0) * a.distance(b);
+        if len > 0.0 {
+            (-self.sigma_t() * len).exp()
+        } else {
+            Vec3::ONE
         }
     }
 
@@ -108,6 +252,37 @@ impl Medium {
         }
         (lo, hi)
     }
+}
+
+/// Whether `mesh` is closed: with its vertices welded (positions equal to within 1e-5 of its
+/// size), every edge of a non-degenerate triangle is shared by exactly two triangles.
+pub fn is_closed(mesh: &super::Mesh) -> bool {
+    let (lo, hi) = mesh.bounds();
+    let q = ((hi - lo).max_element() * 1e-5).max(1e-9);
+    let mut ids = std::collections::HashMap::new();
+    let welded: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let key = ((*p - lo) / q).round().as_ivec3().to_array();
+            let n = ids.len() as u32;
+            *ids.entry(key).or_insert(n)
+        })
+        .collect();
+    let mut edges: std::collections::HashMap<(u32, u32), u32> = std::collections::HashMap::new();
+    let mut any = false;
+    for t in &mesh.indices {
+        let v = t.map(|i| welded[i as usize]);
+        if v[0] == v[1] || v[1] == v[2] || v[2] == v[0] {
+            continue;
+        }
+        any = true;
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    any && edges.values().all(|&n| n == 2)
 }
 
 /// The Henyey-Greenstein phase function (1/sr) for light travelling along `wi` scattered into
@@ -139,6 +314,52 @@ pub fn sample_hg(g: f32, wi: Vec3, u1: f32, u2: f32) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn closed_shapes_are_closed_and_open_ones_are_not() {
+        use crate::scene::shapes;
+        for m in [
+            shapes::sphere(0.5, 32),
+            shapes::cuboid(Vec3::new(1.0, 2.0, 3.0)),
+            shapes::torus(1.0, 0.25, 24),
+            shapes::cylinder(0.5, 1.0, 24),
+        ] {
+            assert!(is_closed(&m));
+        }
+        assert!(!is_closed(&shapes::plane(1.0, 1.0)));
+        assert!(!is_closed(&shapes::paraboloid(0.5, 0.5, 16)));
+    }
+
+    #[test]
+    fn a_mesh_medium_is_crossed_as_often_as_its_surface() {
+        use crate::scene::shapes;
+        let one = Vec3::ONE;
+        // A torus (R 1, r 0.25) in the y = 0 plane: a ray along x through its middle crosses
+        // the tube twice, each time for 0.5 m, and not the hole.
+        let torus = Medium::inside_mesh(one, Vec3::ZERO, 0.0, &shapes::torus(1.0, 0.25, 96));
+        let iv = torus.intervals(Vec3::new(-2.0, 0.0, 0.0), Vec3::X, f32::INFINITY);
+        assert_eq!(iv.len(), 2, "{iv:?}");
+        for (a, b) in &iv {
+            assert!((b - a - 0.5).abs() < 0.01, "{iv:?}");
+        }
+        assert!(!torus.contains(Vec3::ZERO) && torus.contains(Vec3::new(1.0, 0.0, 0.0)));
+        let t = torus.transmittance(Vec3::new(-2.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0));
+        assert!((t.x - (-1.0f32).exp()).abs() < 0.01, "{t}");
+        // From inside a sphere, to a point beyond it and up to a point inside.
+        let ball = Medium::inside_mesh(one, Vec3::ZERO, 0.0, &shapes::sphere(1.0, 128));
+        let iv = ball.intervals(Vec3::ZERO, Vec3::X, 5.0);
+        assert_eq!(iv.len(), 1);
+        assert!(iv[0].0 == 0.0 && (iv[0].1 - 1.0).abs() < 1e-3, "{iv:?}");
+        let iv = ball.intervals(Vec3::new(-3.0, 0.0, 0.0), Vec3::X * 2.0, 1.25);
+        assert!(
+            iv.len() == 1 && (iv[0].0 - 1.0).abs() < 1e-3 && iv[0].1 == 1.25,
+            "{iv:?}"
+        );
+        assert!(
+            ball.intervals(Vec3::new(-3.0, 2.0, 0.0), Vec3::X, 9.0)
+                .is_empty()
+        );
+    }
 
     #[test]
     fn hg_integrates_to_one_its_samples_have_mean_cosine_g_and_follow_its_density() {

@@ -82,6 +82,13 @@ pub enum MediumBoundsDesc {
         #[serde(default)]
         transform: TransformDesc,
     },
+    /// The inside of a closed mesh: a `sphere`, `box`, `torus` or `cylinder` shape (as an
+    /// object's), placed by `transform`. Only method `reference` renders it.
+    Mesh {
+        shape: ShapeDesc,
+        #[serde(default)]
+        transform: TransformDesc,
+    },
 }
 
 /// Perspective pinhole camera.

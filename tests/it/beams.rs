@@ -306,4 +306,27 @@ fn the_cli_renders_beams_and_refuses_bad_parameters() {
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("scene.objects"));
+    // Fog inside a mesh is the reference's alone.
+    let meshed = dir.join("meshed.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(scenes::path("fog-paraboloid")).unwrap())
+            .unwrap();
+    v["media"][0]["bounds"] = serde_json::json!(
+        {"type": "mesh", "shape": {"type": "sphere", "radius": 1.5}}
+    );
+    std::fs::write(&meshed, v.to_string()).unwrap();
+    let o = caustica(&[
+        "render",
+        meshed.to_str().unwrap(),
+        "--method",
+        "beams",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("scene.media") && err.contains("reference"),
+        "{err}"
+    );
 }

@@ -391,6 +391,14 @@ fn bad_media_are_refused_with_their_field() {
             "media[0].bounds.size",
         ),
         (r#"{"sigma_s": 0.1}, {"sigma_s": 0.2}"#, "media"),
+        (
+            r#"{"sigma_s": 0.1, "bounds": {"type": "mesh", "shape": {"type": "plane", "size": [1, 1]}}}"#,
+            "media[0].bounds.shape.type",
+        ),
+        (
+            r#"{"sigma_s": 0.1, "bounds": {"type": "mesh", "shape": {"type": "sphere", "radius": -1}}}"#,
+            "media[0].bounds.shape.radius",
+        ),
     ] {
         let e = scene::load_scene_json(scene(medium).as_bytes()).unwrap_err();
         assert_eq!(e.field(), field, "{medium}: {e}");
@@ -401,6 +409,12 @@ fn bad_media_are_refused_with_their_field() {
     assert!(w.warnings.iter().any(|m| m.contains("medium")));
     // A whole-scene medium spans the camera.
     assert!(w.media[0].contains(w.camera.eye));
+    // Fog inside a sphere around the origin: the camera is outside it, the origin inside.
+    let w = parse(&scene(
+        r#"{"sigma_s": 0.1, "bounds": {"type": "mesh", "shape": {"type": "sphere", "radius": 0.5},
+            "transform": {"translation": [0, 0.2, 0]}}}"#,
+    ));
+    assert!(w.media[0].contains(Vec3::ZERO) && !w.media[0].contains(w.camera.eye));
 }
 
 /// Flux bookkeeping: a point light in a box of coloured fog over a grey floor, multiple
@@ -409,16 +423,26 @@ fn bad_media_are_refused_with_their_field() {
 /// light emits (4π·I), within 1 % per channel; and each term is a real share of it.
 #[test]
 fn the_light_traced_in_fog_is_absorbed_or_escapes() {
-    let world = parse(
-        r#"{"camera": {"eye": [0, 1.5, 5], "target": [0, 1, 0], "width": 32, "height": 24},
-            "lights": [{"type": "point", "position": [0, 1.2, 0], "intensity": [1, 2, 3]}],
-            "materials": {"floor": {"type": "diffuse", "albedo": 0.5}},
-            "objects": [{"name": "floor", "shape": {"type": "plane", "size": [4, 4]},
-                         "material": "floor"}],
-            "media": [{"sigma_s": [0.4, 0.3, 0.2], "sigma_a": [0.1, 0.2, 0.05], "g": 0.5,
-                       "bounds": {"type": "box", "size": [4, 3, 4],
-                                  "transform": {"translation": [0, 1.5, 0]}}}]}"#,
-    );
+    // A box of fog, and a torus of denser fog around the light (rays cross it up to four times).
+    for bounds in [
+        r#"{"type": "box", "size": [4, 3, 4], "transform": {"translation": [0, 1.5, 0]}}"#,
+        r#"{"type": "mesh", "shape": {"type": "torus", "major_radius": 1, "minor_radius": 0.6},
+            "transform": {"translation": [0, 1.2, 0], "rotation_deg": [30, 0, 0]}}"#,
+    ] {
+        balance_in_fog(bounds);
+    }
+}
+
+fn balance_in_fog(bounds: &str) {
+    let world = parse(&format!(
+        r#"{{"camera": {{"eye": [0, 1.5, 5], "target": [0, 1, 0], "width": 32, "height": 24}},
+            "lights": [{{"type": "point", "position": [0, 1.2, 0], "intensity": [1, 2, 3]}}],
+            "materials": {{"floor": {{"type": "diffuse", "albedo": 0.5}}}},
+            "objects": [{{"name": "floor", "shape": {{"type": "plane", "size": [4, 4]}},
+                         "material": "floor"}}],
+            "media": [{{"sigma_s": [0.4, 0.3, 0.2], "sigma_a": [0.1, 0.2, 0.05], "g": 0.5,
+                       "bounds": {bounds}}}]}}"#
+    ));
     let accel = Accel::build(&world);
     let params = ReferenceParams {
         photons: 400_000,
@@ -430,7 +454,7 @@ fn the_light_traced_in_fog_is_absorbed_or_escapes() {
     let b = stats
         .flux
         .expect("no targeted photons: the balance is tallied");
-    eprintln!("flux balance: {b:?}");
+    eprintln!("flux balance in {bounds}: {b:?}");
     let emitted = Vec3::new(1.0, 2.0, 3.0) * 4.0 * PI;
     for c in 0..3 {
         assert!((b.emitted[c] / emitted[c] - 1.0).abs() < 1e-3, "{b:?}");
@@ -441,7 +465,7 @@ fn the_light_traced_in_fog_is_absorbed_or_escapes() {
         );
         assert!(b.cut[c] < 0.01 * b.emitted[c], "{b:?}");
         for share in [b.absorbed_medium[c], b.absorbed_surfaces[c], b.escaped[c]] {
-            assert!(share > 0.05 * b.emitted[c], "{b:?}");
+            assert!(share > 0.02 * b.emitted[c], "{b:?}");
         }
     }
     // More absorbing channels absorb more in the fog (σa/σt 0.2, 0.4, 0.2 of each event).
