@@ -27,6 +27,9 @@ struct Beam {
     abc: vec4<f32>,
     // rgb: flux per unit of the counted area; w: the height where the vertex's photon ends.
     rho: array<vec4<f32>, 3>,
+    // xyz: the bounding volume's cap corners (world): on the photon rays or the touching
+    // planes' extrusion rays.
+    cap: array<vec4<f32>, 3>,
 }
 
 struct Params {
@@ -59,24 +62,18 @@ struct VsOut {
     @location(0) @interpolate(flat) beam: u32,
 }
 
-// Corner i of the hull: the base (i < 3) or the cap at height Y (i ≥ 3), world space.
+// Corner i of the bounding volume: the base (i < 3) or the cap (i ≥ 3), world space.
 fn corner(b: Beam, i: u32) -> vec3<f32> {
-    let j = i % 3u;
-    var v = vec2<f32>(0.0);
-    var d = b.d01.xy;
-    if j == 1u {
-        v = b.k.xy;
-        d = b.d01.zw;
-    } else if j == 2u {
-        v = b.k.zw;
-        d = b.d2.xy;
-    }
-    var y = 0.0;
     if i >= 3u {
-        y = b.origin.w;
+        return b.cap[i - 3u].xyz;
     }
-    let p = vec3<f32>(v.x + y * d.x, y, v.y + y * d.y);
-    return b.origin.xyz + b.ax.xyz * p.x + b.ay.xyz * p.y + b.az.xyz * p.z;
+    var v = vec2<f32>(0.0);
+    if i == 1u {
+        v = b.k.xy;
+    } else if i == 2u {
+        v = b.k.zw;
+    }
+    return b.origin.xyz + b.ax.xyz * v.x + b.az.xyz * v.y;
 }
 
 // The beam's screen-space outline (hull.inc.wgsl): the convex hull of its six corners

@@ -162,6 +162,10 @@ enum Cmd {
         /// paper's uniform grid).
         #[arg(long)]
         refine: Option<u32>,
+        /// Beams: the bounding volume each beam is drawn with: hull (default: the convex hull
+        /// of its corners) or touching-planes (the paper's prism).
+        #[arg(long, value_enum)]
+        beam_bounds: Option<caustica::render::beams::Bounds>,
         /// Scenes with water: the waves' time in seconds (every method).
         #[arg(long, allow_negative_numbers = true)]
         time: Option<f32>,
@@ -312,6 +316,7 @@ fn main() -> Result<()> {
             no_surface,
             downsample,
             refine,
+            beam_bounds,
             time,
             frames,
             fps,
@@ -324,6 +329,7 @@ fn main() -> Result<()> {
                 surface: no_surface.then_some(false),
                 downsample,
                 refine,
+                bounds: beam_bounds,
             };
             let beams = (beams_args != Default::default())
                 .then(|| serde_json::to_value(beams_args).expect("beams arguments serialise"));

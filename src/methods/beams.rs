@@ -10,7 +10,7 @@ use super::{
     RenderPlan, from_value,
 };
 use crate::render::RenderOptions;
-use crate::render::beams::{BeamsLayer, BeamsParams, GRIDS, MAX_REFINE, MAX_SAMPLES};
+use crate::render::beams::{BeamsLayer, BeamsParams, Bounds, GRIDS, MAX_REFINE, MAX_SAMPLES};
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -55,6 +55,10 @@ pub struct BeamsArgs {
     /// (default 4; 1: the paper's uniform grid).
     #[serde(default)]
     pub refine: Option<u32>,
+    /// The bounding volume a beam is drawn with: hull (default) or touching_planes (the
+    /// paper's prism).
+    #[serde(default)]
+    pub bounds: Option<Bounds>,
 }
 
 impl BeamsArgs {
@@ -97,6 +101,7 @@ impl BeamsArgs {
             surface: self.surface.unwrap_or(d.surface),
             downsample: self.downsample.unwrap_or(d.downsample),
             refine: self.refine.unwrap_or(d.refine),
+            bounds: self.bounds.unwrap_or(d.bounds),
         }
     }
 }
@@ -184,6 +189,7 @@ impl RenderPlan for Plan {
             "dropped_false": s.dropped_false,
             "dropped_twisted": s.dropped_twisted,
             "refine": p.refine,
+            "bounds": p.bounds,
             "refined_cells": s.refined_cells,
             "has_medium": !world.media.is_empty(),
             "time_build_ms": s.time_build.as_secs_f64() * 1e3,
@@ -228,6 +234,7 @@ mod tests {
             (json!({"samples": 17}), "beams.samples"),
             (json!({"downsample": 3}), "beams.downsample"),
             (json!({"refine": 9}), "beams.refine"),
+            (json!({"bounds": "sphere"}), "beams.bounds"),
             (json!({"shadows": "no"}), "beams.shadows"),
             (json!({"gird": 64}), "beams.gird"),
         ] {

@@ -327,6 +327,7 @@ mod tests {
                 ("d2", offset_of!(B, d2)),
                 ("abc", offset_of!(B, abc)),
                 ("rho", offset_of!(B, rho)),
+                ("cap", offset_of!(B, cap)),
             ],
         );
         mirror(

@@ -132,6 +132,53 @@ fn the_glass_sphere_under_a_spot_in_fog_matches_the_reference_and_needs_two_side
     );
 }
 
+/// The paper's touching-plane prisms (the hull where their planes fail: every beam of a
+/// focusing mirror crosses its focus) cover each pixel of a beam once, as the hull does: the
+/// same image. A mirror ball in fog under the sun: its beams diverge, most get a prism.
+#[test]
+fn touching_plane_prisms_draw_what_the_hull_draws() {
+    let world = scenes::parse(
+        r#"{"camera": {"eye": [0, 1.2, 3.5], "target": [0, 0.8, 0], "width": 60, "height": 45},
+            "lights": [{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2}],
+            "materials": {"m": {"type": "mirror", "reflectance": 0.9},
+                          "floor": {"type": "diffuse", "albedo": 0.5}},
+            "objects": [
+              {"name": "floor", "shape": {"type": "plane", "size": [6, 6]}, "material": "floor"},
+              {"name": "ball", "shape": {"type": "sphere", "radius": 0.4, "segments": 64},
+               "material": "m", "transform": {"translation": [0, 0.6, 0]}}],
+            "media": [{"sigma_s": 0.3, "sigma_a": 0.02, "g": 0.3,
+                       "bounds": {"type": "box", "size": [6, 3, 6],
+                                  "transform": {"translation": [0, 1.5, 0]}}}]}"#,
+    );
+    let p = |bounds| BeamsParams {
+        grid: 64,
+        bounds,
+        ..Default::default()
+    };
+    use caustica::render::beams::Bounds;
+    let (hull, hull_layer) = render(&world, &p(Bounds::Hull));
+    let (prism, prism_layer) = render(&world, &p(Bounds::TouchingPlanes));
+    let prisms = prism_layer
+        .beams
+        .iter()
+        .zip(&hull_layer.beams)
+        .filter(|(a, b)| a.cap != b.cap)
+        .count();
+    eprintln!(
+        "{prisms} of {} beams drawn as touching-plane prisms",
+        hull_layer.beams.len()
+    );
+    assert!(prisms > hull_layer.beams.len() / 2, "{prisms}");
+    let v = hull.volume_caustics.as_ref().unwrap();
+    assert!(images::peak(v) > 0.0);
+    let (same, _) = error(prism.volume_caustics.as_ref().unwrap(), v);
+    let (surface, _) = error(
+        prism.caustics.as_ref().unwrap(),
+        hull.caustics.as_ref().unwrap(),
+    );
+    assert!(same < 1e-4 && surface < 1e-4, "{same} {surface}");
+}
+
 /// A shelf over the right part of the paraboloid's cone: with shadows its beams end on it and
 /// the fog above it stays as dark as in the reference; the paper's beams run on through it.
 #[test]

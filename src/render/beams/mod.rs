@@ -84,6 +84,33 @@ pub struct BeamsParams {
     pub downsample: u32,
     /// Cells across a silhouette or a change of path are split refine × refine (1: not).
     pub refine: u32,
+    /// The bounding volume each beam is drawn with.
+    pub bounds: Bounds,
+}
+
+/// The bounding volume of a beam (§3.1, Fig. 2), drawn as the screen outline of its six
+/// corners.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Bounds {
+    /// The convex hull of the beam's corners (base, and cap on the photon rays): the tightest
+    /// convex volume that holds it.
+    #[default]
+    Hull,
+    /// The paper's prism: per base edge the plane through it that touches the bilinear side
+    /// patch (Ernst et al. 2005), capped at the beam's height; the hull where the planes fail
+    /// (a beam through a focus, or strongly twisted).
+    TouchingPlanes,
 }
 
 impl Default for BeamsParams {
@@ -96,6 +123,7 @@ impl Default for BeamsParams {
             surface: true,
             downsample: 1,
             refine: DEFAULT_REFINE,
+            bounds: Bounds::Hull,
         }
     }
 }
@@ -125,6 +153,9 @@ pub struct GpuBeam {
     /// Per vertex: rgb the flux per unit of the counted area (W/m²); w: the height where the
     /// vertex's photon ends.
     pub rho: [[f32; 4]; 3],
+    /// The cap's corners (world, at height Y) of the bounding volume drawn: on the photon rays
+    /// (the convex hull of the beam's corners) or on the touching planes' extrusion rays.
+    pub cap: [[f32; 4]; 3],
 }
 
 /// Figures of a build.
@@ -536,7 +567,7 @@ fn mixed(c: &[&[Photon; EFFECTS]; 4]) -> bool {
 }
 
 /// The beams of a grid cell (corners counter-clockwise), two triangles per effect.
-fn cell(c: [&[Photon; EFFECTS]; 4]) -> Vec<Made> {
+fn cell(c: [&[Photon; EFFECTS]; 4], bounds: Bounds) -> Vec<Made> {
     let mut out = Vec::new();
     for k in 0..EFFECTS {
         let [a, b, cc, d] = c.map(|p| &p[k]);
@@ -544,7 +575,7 @@ fn cell(c: [&[Photon; EFFECTS]; 4]) -> Vec<Made> {
             continue;
         }
         for tri in [[a, b, cc], [a, cc, d]] {
-            out.push(match beam(tri) {
+            out.push(match beam(tri, bounds) {
                 Ok((bm, e)) => Made::Beam(k, bm, e),
                 Err(d) => Made::Dropped(d),
             });
@@ -562,9 +593,53 @@ enum Drop {
     Twisted,
 }
 
+/// The extrusion rays of the touching-plane prism over base `b` (world) with photon
+/// directions `d`, base normal `y` (towards the photons) and height `cap`, or None where the
+/// planes fail. Per base edge (i, j): the plane through it that holds d_i or d_j and has the
+/// other photon direction, and so the whole side patch, on its inner side; at each vertex the
+/// line where its two edges' planes meet. They fail where a beam crosses a focus, or twists so
+/// that its third ray leaves a side plane below the cap.
+pub fn touching_plane_rays(b: [Vec3; 3], d: [Vec3; 3], y: Vec3, cap: f32) -> Option<[Vec3; 3]> {
+    let top = |i: usize| b[i] + d[i] * (cap / d[i].dot(y));
+    let mut m = [Vec3::ZERO; 3]; // m[i]: outward normal of the plane over edge (i, i+1)
+    for i in 0..3 {
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        let e = b[j] - b[i];
+        let mut found = None;
+        for dd in [d[i], d[j]] {
+            let mut n = e.cross(dd).normalize_or_zero();
+            if n == Vec3::ZERO {
+                continue;
+            }
+            if n.dot(b[k] - b[i]) > 0.0 {
+                n = -n;
+            }
+            let tol = 1e-5;
+            if n.dot(d[i]) <= tol && n.dot(d[j]) <= tol && n.dot(top(k) - b[i]) <= tol {
+                found = Some(n);
+                break;
+            }
+        }
+        m[i] = found?;
+    }
+    let mut out = [Vec3::ZERO; 3];
+    for i in 0..3 {
+        // Vertex i lies on edges (i−1, i) and (i, i+1).
+        let mut r = m[(i + 2) % 3].cross(m[i]).normalize_or_zero();
+        if r.dot(y) < 0.0 {
+            r = -r;
+        }
+        if r.dot(y) < 1e-3 {
+            return None;
+        }
+        out[i] = r;
+    }
+    Some(out)
+}
+
 /// The beam of grid triangle `p` (§3.1): the false-triangle tests, beam space, the area
-/// function.
-fn beam(p: [&Photon; 3]) -> Result<(GpuBeam, [Vec3; 3]), Drop> {
+/// function, its bounding volume.
+fn beam(p: [&Photon; 3], bounds: Bounds) -> Result<(GpuBeam, [Vec3; 3]), Drop> {
     if p.iter().any(|v| !v.valid) {
         return Err(Drop::Invalid);
     }
@@ -619,6 +694,17 @@ fn beam(p: [&Photon; 3]) -> Result<(GpuBeam, [Vec3; 3]), Drop> {
         let w = p[i].weight * ne.dot(p[i].wl).abs();
         [w.x, w.y, w.z, ends[i]]
     });
+    // The cap's corners at height `cap`.
+    let dirs = [p[0].dir, p[1].dir, p[2].dir];
+    let rays = match bounds {
+        Bounds::Hull => None,
+        Bounds::TouchingPlanes => touching_plane_rays(b, dirs, y, cap),
+    }
+    .unwrap_or(dirs);
+    let top: [[f32; 4]; 3] = std::array::from_fn(|i| {
+        let c = b[i] + rays[i] * (cap / rays[i].dot(y));
+        [c.x, c.y, c.z, 0.0]
+    });
     Ok((
         GpuBeam {
             origin: [b[0].x, b[0].y, b[0].z, cap],
@@ -630,6 +716,7 @@ fn beam(p: [&Photon; 3]) -> Result<(GpuBeam, [Vec3; 3]), Drop> {
             d2: [d[2].x, d[2].y, 0.0, 0.0],
             abc: [a, bq, c, 0.0],
             rho,
+            cap: top,
         },
         e,
     ))
@@ -708,7 +795,7 @@ impl BeamsLayer {
                     let (i, j) = (c % n, c / n);
                     let corners = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
                     if m == 1 || !mixed(&corners) {
-                        return cell(corners);
+                        return cell(corners, params.bounds);
                     }
                     // Adaptive refinement (beyond the paper, its §6 future work): a cell
                     // across a silhouette or a change of path is split m × m.
@@ -725,7 +812,10 @@ impl BeamsLayer {
                     let mut out = Vec::new();
                     for b in 0..m {
                         for a in 0..m {
-                            out.extend(cell([s(a, b), s(a + 1, b), s(a + 1, b + 1), s(a, b + 1)]));
+                            out.extend(cell(
+                                [s(a, b), s(a + 1, b), s(a + 1, b + 1), s(a, b + 1)],
+                                params.bounds,
+                            ));
                         }
                     }
                     out.push(Made::Refined);
@@ -816,7 +906,7 @@ mod tests {
             mk(Vec3::new(1.0, 0.0, 0.2), Vec3::new(-0.4, 1.0, 0.0)),
             mk(Vec3::new(0.2, 0.0, 1.0), Vec3::new(0.0, 1.0, -0.5)),
         ];
-        let (bm, _) = beam([&p[0], &p[1], &p[2]]).unwrap();
+        let (bm, _) = beam([&p[0], &p[1], &p[2]], Bounds::Hull).unwrap();
         let [a, b, c, _] = bm.abc;
         for yy in [0.0f32, 0.3, 0.9, 1.7] {
             let pt = |i: usize| p[i].base + p[i].dir / p[i].dir.y * yy;
@@ -828,6 +918,51 @@ mod tests {
             );
         }
         assert!((bm.ax[3] - c.abs()).abs() < 1e-5, "A(Δ) is c");
+    }
+
+    /// The touching-plane prism holds the beam: every point of its three side patches lies on
+    /// the inner side of the three planes, and the extrusion rays leave the base upwards.
+    #[test]
+    fn the_touching_planes_hold_the_side_patches() {
+        let b = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.2),
+            Vec3::new(0.2, 0.0, 1.0),
+        ];
+        // Diverging, unevenly (the side patches are not planar).
+        let d = [
+            Vec3::new(-0.2, 1.0, -0.3).normalize(),
+            Vec3::new(0.4, 1.0, 0.05).normalize(),
+            Vec3::new(0.1, 1.0, 0.35).normalize(),
+        ];
+        let r = touching_plane_rays(b, d, Vec3::Y, 3.0).expect("planes");
+        for i in 0..3 {
+            assert!(r[i].y > 0.0);
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            // The plane over edge (i, j) holds r[i] and r[j]; its outward normal:
+            let mut n = (b[j] - b[i]).cross(r[i]).normalize();
+            if n.dot(b[k] - b[i]) > 0.0 {
+                n = -n;
+            }
+            assert!(n.dot(r[j]).abs() < 1e-4, "the edge's plane holds both rays");
+            for s in 0..=10 {
+                for u in 0..=10 {
+                    let (h, u) = (s as f32 / 10.0 * 3.0, u as f32 / 10.0);
+                    for (a, c) in [(i, j), (j, k), (k, i)] {
+                        let at = |v: usize| b[v] + d[v] * (h / d[v].y);
+                        let q = at(a) * (1.0 - u) + at(c) * u;
+                        assert!(n.dot(q - b[i]) <= 1e-4, "patch point outside the plane");
+                    }
+                }
+            }
+        }
+        // A beam through a focus (directions crossing below the cap) has no such planes.
+        let crossing = [
+            Vec3::new(0.3, 1.0, 0.1).normalize(),
+            Vec3::new(-0.4, 1.0, 0.0).normalize(),
+            Vec3::new(0.1, 1.0, -0.5).normalize(),
+        ];
+        assert!(touching_plane_rays(b, crossing, Vec3::Y, 3.0).is_none());
     }
 
     /// A grid triangle with two vertices on a mirror and one on the same mirror's part 0.5 m
@@ -855,8 +990,14 @@ mod tests {
             }
         };
         let (a, b) = (mk(0.0, 0.0, 0.0), mk(h, 0.0, 0.0));
-        assert!(beam([&a, &b, &mk(h, h, 0.0)]).is_ok());
-        assert!(matches!(beam([&a, &b, &mk(h, h, 0.5)]), Err(Drop::False)));
-        assert!(matches!(beam([&a, &b, &mk(h, h, -0.5)]), Err(Drop::False)));
+        assert!(beam([&a, &b, &mk(h, h, 0.0)], Bounds::Hull).is_ok());
+        assert!(matches!(
+            beam([&a, &b, &mk(h, h, 0.5)], Bounds::Hull),
+            Err(Drop::False)
+        ));
+        assert!(matches!(
+            beam([&a, &b, &mk(h, h, -0.5)], Bounds::Hull),
+            Err(Drop::False)
+        ));
     }
 }
