@@ -34,10 +34,13 @@ struct Globals {
     // rgb: irradiance (W/m²) of the directional light the caustic spot lights carry.
     csl_irradiance: vec4<f32>,
     // The participating medium the direct light crosses on its way to a surface (method beams
-    // sets it; medium_half.x = 0: none): world → its box's frame, the box's half extents, σt.
+    // sets it; medium_half.x = 0: none): world → its box's frame, the box's half extents, σt,
+    // σs and g.
     medium_to_local: mat4x4<f32>,
     medium_half: vec4<f32>,
     medium_sigma_t: vec4<f32>,
+    // rgb: σs; w: Henyey-Greenstein g.
+    medium_sigma_s: vec4<f32>,
 }
 
 // A shadowed delta light. Line lights arrive as several point lights.

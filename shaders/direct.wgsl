@@ -13,15 +13,12 @@
 // the caustic objects) lies between the receiver and the CSL's light plane. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
 // behind, they get nothing.
 
-#include "common.inc.wgsl"
+#include "shadow_lookup.inc.wgsl"
 #include "csl.inc.wgsl"
 #include "occlusion.inc.wgsl"
 
 @group(0) @binding(0) var<uniform> g: Globals;
-@group(0) @binding(1) var<storage, read> lights: array<Light>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
-@group(0) @binding(3) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(4) var shadow_sampler: sampler_comparison;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read> csls: array<Csl>;
 
@@ -83,52 +80,6 @@ fn env_radiance(d: vec3<f32>) -> vec3<f32> {
     return l;
 }
 
-// Fraction of light `i` reaching p (PCF 3×3 of bilinear compare taps). `n_l` is the surface
-// normal turned towards the light, used for the normal-offset bias; `dist` the distance to the
-// light (perspective texel size grows with it).
-fn shadow_factor(i: u32, p: vec3<f32>, n_l: vec3<f32>, dist: f32) -> f32 {
-    let n_layers = lights[i].n_layers;
-    if n_layers == 0u {
-        return 1.0;
-    }
-    var texel = lights[i].params.z;
-    if lights[i].ortho == 0u {
-        texel = texel * dist;
-    }
-    let q = p + n_l * (2.0 * texel);
-    var face = 0u;
-    if n_layers == 6u {
-        let d = q - lights[i].position.xyz;
-        let a = abs(d);
-        if a.x >= a.y && a.x >= a.z {
-            face = select(1u, 0u, d.x > 0.0);
-        } else if a.y >= a.z {
-            face = select(3u, 2u, d.y > 0.0);
-        } else {
-            face = select(5u, 4u, d.z > 0.0);
-        }
-    }
-    let c = lights[i].mats[face] * vec4<f32>(q, 1.0);
-    if c.w <= 0.0 {
-        return 1.0;
-    }
-    let ndc = c.xyz / c.w;
-    let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
-    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
-        return 1.0;
-    }
-    let layer = lights[i].first_layer + face;
-    let step = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
-    var sum = 0.0;
-    for (var y = -1; y <= 1; y++) {
-        for (var x = -1; x <= 1; x++) {
-            let o = vec2<f32>(f32(x), f32(y)) * step;
-            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o, layer, ndc.z);
-        }
-    }
-    return sum / 9.0;
-}
-
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
     let p = in.world;
@@ -173,23 +124,10 @@ fn fs_main(in: VsOut) -> FsOut {
     var l = vec3<f32>(0.0);
     for (var i = 0u; i < g.counts.x; i++) {
         let kind = lights[i].kind;
-        var wi: vec3<f32>;
-        var e: vec3<f32>;
-        var dist = 1.0;
-        if kind == LIGHT_DIRECTIONAL {
-            wi = -lights[i].direction.xyz;
-            e = lights[i].intensity.rgb;
-        } else {
-            let to_l = lights[i].position.xyz - p;
-            dist = length(to_l);
-            wi = to_l / max(dist, 1e-6);
-            var falloff = 1.0;
-            if kind == LIGHT_SPOT {
-                let ct = dot(-wi, lights[i].direction.xyz);
-                falloff = spot_falloff(ct, lights[i].params.x, lights[i].params.y);
-            }
-            e = lights[i].intensity.rgb * falloff / max(dist * dist, 1e-12);
-        }
+        let at = light_at(i, p);
+        let wi = at.wi;
+        var e = at.e;
+        let dist = at.dist;
         let cos_i = dot(n, wi);
         if cos_i <= 0.0 || dot(ng, wi) <= 0.0 || all(e <= vec3<f32>(0.0)) {
             continue;
@@ -199,14 +137,7 @@ fn fs_main(in: VsOut) -> FsOut {
             continue;
         }
         // The medium on the light's way here (method beams; none otherwise).
-        let fog = box_interval(g.medium_to_local, g.medium_half.xyz, p, wi);
-        if fog.x < fog.y {
-            var reach = 1e30;
-            if kind != LIGHT_DIRECTIONAL {
-                reach = dist;
-            }
-            e *= exp(-g.medium_sigma_t.rgb * max(min(fog.y, reach) - fog.x, 0.0));
-        }
+        e *= light_transmittance(g, p, at, kind == LIGHT_DIRECTIONAL);
         var f = albedo / PI;
         if m.kind == MAT_GLOSSY {
             f = glossy_brdf(n, wi, v, albedo, m.specular.rgb, m.roughness);

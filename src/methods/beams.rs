@@ -3,7 +3,8 @@
 //! onto the specular objects makes one caustic beam per grid triangle (on the CPU), and the GPU
 //! intersects every pixel's view ray with the beams that cover it, evaluating the
 //! single-scattering integral in the scene's medium ([`crate::render::beams`]). The same beams
-//! give the surface caustics where they end on receivers.
+//! give the surface caustics where they end on receivers; a ray-marched pass adds the fog the
+//! lights light directly (`volume`).
 
 use super::{
     Env, Frames, Json, Lane, Method, MethodArgs, MethodError, MethodImpl, MethodInfo, ParamError,

@@ -33,6 +33,8 @@ pub struct Globals {
     pub medium_to_local: [f32; 16],
     pub medium_half: [f32; 4],
     pub medium_sigma_t: [f32; 4],
+    /// rgb σs, w g.
+    pub medium_sigma_s: [f32; 4],
 }
 
 /// Pipelines and layouts of the direct pass, created once per device.
@@ -388,6 +390,7 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
         medium_to_local: glam::Mat4::IDENTITY.to_cols_array(),
         medium_half: [0.0; 4],
         medium_sigma_t: [0.0; 4],
+        medium_sigma_s: [0.0; 4],
     }
 }
 

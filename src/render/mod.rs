@@ -109,6 +109,8 @@ pub struct RenderOutput {
     pub caustics: Option<Frame>,
     /// The volumetric caustics (method `beams`); `None` when no pass made them.
     pub volume_caustics: Option<Frame>,
+    /// The fog lit directly by the lights (method `beams` in a scene with a medium).
+    pub volume: Option<Frame>,
     /// CPU stages ("prepare", "submit", "gpu_wait", "readback", "total") and GPU passes from
     /// timestamp queries ("gpu:shadow_maps", "gpu:direct") when the adapter has them.
     pub timings: Vec<(String, Duration)>,
@@ -117,8 +119,8 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
-    /// Every component, in [`Component::ALL`]'s order (`indirect` and `volume`, which no GPU
-    /// pass computes, and `caustics` and `volume_caustics` when no pass made them, are black).
+    /// Every component, in [`Component::ALL`]'s order (`indirect`, which no GPU pass computes,
+    /// and the others when no pass made them, are black).
     pub fn components(&self) -> Vec<(Component, Frame)> {
         let black = || Frame::new(self.direct.width, self.direct.height);
         Component::ALL
@@ -130,17 +132,18 @@ impl RenderOutput {
                     Component::Caustics => self.caustics.clone().unwrap_or_else(black),
                     Component::Specular => self.specular.clone(),
                     Component::VolumeCaustics => self.volume_caustics.clone().unwrap_or_else(black),
-                    Component::Indirect | Component::Volume => black(),
+                    Component::Volume => self.volume.clone().unwrap_or_else(black),
+                    Component::Indirect => black(),
                 };
                 (c, f)
             })
             .collect()
     }
 
-    /// direct + caustics + specular + volume_caustics.
+    /// direct + caustics + specular + volume + volume_caustics.
     pub fn total(&self) -> Frame {
         let mut t = self.direct.add(&self.specular);
-        for c in [&self.caustics, &self.volume_caustics]
+        for c in [&self.caustics, &self.volume, &self.volume_caustics]
             .into_iter()
             .flatten()
         {
@@ -468,7 +471,7 @@ impl Renderer {
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan);
             // Shadow maps, direct, transport, pinhole or water (with the water's light map).
-            timestamps::Timestamps::new(&self.ctx, dev, 6)
+            timestamps::Timestamps::new(&self.ctx, dev, 7)
         })?;
         let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
         let (frame, volumes, pinhole_buffers, water_buffers, beams_buffers, generation) =
@@ -588,6 +591,11 @@ impl Renderer {
                     &frame.globals,
                     bb,
                     targets,
+                    &beams::gpu::Lights {
+                        buffer: &frame.lights,
+                        shadow_maps: &atlas.view(),
+                        sampler: &c.pipelines.shadow_sampler,
+                    },
                     ts.as_mut(),
                 );
             }
@@ -640,9 +648,16 @@ impl Renderer {
         } else {
             (None, None)
         };
-        let volume_caustics = match (&plan.beams, &c.beams) {
-            (Some(_), Some(bp)) => Some(read(true, bp.volume())?.0),
-            _ => None,
+        let (volume_caustics, volume) = match (&plan.beams, &c.beams) {
+            (Some(l), Some(bp)) => (
+                Some(read(true, bp.volume())?.0),
+                // The in-scattering pass runs where the scene has a medium.
+                match l.medium.half[0] > 0.0 {
+                    true => Some(read(true, bp.inscatter())?.0),
+                    false => None,
+                },
+            ),
+            _ => (None, None),
         };
         timings.push(("readback".to_string(), t3.elapsed()));
         timings.push(("total".to_string(), t0.elapsed()));
@@ -655,6 +670,7 @@ impl Renderer {
                 specular: specular_frame,
                 caustics: caustics_frame,
                 volume_caustics,
+                volume,
                 timings,
                 adapter: self.ctx.adapter_info().to_string(),
             },

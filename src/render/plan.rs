@@ -235,6 +235,7 @@ impl<'a> FramePlan<'a> {
             globals.medium_to_local = m.to_local;
             globals.medium_half = m.half;
             globals.medium_sigma_t = m.sigma_t;
+            globals.medium_sigma_s = m.sigma_s;
             let bytes = super::beams::gpu::BeamsBuffers::storage_bytes(l);
             if bytes > max_storage {
                 return Err(RenderError::Limit(format!(

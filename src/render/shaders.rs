@@ -18,6 +18,11 @@ pub const FILES: &[(&str, &str)] = &[
     ("beams.wgsl", include_str!("../../shaders/beams.wgsl")),
     ("hull.inc.wgsl", include_str!("../../shaders/hull.inc.wgsl")),
     (
+        "shadow_lookup.inc.wgsl",
+        include_str!("../../shaders/shadow_lookup.inc.wgsl"),
+    ),
+    ("fog.wgsl", include_str!("../../shaders/fog.wgsl")),
+    (
         "water.inc.wgsl",
         include_str!("../../shaders/water.inc.wgsl"),
     ),
@@ -147,6 +152,7 @@ mod tests {
                 ("medium_to_local", offset_of!(G, medium_to_local)),
                 ("medium_half", offset_of!(G, medium_half)),
                 ("medium_sigma_t", offset_of!(G, medium_sigma_t)),
+                ("medium_sigma_s", offset_of!(G, medium_sigma_s)),
             ],
         );
         mirror(

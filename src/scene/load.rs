@@ -705,8 +705,8 @@ pub fn resolve(
     let media = resolve_media(&desc.media, &objects, &camera, &lights, limits)?;
     if !media.is_empty() {
         warnings.push(
-            "the scene's medium is rendered by method reference (all of it) and method beams (its \
-             volumetric caustics); the other methods ignore it"
+            "the scene's medium is rendered by method reference (all of it) and method beams \
+             (single scattering); the other methods ignore it"
                 .into(),
         );
     }

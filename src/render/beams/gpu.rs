@@ -67,6 +67,9 @@ pub struct BeamsPipeline {
     upsample: wgpu::RenderPipeline,
     /// Multiplies the direct and specular layers by the fog's transmittance.
     fog: wgpu::RenderPipeline,
+    /// The fog lit directly by the lights (`shaders/fog.wgsl`), and its layout.
+    inscatter: wgpu::RenderPipeline,
+    inscatter_layout: wgpu::BindGroupLayout,
     /// The volume layer at full resolution, and the low-resolution one.
     targets: Option<BeamTargets>,
 }
@@ -75,6 +78,8 @@ struct BeamTargets {
     size: (u32, u32),
     ds: u32,
     volume: wgpu::Texture,
+    /// The `volume` component (the fog lit directly).
+    inscatter: wgpu::Texture,
     low: Option<wgpu::Texture>,
 }
 
@@ -164,6 +169,60 @@ impl BeamsPipeline {
                 cache: None,
             })
         };
+        let inscatter_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fog in-scattering"),
+            entries: &[
+                layout_entry(0, vf, UNIFORM_BINDING),
+                layout_entry(1, frag, STORAGE_BINDING),
+                layout_entry(
+                    3,
+                    frag,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                ),
+                layout_entry(
+                    4,
+                    frag,
+                    wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                ),
+                layout_entry(11, frag, texture_binding(false)),
+                layout_entry(12, frag, texture_binding(false)),
+            ],
+        });
+        let fog_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("fog.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shaders::source("fog.wgsl").into()),
+        });
+        let inscatter = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("fog in-scattering"),
+            layout: Some(
+                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: None,
+                    bind_group_layouts: &[Some(&inscatter_layout)],
+                    immediate_size: 0,
+                }),
+            ),
+            vertex: wgpu::VertexState {
+                module: &fog_module,
+                entry_point: Some("vs_full"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &fog_module,
+                entry_point: Some("fs_inscatter"),
+                compilation_options: Default::default(),
+                targets: &[target(None)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
         let multiply = wgpu::BlendState {
             color: wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::Zero,
@@ -177,6 +236,8 @@ impl BeamsPipeline {
             },
         };
         BeamsPipeline {
+            inscatter,
+            inscatter_layout,
             fog: make(
                 "beams fog",
                 &layout,
@@ -232,6 +293,13 @@ impl BeamsPipeline {
             size,
             ds,
             volume: super::super::texture_2d(device, "beams volume", size, HDR_FORMAT, color),
+            inscatter: super::super::texture_2d(
+                device,
+                "fog in-scattering",
+                size,
+                HDR_FORMAT,
+                color,
+            ),
             low: (ds > 1).then(|| {
                 super::super::texture_2d(
                     device,
@@ -244,9 +312,14 @@ impl BeamsPipeline {
         });
     }
 
-    /// The volume layer of the last frame.
+    /// The volume layer (the beams' volumetric caustics) of the last frame.
     pub fn volume(&self) -> &wgpu::Texture {
         &self.targets.as_ref().expect("fitted").volume
+    }
+
+    /// The fog lit directly by the lights, of the last frame.
+    pub fn inscatter(&self) -> &wgpu::Texture {
+        &self.targets.as_ref().expect("fitted").inscatter
     }
 }
 
@@ -312,9 +385,16 @@ fn attachment(
     })
 }
 
-/// Encodes the beams passes: the fog's transmittance over the `direct` and `specular` layers
-/// (when the scene has a medium), the volume layer (cleared first) and, with surface caustics,
-/// additions to the caustics layer `caustics`.
+/// The direct pass's lights and shadow maps, which the in-scattering pass reads.
+pub struct Lights<'a> {
+    pub buffer: &'a wgpu::Buffer,
+    pub shadow_maps: &'a wgpu::TextureView,
+    pub sampler: &'a wgpu::Sampler,
+}
+
+/// Encodes the beams passes: with a medium, the fog lit directly by `lights` (the in-scattering
+/// layer) and its transmittance over the `direct` and `specular` layers; the volume layer
+/// (cleared first) and, with surface caustics, additions to the caustics layer.
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
@@ -325,6 +405,7 @@ pub fn encode(
     globals: &wgpu::Buffer,
     b: &BeamsBuffers,
     targets: &Targets,
+    lights: &Lights,
     mut timestamps: Option<&mut Timestamps>,
 ) {
     let caustics = &targets.caustics;
@@ -379,7 +460,43 @@ pub fn encode(
         });
         pass.forget_lifetime()
     };
+    let in_view = t.inscatter.create_view(&Default::default());
     if b.medium {
+        let ibg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("fog in-scattering"),
+            layout: &p.inscatter_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: globals.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: lights.buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(lights.shadow_maps),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::Sampler(lights.sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::TextureView(&pos_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 12,
+                    resource: wgpu::BindingResource::TextureView(&nrm_view),
+                },
+            ],
+        });
+        let mut pass = begin(enc, "fog_inscatter", &[attachment(&in_view, true)]);
+        pass.set_pipeline(&p.inscatter);
+        pass.set_bind_group(0, &ibg, &[]);
+        pass.draw(0..3, 0..1);
+        drop(pass);
         let (dv, sv) = (
             targets.direct.create_view(&Default::default()),
             targets.specular.create_view(&Default::default()),

@@ -28,12 +28,14 @@
 //!    occluder cuts its shaft and the beam ends on the receivers, where the same beams give the
 //!    **surface caustics** (Ernst et al. 2005's area ratio at the receiver).
 //!
-//! On the GPU (`shaders/beams.wgsl`, [`gpu`]): one instance per beam covers the screen-space
-//! bounds of its hull, and each pixel intersects its view ray with the beam (the planar
-//! triangle of the paper's Fig. 5), evaluates the single-scattering integral with one sample
-//! (or more) and blends additively: radiance σ_s · p_HG · E⊥ · e^{−σt (s1 + s2)} · Δx, E⊥ the
-//! flux density from the area ratio. Optionally at half or quarter resolution, upsampled with
-//! depth-aware weights (the paper's §6 suggestion).
+//! On the GPU (`shaders/beams.wgsl`, [`gpu`]): one instance per beam covers the screen outline
+//! of its bounding volume (the convex hull of its corners, or the paper's touching-plane
+//! prism), and each pixel intersects its view ray with the beam (the planar triangle of the
+//! paper's Fig. 5), evaluates the single-scattering integral with one sample (or more) and
+//! blends additively: radiance σ_s · p_HG · E⊥ · e^{−σt (s1 + s2)} · Δx, E⊥ the flux density
+//! from the area ratio. Optionally at half or quarter resolution, upsampled with depth-aware
+//! weights (the paper's §6 suggestion). With a medium, `shaders/fog.wgsl` ray-marches the fog
+//! the lights light directly, and the direct light is dimmed by the fog both ways.
 
 pub mod gpu;
 
