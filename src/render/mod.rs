@@ -8,9 +8,12 @@
 //!   method `transport` draws the illumination volumes of its light transport tables over a
 //!   G-buffer of the receivers in a pass after it ([`transport`],
 //!   [`Renderer::render_transport`]); method `pinhole` projects the light its reflector points
-//!   receive onto the same G-buffer ([`pinhole`], [`Renderer::render_pinhole`]).
+//!   receive onto the same G-buffer ([`pinhole`], [`Renderer::render_pinhole`]); method
+//!   `beams` draws its beams over it and adds the `volume_caustics` and `volume` layers
+//!   ([`beams`], [`Renderer::render_beams`]).
 //!
-//! The frame is `direct + caustics + specular` ([`RenderOutput::total`]). A frame is first a
+//! The frame is `direct + caustics + specular + volume + volume_caustics`
+//! ([`RenderOutput::total`]). A frame is first a
 //! [`FramePlan`] (every check and limit, no device), then passes encoded into one command
 //! buffer with their GPU times ([`timestamps`]). The pipelines are built once per device; the
 //! targets are kept per image size, the scene's buffers and the occluders per scene
@@ -371,7 +374,7 @@ impl Renderer {
 
     /// Renders `world`, its volumetric caustics and, with `layer.params.surface`, its caustics
     /// layer from the beams of `layer` (`RenderOutput::volume_caustics` and `caustics` are
-    /// then `Some`).
+    /// then `Some`), and with a medium the fog the lights light directly (`volume`).
     pub fn render_beams(
         &mut self,
         world: &World,
@@ -652,9 +655,10 @@ impl Renderer {
             (Some(l), Some(bp)) => (
                 Some(read(true, bp.volume())?.0),
                 // The in-scattering pass runs where the scene has a medium.
-                match l.medium.half[0] > 0.0 {
-                    true => Some(read(true, bp.inscatter())?.0),
-                    false => None,
+                if l.medium.half[0] > 0.0 {
+                    Some(read(true, bp.inscatter())?.0)
+                } else {
+                    None
                 },
             ),
             _ => (None, None),

@@ -1,7 +1,10 @@
-//! The beams pass on the GPU (`shaders/beams.wgsl`): one instanced draw of every beam over the
-//! G-buffer of the receivers, blending the in-scattered radiance into the volume layer and the
-//! surface caustics into the caustics layer; or, downsampled, the volume at a fraction of the
-//! resolution, upsampled with depth-aware weights, and the surface caustics at full resolution.
+//! The beams passes on the GPU. With a medium, first the fog the lights light directly,
+//! ray-marched over the shadow maps (`shaders/fog.wgsl`, the `volume` layer), and the fog's
+//! transmittance over the direct and specular layers. Then `shaders/beams.wgsl`: one instanced
+//! draw of every beam over the G-buffer of the receivers, blending the in-scattered radiance
+//! into the volume-caustics layer and the surface caustics into the caustics layer; or,
+//! downsampled, that volume at a fraction of the resolution, upsampled with depth-aware
+//! weights, and the surface caustics at full resolution.
 
 use super::super::direct::{HDR_FORMAT, Targets};
 use super::super::gbuffer::GBuffer;
