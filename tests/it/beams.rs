@@ -180,38 +180,19 @@ fn touching_plane_prisms_draw_what_the_hull_draws() {
 }
 
 /// The fog lit directly (the in-scattering pass, the `volume` component) against the closed form
-/// of single scattering in a slab under a slanted sun (the reference's test scene: a 1 m slab
-/// of coloured fog, nothing else), per pixel: L = E σs p (1 − e^{−σt H k}) / (σt μv k),
-/// k = 1/μv + 1/μl.
+/// of single scattering in the slab of `scenes::fog_slab`, per pixel.
 #[test]
 fn the_fog_lit_directly_is_the_closed_form_in_a_slab() {
-    let (sigma_s, sigma_a, g) = (Vec3::new(0.3, 0.5, 0.8), Vec3::new(0.1, 0.05, 0.2), 0.4f32);
-    let world = scenes::parse(&format!(
-        r#"{{
-        "camera": {{"eye": [0, 3, 1.2], "target": [0, 0.5, 0], "fov_y": 20, "width": 40, "height": 30}},
-        "lights": [{{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}}],
-        "media": [{{"sigma_s": [{}, {}, {}], "sigma_a": [{}, {}, {}], "g": {g},
-                    "bounds": {{"type": "box", "size": [4, 1, 4],
-                                "transform": {{"translation": [0, 0.5, 0]}}}}}}]
-        }}"#,
-        sigma_s.x, sigma_s.y, sigma_s.z, sigma_a.x, sigma_a.y, sigma_a.z
-    ));
+    let (world, closed_form) = scenes::fog_slab();
     let (out, layer) = render(&world, &BeamsParams::default());
     assert!(layer.beams.is_empty());
     let volume = out.volume.as_ref().expect("an in-scattering layer");
-    let l = Vec3::new(0.3, -1.0, 0.2).normalize();
-    let mu_l = -l.y;
-    let st = sigma_s + sigma_a;
     let cam = &world.camera;
     let rays = cam.rays();
     let (mut diff, mut sum) = (0.0f64, 0.0f64);
     for y in 0..cam.height {
         for x in 0..cam.width {
-            let v = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
-            let mu_v = -v.y;
-            let k = 1.0 / mu_v + 1.0 / mu_l;
-            let p = caustica::scene::medium::hg(g, l, -v);
-            let want = 2.0 * sigma_s * p * (Vec3::ONE - (-st * k).exp()) / (st * mu_v * k);
+            let want = closed_form(rays.dir(x as f32 + 0.5, y as f32 + 0.5));
             let got = volume.pixels[(y * cam.width + x) as usize];
             diff += f64::from((got - want).abs().element_sum());
             sum += f64::from(want.element_sum());

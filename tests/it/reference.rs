@@ -297,24 +297,10 @@ fn environment_map_file_is_loaded_scaled_and_oriented() {
     );
 }
 
-/// A slab of fog 1 m thick (a 4 m × 1 m × 4 m box) under a slanted sun, seen from above with
-/// nothing else in the scene. Single-scattered radiance along a view ray v (μv = |v·y|) from a
-/// directional light of irradiance E along l (μl = |l·y|) is
-/// L = E σs p(l, −v) (1 − e^{−σt H k}) / (σt μv k), k = 1/μv + 1/μl: the in-scattering
-/// ∫ σs p E e^{−σt z/μl} e^{−σt s} ds over the ray's path s in the slab, at depth z = s μv.
+/// The fog slab of `scenes::fog_slab` against the closed form of its single scattering.
 #[test]
 fn single_scattering_in_a_fog_slab_is_the_closed_form() {
-    let (sigma_s, sigma_a, g) = (Vec3::new(0.3, 0.5, 0.8), Vec3::new(0.1, 0.05, 0.2), 0.4f32);
-    let world = parse(&format!(
-        r#"{{
-        "camera": {{"eye": [0, 3, 1.2], "target": [0, 0.5, 0], "fov_y": 20, "width": 40, "height": 30}},
-        "lights": [{{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}}],
-        "media": [{{"sigma_s": [{}, {}, {}], "sigma_a": [{}, {}, {}], "g": {g},
-                    "bounds": {{"type": "box", "size": [4, 1, 4],
-                                "transform": {{"translation": [0, 0.5, 0]}}}}}}]
-        }}"#,
-        sigma_s.x, sigma_s.y, sigma_s.z, sigma_a.x, sigma_a.y, sigma_a.z
-    ));
+    let (world, closed_form) = scenes::fog_slab();
     let accel = Accel::build(&world);
     let params = ReferenceParams {
         photons: 3_000_000,
@@ -324,19 +310,12 @@ fn single_scattering_in_a_fog_slab_is_the_closed_form() {
         ..Default::default()
     };
     let (c, _) = reference::render(&world, &accel, &params, &|_| true).expect("renders");
-    let l = Vec3::new(0.3, -1.0, 0.2).normalize();
-    let mu_l = -l.y;
-    let st = sigma_s + sigma_a;
     let cam = &world.camera;
     let rays = cam.rays();
     let (mut got, mut want) = (0.0f64, 0.0f64);
     for y in 0..cam.height {
         for x in 0..cam.width {
-            let v = rays.dir(x as f32 + 0.5, y as f32 + 0.5);
-            let mu_v = -v.y;
-            let k = 1.0 / mu_v + 1.0 / mu_l;
-            let p = caustica::scene::medium::hg(g, l, -v);
-            let e = 2.0 * sigma_s * p * (Vec3::ONE - (-st * k).exp()) / (st * mu_v * k);
+            let e = closed_form(rays.dir(x as f32 + 0.5, y as f32 + 0.5));
             let i = (y * cam.width + x) as usize;
             got += f64::from(c.volume.pixels[i].element_sum());
             want += f64::from(e.element_sum());

@@ -60,3 +60,32 @@ pub fn directional_light(world: &World) -> (Vec3, Vec3) {
 pub fn blockers(world: &World, except: usize) -> Accel {
     Accel::build_with(world, |i| i != except, obvhs::BvhBuildParams::fast_build())
 }
+
+/// A slab of fog 1 m thick (a 4 m × 1 m × 4 m box of coloured fog, g 0.4) under a slanted sun
+/// of irradiance 2, seen from above with nothing else in the scene (40 × 30), and the closed
+/// form of its single-scattered radiance along a view ray v (μv = |v·y|) from the sun along l
+/// (μl = |l·y|): L = E σs p(l, −v) (1 − e^{−σt H k}) / (σt μv k), k = 1/μv + 1/μl — the
+/// in-scattering ∫ σs p E e^{−σt z/μl} e^{−σt s} ds over the ray's path s in the slab, at depth
+/// z = s μv.
+pub fn fog_slab() -> (World, impl Fn(Vec3) -> Vec3) {
+    let (sigma_s, sigma_a, g) = (Vec3::new(0.3, 0.5, 0.8), Vec3::new(0.1, 0.05, 0.2), 0.4f32);
+    let world = parse(&format!(
+        r#"{{
+        "camera": {{"eye": [0, 3, 1.2], "target": [0, 0.5, 0], "fov_y": 20, "width": 40, "height": 30}},
+        "lights": [{{"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": 2.0}}],
+        "media": [{{"sigma_s": [{}, {}, {}], "sigma_a": [{}, {}, {}], "g": {g},
+                    "bounds": {{"type": "box", "size": [4, 1, 4],
+                                "transform": {{"translation": [0, 0.5, 0]}}}}}}]
+        }}"#,
+        sigma_s.x, sigma_s.y, sigma_s.z, sigma_a.x, sigma_a.y, sigma_a.z
+    ));
+    let l = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let closed_form = move |v: Vec3| {
+        let (mu_l, mu_v) = (-l.y, -v.y);
+        let st = sigma_s + sigma_a;
+        let k = 1.0 / mu_v + 1.0 / mu_l;
+        let p = caustica::scene::medium::hg(g, l, -v);
+        2.0 * sigma_s * p * (Vec3::ONE - (-st * k).exp()) / (st * mu_v * k)
+    };
+    (world, closed_form)
+}
