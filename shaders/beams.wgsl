@@ -32,15 +32,8 @@ struct Beam {
     cap: array<vec4<f32>, 3>,
 }
 
+// The medium is Globals' (medium_to_local, medium_half, medium_sigma_t, medium_sigma_s).
 struct Params {
-    // World → the medium box's frame.
-    medium_to_local: mat4x4<f32>,
-    // xyz: the box's half extents (0: no medium).
-    medium_half: vec4<f32>,
-    // rgb: σs; w: Henyey-Greenstein g.
-    sigma_s: vec4<f32>,
-    // rgb: σt.
-    sigma_t: vec4<f32>,
     // x: samples per beam; y: flags (1 shadows); z: downsampling factor; w: beams.
     counts: vec4<u32>,
     // x: the largest area ratio.
@@ -101,7 +94,7 @@ fn view_dir(xy: vec2<f32>) -> vec3<f32> {
 
 // The part [t0, t1] of o + t·d (t ≥ 0) inside the medium's box; t0 > t1 when none.
 fn medium_interval(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
-    return box_interval(prm.medium_to_local, prm.medium_half.xyz, o, d);
+    return box_interval(g.medium_to_local, g.medium_half.xyz, o, d);
 }
 
 // Transmittance of the medium over the segment a → b.
@@ -112,15 +105,9 @@ fn medium_transmittance(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
     }
     let m = medium_interval(a, (b - a) / len);
     let inside = max(min(m.y, len) - m.x, 0.0);
-    return exp(-prm.sigma_t.xyz * inside);
+    return exp(-g.medium_sigma_t.xyz * inside);
 }
 
-// Henyey-Greenstein (1/sr) for the angle between the photon's travel and the direction to the
-// eye.
-fn hg(gg: f32, cos_t: f32) -> f32 {
-    let d = 1.0 + gg * gg - 2.0 * gg * cos_t;
-    return (1.0 - gg * gg) / (4.0 * PI * d * sqrt(max(d, 1e-12)));
-}
 
 fn cross2(u: vec2<f32>, w: vec2<f32>) -> f32 {
     return u.y * w.x - u.x * w.y;
@@ -259,7 +246,7 @@ fn beam_volume(b: Beam, o: vec3<f32>, r: vec3<f32>, s_scene: f32) -> vec3<f32> {
     }
     let n = max(prm.counts.x, 1u);
     let ds = dx / f32(n);
-    let gg = prm.sigma_s.w;
+    let gg = g.medium_sigma_s.w;
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < n; k++) {
         let t = lo + (f32(k) + 0.5) * ds;
@@ -277,8 +264,8 @@ fn beam_volume(b: Beam, o: vec3<f32>, r: vec3<f32>, s_scene: f32) -> vec3<f32> {
         let x = o + t * r;
         // Transmittance along the photon's path (s1) and the view ray (s2).
         let t1 = medium_transmittance(f.base, x);
-        let t2 = exp(-prm.sigma_t.xyz * max(t - m.x, 0.0));
-        sum += prm.sigma_s.xyz * hg(gg, dot(f.dir, -r)) * f.e * t1 * t2;
+        let t2 = exp(-g.medium_sigma_t.xyz * max(t - m.x, 0.0));
+        sum += g.medium_sigma_s.xyz * hg(gg, dot(f.dir, -r)) * f.e * t1 * t2;
     }
     return sum * ds;
 }
@@ -422,7 +409,7 @@ fn fs_fog(@builtin(position) frag: vec4<f32>) -> BothOut {
     }
     let m = medium_interval(eye, d);
     let inside = max(min(m.y, len) - m.x, 0.0);
-    let t = vec4<f32>(exp(-prm.sigma_t.xyz * inside), 1.0);
+    let t = vec4<f32>(exp(-g.medium_sigma_t.xyz * inside), 1.0);
     var out: BothOut;
     out.volume = t;
     out.surface = t;

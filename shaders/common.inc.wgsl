@@ -97,6 +97,13 @@ fn box_interval(to_local: mat4x4<f32>, h: vec3<f32>, o: vec3<f32>, d: vec3<f32>)
     return vec2<f32>(t0, t1);
 }
 
+// Henyey-Greenstein (1/sr) for cos θ between the light's travel before and after scattering
+// (scene/medium.rs `hg`; g > 0 forward).
+fn hg(gg: f32, cos_t: f32) -> f32 {
+    let d = 1.0 + gg * gg - 2.0 * gg * cos_t;
+    return (1.0 - gg * gg) / (4.0 * PI * d * sqrt(max(d, 1e-12)));
+}
+
 // Mitsuba's spot: 1 inside the beam width, linear in angle down to 0 at the cutoff.
 fn spot_falloff(cos_theta: f32, cutoff: f32, beam_width: f32) -> f32 {
     if cos_theta <= cos(cutoff) {

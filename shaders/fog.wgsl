@@ -28,10 +28,6 @@ fn view_dir(xy: vec2<f32>) -> vec3<f32> {
     return normalize(far.xyz / far.w - g.eye.xyz);
 }
 
-fn hg(gg: f32, cos_t: f32) -> f32 {
-    let d = 1.0 + gg * gg - 2.0 * gg * cos_t;
-    return (1.0 - gg * gg) / (4.0 * PI * d * sqrt(max(d, 1e-12)));
-}
 
 // A number in [0, 1) from the pixel (the march's jitter).
 fn jitter(p: vec2<u32>) -> f32 {

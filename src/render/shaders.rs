@@ -341,10 +341,6 @@ mod tests {
             "Params",
             size_of::<P>(),
             &[
-                ("medium_to_local", offset_of!(P, medium_to_local)),
-                ("medium_half", offset_of!(P, medium_half)),
-                ("sigma_s", offset_of!(P, sigma_s)),
-                ("sigma_t", offset_of!(P, sigma_t)),
                 ("counts", offset_of!(P, counts)),
                 ("misc", offset_of!(P, misc)),
             ],

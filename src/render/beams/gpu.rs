@@ -12,18 +12,15 @@ use super::super::scene::SceneBuffers;
 use super::super::shaders;
 use super::super::timestamps::Timestamps;
 use super::super::transport::HULL_VERTICES;
-use super::{BeamsLayer, GpuBeam, GpuMedium, MAX_AREA_RATIO};
+use super::{BeamsLayer, GpuBeam, MAX_AREA_RATIO};
 use bytemuck::{Pod, Zeroable};
+use wgpu::BindingResource::{Sampler, TextureView};
 use wgpu::util::DeviceExt;
 
-/// `Params` of beams.wgsl.
+/// `Params` of beams.wgsl (the medium is the frame's `Globals`', see `render::plan`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuBeamsParams {
-    pub medium_to_local: [f32; 16],
-    pub medium_half: [f32; 4],
-    pub sigma_s: [f32; 4],
-    pub sigma_t: [f32; 4],
     /// Samples per beam, flags (1: shadows), downsampling, beams.
     pub counts: [u32; 4],
     /// The largest area ratio.
@@ -32,18 +29,8 @@ pub struct GpuBeamsParams {
 
 impl GpuBeamsParams {
     pub fn new(layer: &BeamsLayer) -> GpuBeamsParams {
-        let GpuMedium {
-            to_local,
-            half,
-            sigma_s,
-            sigma_t,
-        } = layer.medium;
         let p = &layer.params;
         GpuBeamsParams {
-            medium_to_local: to_local,
-            medium_half: half,
-            sigma_s,
-            sigma_t,
             counts: [
                 p.samples.max(1),
                 u32::from(p.shadows),
@@ -135,7 +122,8 @@ impl BeamsPipeline {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let make = |label: &str,
+        let make = |module: &wgpu::ShaderModule,
+                    label: &str,
                     layout: &wgpu::BindGroupLayout,
                     vs: &str,
                     fs: &str,
@@ -150,7 +138,7 @@ impl BeamsPipeline {
                     }),
                 ),
                 vertex: wgpu::VertexState {
-                    module: &module,
+                    module,
                     entry_point: Some(vs),
                     compilation_options: Default::default(),
                     buffers: &[],
@@ -163,7 +151,7 @@ impl BeamsPipeline {
                 depth_stencil: None,
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
-                    module: &module,
+                    module,
                     entry_point: Some(fs),
                     compilation_options: Default::default(),
                     targets,
@@ -199,33 +187,14 @@ impl BeamsPipeline {
             label: Some("fog.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shaders::source("fog.wgsl").into()),
         });
-        let inscatter = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("fog in-scattering"),
-            layout: Some(
-                &device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: None,
-                    bind_group_layouts: &[Some(&inscatter_layout)],
-                    immediate_size: 0,
-                }),
-            ),
-            vertex: wgpu::VertexState {
-                module: &fog_module,
-                entry_point: Some("vs_full"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &fog_module,
-                entry_point: Some("fs_inscatter"),
-                compilation_options: Default::default(),
-                targets: &[target(None)],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let inscatter = make(
+            &fog_module,
+            "fog in-scattering",
+            &inscatter_layout,
+            "vs_full",
+            "fs_inscatter",
+            &[target(None)],
+        );
         let multiply = wgpu::BlendState {
             color: wgpu::BlendComponent {
                 src_factor: wgpu::BlendFactor::Zero,
@@ -242,6 +211,7 @@ impl BeamsPipeline {
             inscatter,
             inscatter_layout,
             fog: make(
+                &module,
                 "beams fog",
                 &layout,
                 "vs_full",
@@ -249,6 +219,7 @@ impl BeamsPipeline {
                 &[target(Some(multiply)), target(Some(multiply))],
             ),
             both: make(
+                &module,
                 "beams",
                 &layout,
                 "vs_beam",
@@ -256,6 +227,7 @@ impl BeamsPipeline {
                 &[target(Some(add)), target(Some(add))],
             ),
             volume: make(
+                &module,
                 "beams volume",
                 &layout,
                 "vs_beam",
@@ -263,6 +235,7 @@ impl BeamsPipeline {
                 &[target(Some(add))],
             ),
             surface: make(
+                &module,
                 "beams surface",
                 &layout,
                 "vs_beam",
@@ -270,6 +243,7 @@ impl BeamsPipeline {
                 &[target(Some(add))],
             ),
             upsample: make(
+                &module,
                 "beams upsample",
                 &up_layout,
                 "vs_full",
@@ -414,34 +388,17 @@ pub fn encode(
     let caustics = &targets.caustics;
     let t = p.targets.as_ref().expect("fitted");
     let (pos_view, nrm_view) = gbuf.views();
+    let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
     let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("beams"),
         layout: &p.layout,
         entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: b.params.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: scene.materials.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: b.beams.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::TextureView(&pos_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 5,
-                resource: wgpu::BindingResource::TextureView(&nrm_view),
-            },
+            entry(0, globals.as_entire_binding()),
+            entry(1, b.params.as_entire_binding()),
+            entry(2, scene.materials.as_entire_binding()),
+            entry(3, b.beams.as_entire_binding()),
+            entry(4, TextureView(&pos_view)),
+            entry(5, TextureView(&nrm_view)),
         ],
     });
     let vol_view = t.volume.create_view(&Default::default());
@@ -469,30 +426,12 @@ pub fn encode(
             label: Some("fog in-scattering"),
             layout: &p.inscatter_layout,
             entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: globals.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: lights.buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(lights.shadow_maps),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::Sampler(lights.sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 11,
-                    resource: wgpu::BindingResource::TextureView(&pos_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 12,
-                    resource: wgpu::BindingResource::TextureView(&nrm_view),
-                },
+                entry(0, globals.as_entire_binding()),
+                entry(1, lights.buffer.as_entire_binding()),
+                entry(3, TextureView(lights.shadow_maps)),
+                entry(4, Sampler(lights.sampler)),
+                entry(11, TextureView(&pos_view)),
+                entry(12, TextureView(&nrm_view)),
             ],
         });
         let mut pass = begin(enc, "fog_inscatter", &[attachment(&in_view, true)]);
@@ -544,26 +483,11 @@ pub fn encode(
         label: Some("beams upsample"),
         layout: &p.up_layout,
         entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: b.params.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 4,
-                resource: wgpu::BindingResource::TextureView(&pos_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 5,
-                resource: wgpu::BindingResource::TextureView(&nrm_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 6,
-                resource: wgpu::BindingResource::TextureView(&low_view),
-            },
+            entry(0, globals.as_entire_binding()),
+            entry(1, b.params.as_entire_binding()),
+            entry(4, TextureView(&pos_view)),
+            entry(5, TextureView(&nrm_view)),
+            entry(6, TextureView(&low_view)),
         ],
     });
     let mut pass = begin(enc, "beams_upsample", &[attachment(&vol_view, true)]);

@@ -188,9 +188,9 @@ pub struct BeamsStats {
     pub time_build: Duration,
 }
 
-/// A medium as the pass sees it (`Medium` of beams.wgsl).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+/// The scene's medium as the frame's `Globals` carry it for the beams and fog passes
+/// (`render::plan`).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpuMedium {
     /// World → the box's frame (column-major).
     pub to_local: [f32; 16],
