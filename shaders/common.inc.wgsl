@@ -68,7 +68,7 @@ struct Material {
     _pad: u32,
     // rgb: albedo (diffuse, glossy) or reflectance (mirror).
     albedo: vec4<f32>,
-    // rgb: F0 of the glossy lobe.
+    // rgb: F0 of the glossy lobe; a dielectric's absorption coefficient (1/m, method photons).
     specular: vec4<f32>,
 }
 

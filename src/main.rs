@@ -60,17 +60,27 @@ enum Cmd {
         exposure: f32,
         #[arg(long, value_enum, default_value = "clamp")]
         tone_map: ToneMap,
-        /// Reference: photons (light paths) to trace.
-        #[arg(long, default_value_t = 4_000_000)]
-        photons: u64,
+        /// Reference, photons: photons (light paths) to trace in all (default 4,000,000 for the
+        /// reference, 1,048,576 for photons).
+        #[arg(long)]
+        photons: Option<u64>,
         /// Reference: camera samples per pixel.
         #[arg(long, default_value_t = 16)]
         spp: u32,
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Reference: stop tracing photons after this many seconds.
+        /// Reference, photons: stop tracing photons after this many seconds.
         #[arg(long)]
         time_budget: Option<f64>,
+        /// Photons: photons traced per frame, 1024..=4194240 (default 524288).
+        #[arg(long)]
+        photons_per_frame: Option<u32>,
+        /// Photons: stop once the estimated noise (relative L1 per pixel) is at most this.
+        #[arg(long)]
+        error_target: Option<f32>,
+        /// Photons: the first frame's kernel half-size in photon spacings, 0.5..=8 (default 3).
+        #[arg(long)]
+        footprint: Option<f32>,
         /// Reference: scatterings in the scene's medium a light path may have (1: single
         /// scattering; default: unlimited).
         #[arg(long)]
@@ -320,7 +330,19 @@ fn main() -> Result<()> {
             time,
             frames,
             fps,
+            photons_per_frame,
+            error_target,
+            footprint,
         } => {
+            let progressive_args = caustica::methods::photons::ProgressiveArgs {
+                photons_per_frame,
+                time_budget_ms: None,
+                error_target,
+                footprint,
+            };
+            let progressive = (progressive_args != Default::default()).then(|| {
+                serde_json::to_value(progressive_args).expect("progressive arguments serialise")
+            });
             let beams_args = caustica::methods::beams::BeamsArgs {
                 grid,
                 samples: beam_samples,
@@ -365,7 +387,7 @@ fn main() -> Result<()> {
                 .expect("pinhole arguments serialise")
             });
             let args = MethodArgs {
-                photons: Some(photons),
+                photons,
                 spp: Some(spp),
                 seed: Some(seed),
                 time_budget,
@@ -375,6 +397,7 @@ fn main() -> Result<()> {
                 pinhole,
                 water,
                 beams,
+                progressive,
                 bake,
             };
             let png = PngSettings { exposure, tone_map };

@@ -83,6 +83,10 @@ pub struct RenderParams {
     /// bool, "surface": bool, "downsample": 1 | 2 | 4}` (`methods::beams::BeamsArgs`).
     #[serde(default)]
     pub beams: Option<serde_json::Value>,
+    /// Photons: `{"photons_per_frame": 1024..=4194240, "time_budget_ms": 1..=600000,
+    /// "error_target": (0, 1), "footprint": 0.5..=8}` (`methods::photons::ProgressiveArgs`).
+    #[serde(default)]
+    pub progressive: Option<serde_json::Value>,
     /// Scenes with water: the waves' time in seconds (any method); the first frame's time of a
     /// sequence.
     #[serde(default)]
@@ -165,6 +169,7 @@ impl RenderParams {
             csl: self.csl.clone(),
             pinhole: self.pinhole.clone(),
             beams: self.beams.clone(),
+            progressive: self.progressive.clone(),
             water: match (&self.water, self.water_mode) {
                 (w, None) => w.clone(),
                 (w, Some(mode)) => {

@@ -23,6 +23,7 @@ pub mod auto;
 pub mod beams;
 pub mod csl;
 pub mod direct;
+pub mod photons;
 pub mod pinhole;
 pub mod reference;
 pub mod transport;
@@ -67,11 +68,14 @@ pub enum Method {
     /// from a grid projected onto the glass and mirrors, intersected per pixel in the scene's
     /// medium; they also give the surface caustics.
     Beams,
+    /// Progressive GPU photon tracing with photon differentials: no bake, any glass or mirror
+    /// object, every light type; converges to the reference's caustics frame by frame.
+    Photons,
 }
 
 impl Method {
     /// Every method, in the order of the registry's listings.
-    pub const ALL: [Method; 8] = [
+    pub const ALL: [Method; 9] = [
         Method::Auto,
         Method::Direct,
         Method::Reference,
@@ -80,6 +84,7 @@ impl Method {
         Method::Pinhole,
         Method::Water,
         Method::Beams,
+        Method::Photons,
     ];
 
     /// The registry: the implementation of each method.
@@ -93,6 +98,7 @@ impl Method {
             Method::Pinhole => &pinhole::Pinhole,
             Method::Water => &water::Water,
             Method::Beams => &beams::Beams,
+            Method::Photons => &photons::Photons,
         }
     }
 
@@ -232,6 +238,8 @@ pub struct MethodArgs {
     pub water: Option<serde_json::Value>,
     /// Beams: its parameters (`methods::beams::BeamsArgs`).
     pub beams: Option<serde_json::Value>,
+    /// Photons: its frames (`methods::photons::ProgressiveArgs`).
+    pub progressive: Option<serde_json::Value>,
     /// CSL, transport: a bake made beforehand (CLI: `--bake FILE`).
     pub bake: Option<PathBuf>,
 }
@@ -269,6 +277,7 @@ impl MethodArgs {
             ("pinhole", self.pinhole.is_some()),
             ("water", self.water.is_some()),
             ("beams", self.beams.is_some()),
+            ("progressive", self.progressive.is_some()),
         ] {
             if given && !info.args.contains(&field) {
                 let takers = names(|i| i.args.contains(&field));

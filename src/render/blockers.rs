@@ -17,6 +17,8 @@ use glam::Vec3;
 
 /// Most triangles in a leaf.
 pub const LEAF_SIZE: usize = 4;
+/// Entries of the traversal stack in `shaders/occlusion.inc.wgsl` (`BVH_STACK`).
+pub const STACK_DEPTH: usize = 48;
 
 /// `BvhNode` of occlusion.inc.wgsl (layout checked in `render::shaders`). `count == 0`: inner node whose children are
 /// `first` and `first + 1`; otherwise a leaf of `count` triangles from index `first`.
@@ -46,6 +48,9 @@ pub struct GpuTriangle {
 pub struct Blockers {
     pub nodes: Vec<GpuBvhNode>,
     pub triangles: Vec<GpuTriangle>,
+    /// For each of `triangles`, its index in the list the tree was built from (empty for the
+    /// placeholder).
+    pub source: Vec<u32>,
 }
 
 impl Blockers {
@@ -96,6 +101,7 @@ impl Blockers {
                     count: 1,
                 }],
                 triangles: vec![GpuTriangle::zeroed()],
+                source: Vec::new(),
             };
         }
         let centroid = |t: &[Vec3; 3]| (t[0] + t[1] + t[2]) / 3.0;
@@ -158,7 +164,78 @@ impl Blockers {
                 }
             })
             .collect();
-        Blockers { nodes, triangles }
+        Blockers {
+            nodes,
+            triangles,
+            source: order,
+        }
+    }
+
+    /// The same layout from obvhs's binary tree (PLOC with SAH-driven collapsing, whose inner
+    /// nodes keep their two children side by side as here; leaves of at most 4 triangles), for
+    /// passes that follow many rays through large meshes (method photons). The median split
+    /// stands in when the tree is deeper than the shaders' traversal stack.
+    pub fn from_tagged_sah(tris: &[[Vec3; 3]], materials: &[u32]) -> Blockers {
+        use obvhs::BvhBuildParams;
+        use obvhs::bvh2::builder::build_bvh2_from_tris;
+        use obvhs::triangle::Triangle;
+        if tris.len() < 2 {
+            return Self::from_tagged(tris, materials);
+        }
+        let input: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                v0: t[0].into(),
+                v1: t[1].into(),
+                v2: t[2].into(),
+            })
+            .collect();
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 4,
+            ..BvhBuildParams::medium_build()
+        };
+        let bvh = build_bvh2_from_tris(&input, params, &mut std::time::Duration::default());
+        // Depth of the deepest leaf; the shader's stack holds about one node a level.
+        let mut deepest = 0usize;
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((ni, depth)) = stack.pop() {
+            let n = &bvh.nodes[ni];
+            deepest = deepest.max(depth);
+            if n.prim_count == 0 {
+                stack.push((n.first_index as usize, depth + 1));
+                stack.push((n.first_index as usize + 1, depth + 1));
+            }
+        }
+        if bvh.nodes.is_empty() || deepest + 2 > STACK_DEPTH {
+            return Self::from_tagged(tris, materials);
+        }
+        let nodes = bvh
+            .nodes
+            .iter()
+            .map(|n| GpuBvhNode {
+                lo: Vec3::from(n.aabb.min).to_array(),
+                first: n.first_index,
+                hi: Vec3::from(n.aabb.max).to_array(),
+                count: n.prim_count,
+            })
+            .collect();
+        let triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = tris[i as usize];
+                GpuTriangle {
+                    v0: a.extend(materials[i as usize] as f32).to_array(),
+                    e1: (b - a).extend(0.0).to_array(),
+                    e2: (c - a).extend(0.0).to_array(),
+                }
+            })
+            .collect();
+        Blockers {
+            nodes,
+            triangles,
+            source: bvh.primitive_indices,
+        }
     }
 
     /// CPU traversal of the flattened tree, exactly as the shader does it: whether a triangle
@@ -261,6 +338,44 @@ mod tests {
             assert_eq!(bvh.occluded(o, d, t_max), brute, "ray {o} {d} {t_max}");
         }
         assert!(hits > 50, "the test should see hits ({hits})");
+    }
+
+    /// obvhs's tree, flattened the same way, answers like brute force too, on a sphere mesh
+    /// (whose rays all come from outside it) and on random triangles.
+    #[test]
+    fn the_sah_tree_matches_brute_force() {
+        let m = crate::scene::shapes::sphere(0.5, 64);
+        let sphere: Vec<[Vec3; 3]> = m
+            .indices
+            .iter()
+            .map(|t| t.map(|i| m.positions[i as usize]))
+            .collect();
+        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let bvh = Blockers::from_tagged_sah(&sphere, &vec![0; sphere.len()]);
+        assert!(bvh.nodes.len() > 100);
+        let mut source = bvh.source.clone();
+        source.sort_unstable();
+        source.dedup();
+        assert_eq!(source.len(), sphere.len(), "every triangle is in the tree");
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let o = Vec3::new(next(), next(), next()) * 3.0 - 1.5;
+            let d = (Vec3::new(next(), next(), next()) - 0.5).normalize();
+            let t_max = next() * 3.0;
+            let brute = sphere.iter().any(|t| {
+                moller_trumbore(o, d, t[0], t[1] - t[0], t[2] - t[0])
+                    .is_some_and(|x| x > 0.0 && x < t_max)
+            });
+            hits += brute as u32;
+            assert_eq!(bvh.occluded(o, d, t_max), brute, "ray {o} {d} {t_max}");
+        }
+        assert!(hits > 100, "the test should see hits ({hits})");
     }
 
     #[test]

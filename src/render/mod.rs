@@ -25,6 +25,7 @@ pub mod csl;
 pub mod direct;
 pub mod gbuffer;
 pub mod lights;
+pub mod photons;
 pub mod pinhole;
 pub mod plan;
 pub mod scene;
@@ -59,6 +60,20 @@ pub enum Caustics<'a> {
     Water(&'a water::gpu::WaterGpuLayer),
     /// The projected light beams (method `beams`).
     Beams(&'a beams::BeamsLayer),
+    /// Progressive GPU photon tracing (method `photons`), and whether to go on between its
+    /// frames.
+    Photons(&'a photons::PhotonsLayer, KeepGoing<'a>),
+}
+
+/// Asked between the frames of a progressive render: false stops it (the frames so far are
+/// returned).
+#[derive(Clone, Copy)]
+pub struct KeepGoing<'a>(pub &'a (dyn Fn() -> bool + Sync));
+
+impl std::fmt::Debug for KeepGoing<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("KeepGoing")
+    }
 }
 
 /// Which layers to compute and read back.
@@ -119,6 +134,8 @@ pub struct RenderOutput {
     pub timings: Vec<(String, Duration)>,
     /// Adapter the frame was rendered on.
     pub adapter: String,
+    /// What method photons' progressive loop did.
+    pub photons: Option<photons::gpu::PhotonsRun>,
 }
 
 impl RenderOutput {
@@ -179,6 +196,8 @@ struct DeviceCache {
     water: Option<water::gpu::WaterPipeline>,
     /// Built on the first beams frame.
     beams: Option<beams::gpu::BeamsPipeline>,
+    /// Built on the first photons frame.
+    photons: Option<photons::gpu::PhotonsPipeline>,
     /// Built on the first frame that needs a G-buffer (transport, pinhole, water).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
@@ -240,6 +259,11 @@ impl DeviceCache {
                 .get_or_insert_with(|| beams::gpu::BeamsPipeline::new(dev))
                 .fit(dev, size, l.params.downsample.max(1));
         }
+        if plan.photons.is_some() {
+            self.photons
+                .get_or_insert_with(|| photons::gpu::PhotonsPipeline::new(dev))
+                .fit(dev, size);
+        }
         if plan.needs_gbuffer() {
             if self.gbuffer_pipeline.is_none() {
                 self.gbuffer_pipeline = Some(gbuffer::GBufferPipeline::new(dev));
@@ -298,6 +322,7 @@ impl Renderer {
             pinhole: None,
             water: None,
             beams: None,
+            photons: None,
             gbuffer_pipeline: None,
             targets: None,
             gbuffer: None,
@@ -382,6 +407,29 @@ impl Renderer {
         layer: &beams::BeamsLayer,
     ) -> Result<RenderOutput, RenderError> {
         self.render_with(world, opts, Caustics::Beams(layer))
+    }
+
+    /// Renders `world` and its caustics layer by progressive photon tracing (`RenderOutput::caustics`
+    /// and `photons` are then `Some`).
+    pub fn render_photons(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &photons::PhotonsLayer,
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_photons_while(world, opts, layer, &|| true)
+    }
+
+    /// [`Self::render_photons`], asking `keep_going` before every frame after the first: false
+    /// stops the progression (`PhotonsRun::stopped_by` is then "canceled").
+    pub fn render_photons_while(
+        &mut self,
+        world: &World,
+        opts: &RenderOptions,
+        layer: &photons::PhotonsLayer,
+        keep_going: &(dyn Fn() -> bool + Sync),
+    ) -> Result<RenderOutput, RenderError> {
+        self.render_with(world, opts, Caustics::Photons(layer, KeepGoing(keep_going)))
     }
 
     /// Replaces the loop iterations one shader invocation is taken to be allowed
@@ -651,6 +699,30 @@ impl Renderer {
         } else {
             (None, None)
         };
+        let keep_going = match caustics {
+            Caustics::Photons(_, k) => k.0,
+            _ => &|| true,
+        };
+        let (caustics_frame, photons_run) = match (plan.photons, &c.photons, &c.gbuffer) {
+            (Some(l), Some(pp), Some(gb)) => {
+                let (f, run) = photons::gpu::run(
+                    &self.ctx,
+                    dev,
+                    &h.queue,
+                    pp,
+                    gb,
+                    &frame.globals,
+                    &scene.materials,
+                    world,
+                    l,
+                    keep_going,
+                )?;
+                timings.extend(run.gpu_times.iter().cloned());
+                timings.push(("photons".to_string(), run.time));
+                (Some(f), Some(run))
+            }
+            _ => (caustics_frame, None),
+        };
         let (volume_caustics, volume) = match (&plan.beams, &c.beams) {
             (Some(l), Some(bp)) => (
                 Some(read(true, bp.volume())?.0),
@@ -677,6 +749,7 @@ impl Renderer {
                 volume,
                 timings,
                 adapter: self.ctx.adapter_info().to_string(),
+                photons: photons_run,
             },
             draws,
         ))

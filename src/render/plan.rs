@@ -46,7 +46,7 @@ impl DeviceLimits {
     pub fn transport_unsupported(&self) -> Option<String> {
         (!self.float32_blendable).then(|| {
             format!(
-                "methods transport and beams blend into 32-bit float layers, which adapter {} cannot \
+                "methods transport, beams and photons blend into 32-bit float layers, which adapter {} cannot \
                  (no FLOAT32_BLENDABLE; use a Vulkan adapter, e.g. CAUSTICA_BACKEND=vulkan)",
                 self.adapter
             )
@@ -75,6 +75,7 @@ pub struct FramePlan<'a> {
     pub pinhole: Option<&'a PinholeLayer>,
     pub water: Option<&'a super::water::gpu::WaterGpuLayer>,
     pub beams: Option<&'a super::beams::BeamsLayer>,
+    pub photons: Option<&'a super::photons::PhotonsLayer>,
     /// The objects whose own caustic light nothing else occludes (the caustic objects of the
     /// method), when the frame has caustics.
     pub caustic_objects: Option<&'a [usize]>,
@@ -88,14 +89,18 @@ impl<'a> FramePlan<'a> {
         dev: &DeviceLimits,
     ) -> Result<FramePlan<'a>, RenderError> {
         let (csl, transport, pinhole, water, beams) = match caustics {
-            Caustics::None => (None, None, None, None, None),
             Caustics::Csl(l) => (Some(l), None, None, None, None),
             Caustics::Transport(l) => (None, Some(l), None, None, None),
             Caustics::Pinhole(l) => (None, None, Some(l), None, None),
             Caustics::Water(l) => (None, None, None, Some(l), None),
             Caustics::Beams(l) => (None, None, None, None, Some(l)),
+            Caustics::None | Caustics::Photons(..) => (None, None, None, None, None),
         };
-        if (transport.is_some() || beams.is_some())
+        let photons = match caustics {
+            Caustics::Photons(l, _) => Some(l),
+            _ => None,
+        };
+        if (transport.is_some() || beams.is_some() || photons.is_some())
             && let Some(why) = dev.transport_unsupported()
         {
             return Err(RenderError::Limit(why));
@@ -245,6 +250,15 @@ impl<'a> FramePlan<'a> {
                 )));
             }
         }
+        if let Some(l) = photons {
+            let bytes = l.record_bytes().max(l.bvh.triangles.len() as u64 * 48);
+            if bytes > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "{} photons a frame ({bytes} bytes of stored photons or triangles) over the                      adapter's storage binding limit of {max_storage}; ask for fewer                      photons.photons",
+                    l.photons_per_frame
+                )));
+            }
+        }
         // Pinhole points are shadowed by every object, their own included.
         let caustic_objects = csl
             .as_ref()
@@ -264,6 +278,7 @@ impl<'a> FramePlan<'a> {
             pinhole,
             water,
             beams,
+            photons,
             caustic_objects,
         })
     }
@@ -283,6 +298,7 @@ impl<'a> FramePlan<'a> {
             || self.pinhole.is_some()
             || self.water.is_some()
             || self.beams.is_some()
+            || self.photons.is_some()
     }
 }
 

@@ -49,6 +49,7 @@ pub struct GpuMaterial {
     pub ior: f32,
     pub _pad: u32,
     pub albedo: [f32; 4],
+    /// rgb: F0 of the glossy lobe; a dielectric's absorption coefficient (1/m).
     pub specular: [f32; 4],
 }
 
@@ -71,9 +72,11 @@ impl GpuMaterial {
                 g.specular = v4(specular);
                 g.roughness = roughness;
             }
-            Material::Dielectric { ior, .. } => {
+            Material::Dielectric { ior, absorption } => {
                 g.kind = MAT_DIELECTRIC;
                 g.ior = ior;
+                // Unused by glossy-only code; method photons reads Beer-Lambert from it.
+                g.specular = v4(absorption);
             }
             Material::Mirror { reflectance } => {
                 g.kind = MAT_MIRROR;

@@ -38,6 +38,11 @@ pub const FILES: &[(&str, &str)] = &[
         "occlusion.inc.wgsl",
         include_str!("../../shaders/occlusion.inc.wgsl"),
     ),
+    ("photons.wgsl", include_str!("../../shaders/photons.wgsl")),
+    (
+        "photon_splat.wgsl",
+        include_str!("../../shaders/photon_splat.wgsl"),
+    ),
 ];
 
 /// Replaces each line `#include "name"` with the text `lookup(name)` returns, recursively
@@ -345,6 +350,62 @@ mod tests {
                 ("misc", offset_of!(P, misc)),
             ],
         );
+    }
+
+    #[test]
+    fn the_photons_structs_have_the_wgsl_layout() {
+        use crate::render::photons::{
+            GpuEnvDir as E, GpuPhotonFrame as F, GpuPopulation as P, GpuTriNormals as N,
+            RECORD_BYTES,
+        };
+        mirror(
+            "photons.wgsl",
+            "PhotonFrame",
+            size_of::<F>(),
+            &[
+                ("counts", offset_of!(F, counts)),
+                ("footprint", offset_of!(F, footprint)),
+                ("eye", offset_of!(F, eye)),
+            ],
+        );
+        mirror(
+            "photons.wgsl",
+            "Population",
+            size_of::<P>(),
+            &[
+                ("ids", offset_of!(P, ids)),
+                ("position", offset_of!(P, position)),
+                ("direction", offset_of!(P, direction)),
+                ("end", offset_of!(P, end)),
+                ("intensity", offset_of!(P, intensity)),
+                ("spot", offset_of!(P, spot)),
+                ("target_sphere", offset_of!(P, target_sphere)),
+            ],
+        );
+        mirror(
+            "photons.wgsl",
+            "TriNormals",
+            size_of::<N>(),
+            &[
+                ("n0", offset_of!(N, n0)),
+                ("n1", offset_of!(N, n1)),
+                ("n2", offset_of!(N, n2)),
+            ],
+        );
+        mirror(
+            "photons.wgsl",
+            "EnvDir",
+            size_of::<E>(),
+            &[
+                ("dir", offset_of!(E, dir)),
+                ("weight", offset_of!(E, weight)),
+            ],
+        );
+        // The stored photon, written by the trace and read by the splat, is 64 bytes in both.
+        for file in ["photons.wgsl", "photon_splat.wgsl"] {
+            let (size, _) = wgsl_layout(file, "PhotonRecord").unwrap();
+            assert_eq!(u64::from(size), RECORD_BYTES, "{file}");
+        }
     }
 
     #[test]

@@ -500,6 +500,72 @@ async fn pinhole_render_matches_the_library_and_reports_its_points() {
     assert_eq!(served, out.total());
 }
 
+/// `method: photons` through the service: the library's frame for the same photons and seed,
+/// the progression's figures in the record (a time budget stops it after one frame), and a bad
+/// `progressive` field or a scene with fog refused with 422 naming the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn photons_render_matches_the_library_and_reports_its_frames() {
+    use caustica::render::photons::{PhotonsLayer, PhotonsParams};
+    let srv = Server::start("render-photons", |_, _| {}).await;
+    let scene = scene_sized(32, 32);
+    let req = serde_json::json!({"scene": scene, "method": "photons", "format": "exr",
+        "photons": 8192, "seed": 3, "progressive": {"photons_per_frame": 4096}});
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let served = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    let stats = &rec["info"]["statistics"];
+    assert_eq!(stats["frames"], 2, "{rec}");
+    assert_eq!(stats["photons"], 8192, "{rec}");
+    assert_eq!(stats["stopped_by"], "frames", "{rec}");
+    let mut budget = req.clone();
+    budget["progressive"] = serde_json::json!({"photons_per_frame": 4096, "time_budget_ms": 1});
+    let r = srv.post_json("/v1/renders", &budget).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["info"]["statistics"]["frames"], 1, "{rec}");
+    assert_eq!(
+        rec["info"]["statistics"]["stopped_by"], "time budget",
+        "{rec}"
+    );
+    let mut bad = req.clone();
+    bad["progressive"] = serde_json::json!({"error_target": 2});
+    let p = problem(srv.post_json("/v1/renders", &bad).await, 422).await;
+    assert_eq!(p["field"], "progressive.error_target", "{p}");
+    let mut foggy = req.clone();
+    foggy["scene"]["media"] = serde_json::json!([{"sigma_s": 0.1}]);
+    let p = problem(srv.post_json("/v1/renders", &foggy).await, 422).await;
+    assert_eq!(p["field"], "scene.media", "{p}");
+    srv.stop().await;
+
+    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let p = PhotonsParams {
+        photons: 4096,
+        frames: 2,
+        seed: 3,
+        ..Default::default()
+    };
+    let layer = PhotonsLayer::build(&world, &p);
+    let out = gpu::renderer()
+        .render_photons(&world, &Default::default(), &layer)
+        .unwrap();
+    assert!(
+        out.caustics
+            .as_ref()
+            .unwrap()
+            .pixels
+            .iter()
+            .any(|p| p.x > 0.0),
+        "the glass casts light"
+    );
+    // The same photons; the GPU's order of blending the splats varies from run to run.
+    let all = vec![true; served.pixels.len()];
+    let e = caustica::reference::compare::compare(&served, &out.total(), &all);
+    assert!(e.rel_l1 < 1e-4, "{e:?}");
+}
+
 /// `method: water` through the service: the underwater view at a given `time` as an EXR (the
 /// library's frame at that time, and the record's figures), a sequence as an animated PNG of
 /// the frames asked for, and a time that is not finite or a sequence as EXR refused with 422.

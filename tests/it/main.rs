@@ -21,6 +21,7 @@ mod http_no_gpu;
 mod http_openapi;
 mod http_render;
 mod http_restart;
+mod photons;
 mod pinhole;
 mod reference;
 mod schema;
