@@ -337,14 +337,15 @@ fn bake_note(name: &str, set: &CslSet) -> String {
     let s = &set.stats;
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     format!(
-        "{name}: {} rays traced, {} hit, {} caustic rays, {} CSLs covering {:.1}% of the energy \
-         (trace {:.0} ms, raster {:.0} ms, bundles {:.0} ms, fit {:.0} ms, images {:.0} ms, \
-         total {:.0} ms)",
+        "{name}: {} rays traced, {} hit, {} caustic rays, {} CSLs covering {:.1}% of the energy, \
+         stopped by {} (trace {:.0} ms, raster {:.0} ms, bundles {:.0} ms, fit {:.0} ms, images \
+         {:.0} ms, total {:.0} ms)",
         s.rays_traced,
         s.rays_hit,
         s.caustic_rays,
         set.csls.len(),
         100.0 * s.coverage(),
+        s.stopped_by,
         ms(s.time_trace),
         ms(s.time_raster),
         ms(s.time_bundles),
@@ -475,6 +476,7 @@ impl Bake {
                     "caustic_rays": s.caustic_rays,
                     "csls": set.csls.len(),
                     "energy_covered": s.coverage(),
+                    "stopped_by": s.stopped_by,
                 },
             }),
             notes: vec![bake_note(&self.object, &set)],

@@ -37,7 +37,7 @@ pub use artifact::ArtifactError;
 /// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
 /// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
 /// older algorithm made.
-pub const ALGORITHM: u32 = 9;
+pub const ALGORITHM: u32 = 10;
 
 /// The texel of an intensity image is about this many grid-ray spacings wide (about 256
 /// rays' cross-sections a texel where the rays keep their spacing), which sets each image's
@@ -74,8 +74,12 @@ pub struct CslParams {
     pub fit_threshold_deg: f32,
     /// Most assignment/optimisation iterations of one bundle (paper: 100). ≥ 1.
     pub max_iterations: u32,
-    /// Most CSLs in a set. ≥ 1.
+    /// Most CSLs in a set, a safety bound: the bake stops by `coverage` (or
+    /// `max_image_bytes`) first. ≥ 1.
     pub max_csls: u32,
+    /// Most bytes of intensity images in a set (8 a texel): the memory bound of a bake that
+    /// needs many small CSLs to reach its coverage. ≥ 1 MiB.
+    pub max_image_bytes: u64,
     /// A bundle whose fitted energy is below this fraction of the total is not made a CSL
     /// (energy cut-off; its seed cell is not tried again). [0, 1).
     pub min_csl_energy: f32,
@@ -103,7 +107,8 @@ impl CslParams {
             angle_threshold_deg: 60.0,
             fit_threshold_deg: 3.0,
             max_iterations: 100,
-            max_csls: 64,
+            max_csls: 1024,
+            max_image_bytes: 128 << 20,
             min_csl_energy: 1e-4,
             fit_samples: 16384,
             image_size: 512,
@@ -155,6 +160,9 @@ impl CslParams {
         if self.max_iterations == 0 || self.max_csls == 0 || self.fit_samples < 16 {
             return bad("max_iterations and max_csls must be ≥ 1, fit_samples ≥ 16");
         }
+        if self.max_image_bytes < 1 << 20 {
+            return bad("max_image_bytes must be ≥ 1 MiB");
+        }
         if !(0.0..1.0).contains(&self.min_csl_energy) {
             return bad("min_csl_energy must be in [0, 1)");
         }
@@ -193,6 +201,7 @@ impl CslParams {
         ] {
             h.write_f32(v);
         }
+        h.write(&self.max_image_bytes.to_le_bytes());
         h.finish()
     }
 }
@@ -309,6 +318,10 @@ pub struct BakeStats {
     pub dismissed_rays: u64,
     /// Assignment/optimisation iterations, summed over CSLs.
     pub iterations: u32,
+    /// What ended the bake: "coverage" (the target reached), "memory" (`max_image_bytes`),
+    /// "count" (`max_csls`), "bundles" (no bundle left to extract). Empty after
+    /// [`CslSet::from_bytes`].
+    pub stopped_by: &'static str,
     pub time_trace: Duration,
     pub time_raster: Duration,
     pub time_bundles: Duration,
@@ -566,10 +579,18 @@ pub(crate) fn bake_csl_with(
     let mut csls = Vec::new();
     let mut attempts = 0u32;
     let mut taken: Option<Vec<u32>> = None;
-    while remaining > (1.0 - params.coverage as f64) * total
-        && csls.len() < params.max_csls as usize
-        && attempts < 2 * params.max_csls
-    {
+    let mut image_bytes = 0u64;
+    // Until the CSLs cover the target (Liu et al. 2008 §3.1.1 step 5), within the bounds.
+    stats.stopped_by = "coverage";
+    while remaining > (1.0 - params.coverage as f64) * total {
+        if csls.len() >= params.max_csls as usize || attempts >= 2 * params.max_csls {
+            stats.stopped_by = "count";
+            break;
+        }
+        if image_bytes >= params.max_image_bytes {
+            stats.stopped_by = "memory";
+            break;
+        }
         attempts += 1;
         if !report(
             "bundles",
@@ -583,7 +604,10 @@ pub(crate) fn bake_csl_with(
             ex.remove(&kept, !spare_cores);
             stats.time_bundles += t0.elapsed();
         }
-        let Some(cell) = ex.max_cell() else { break };
+        let Some(cell) = ex.max_cell() else {
+            stats.stopped_by = "bundles";
+            break;
+        };
         let t0 = Instant::now();
         let found = ex.extract(cell, &thresholds, radius);
         stats.time_bundles += t0.elapsed();
@@ -628,6 +652,7 @@ pub(crate) fn bake_csl_with(
         );
         let (scale, texels) = image::quantise(&img.texels);
         stats.time_image += t0.elapsed();
+        image_bytes += texels.len() as u64 * 8;
         remaining -= kept_energy;
         stats.energy_covered += kept_energy;
         stats.iterations += b.iterations;
@@ -668,6 +693,51 @@ pub(crate) fn bake_csl_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A bake ends when its CSLs cover the target, not at a count; the count and the images'
+    /// memory only bound it, and the set says which ended it.
+    #[test]
+    fn a_bake_stops_by_coverage_within_its_bounds() {
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+                 "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                              "segments": 64}, "material": "glass"}]}"#,
+        )
+        .expect("scene resolves");
+        let light = Vec3::new(0.3, -1.0, 0.2);
+        let bake = |p: CslParams| bake_csl(&world, "ball", light, &p, &|_| true).unwrap();
+        let base = CslParams {
+            grid: 96,
+            ..CslParams::fast()
+        };
+        let set = bake(base);
+        assert_eq!(set.stats.stopped_by, "coverage");
+        assert!(set.stats.coverage() >= 0.95, "{}", set.stats.coverage());
+        let few = bake(CslParams {
+            max_csls: 2,
+            ..base
+        });
+        assert_eq!((few.stats.stopped_by, few.csls.len()), ("count", 2));
+        let small = bake(CslParams {
+            max_image_bytes: 1 << 20,
+            coverage: 1.0,
+            ..base
+        });
+        assert_eq!(small.stats.stopped_by, "memory");
+        let bytes: usize = small.csls.iter().map(|c| c.texels.len() * 8).sum();
+        // The bound is checked before each new CSL: at most one image past it.
+        let last = small.csls.last().map_or(0, |c| c.texels.len() * 8);
+        assert!(bytes - last < 1 << 20, "{bytes}");
+        assert!(
+            CslParams {
+                max_image_bytes: 1000,
+                ..base
+            }
+            .validate()
+            .is_err()
+        );
+    }
 
     #[test]
     fn fits_side_by_side_or_in_turn_and_a_shared_bvh_give_the_same_set() {
