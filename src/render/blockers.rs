@@ -153,20 +153,9 @@ impl Blockers {
             stack.push((left + 1, mid, e));
             stack.push((left, s, mid));
         }
-        let triangles = order
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = tris[i as usize];
-                GpuTriangle {
-                    v0: a.extend(materials[i as usize] as f32).to_array(),
-                    e1: (b - a).extend(0.0).to_array(),
-                    e2: (c - a).extend(0.0).to_array(),
-                }
-            })
-            .collect();
         Blockers {
             nodes,
-            triangles,
+            triangles: packed(tris, materials, &order),
             source: order,
         }
     }
@@ -219,21 +208,9 @@ impl Blockers {
                 count: n.prim_count,
             })
             .collect();
-        let triangles = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = tris[i as usize];
-                GpuTriangle {
-                    v0: a.extend(materials[i as usize] as f32).to_array(),
-                    e1: (b - a).extend(0.0).to_array(),
-                    e2: (c - a).extend(0.0).to_array(),
-                }
-            })
-            .collect();
         Blockers {
             nodes,
-            triangles,
+            triangles: packed(tris, materials, &bvh.primitive_indices),
             source: bvh.primitive_indices,
         }
     }
@@ -267,6 +244,22 @@ impl Blockers {
         }
         false
     }
+}
+
+/// The triangles in the tree's `order`, as the shaders read them: v0 with the material index,
+/// and the two edges.
+fn packed(tris: &[[Vec3; 3]], materials: &[u32], order: &[u32]) -> Vec<GpuTriangle> {
+    order
+        .iter()
+        .map(|&i| {
+            let [a, b, c] = tris[i as usize];
+            GpuTriangle {
+                v0: a.extend(materials[i as usize] as f32).to_array(),
+                e1: (b - a).extend(0.0).to_array(),
+                e2: (c - a).extend(0.0).to_array(),
+            }
+        })
+        .collect()
 }
 
 fn slab(lo: Vec3, hi: Vec3, o: Vec3, inv: Vec3, t_max: f32) -> bool {

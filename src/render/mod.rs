@@ -10,7 +10,9 @@
 //!   [`Renderer::render_transport`]); method `pinhole` projects the light its reflector points
 //!   receive onto the same G-buffer ([`pinhole`], [`Renderer::render_pinhole`]); method
 //!   `beams` draws its beams over it and adds the `volume_caustics` and `volume` layers
-//!   ([`beams`], [`Renderer::render_beams`]).
+//!   ([`beams`], [`Renderer::render_beams`]); method `photons` traces photons in a compute
+//!   pass and splats them over it, frame after frame, after the frame's other passes
+//!   ([`photons`], [`Renderer::render_photons`]).
 //!
 //! The frame is `direct + caustics + specular + volume + volume_caustics`
 //! ([`RenderOutput::total`]). A frame is first a
@@ -198,7 +200,8 @@ struct DeviceCache {
     beams: Option<beams::gpu::BeamsPipeline>,
     /// Built on the first photons frame.
     photons: Option<photons::gpu::PhotonsPipeline>,
-    /// Built on the first frame that needs a G-buffer (transport, pinhole, water).
+    /// Built on the first frame that needs a G-buffer (transport, pinhole, water, beams,
+    /// photons).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
     targets: Option<direct::Targets>,
