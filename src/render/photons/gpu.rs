@@ -183,7 +183,7 @@ impl PhotonsBuffers {
         PhotonsBuffers {
             frame: init(
                 "photons frame",
-                bytemuck::bytes_of(&GpuPhotonFrame::zeroed_frame()),
+                bytemuck::bytes_of(&<GpuPhotonFrame as bytemuck::Zeroable>::zeroed()),
                 wgpu::BufferUsages::UNIFORM | copy,
             ),
             pops: init("photon populations", bytemuck::cast_slice(&pops), storage),
@@ -219,12 +219,6 @@ impl PhotonsBuffers {
                 storage,
             ),
         }
-    }
-}
-
-impl GpuPhotonFrame {
-    fn zeroed_frame() -> GpuPhotonFrame {
-        bytemuck::Zeroable::zeroed()
     }
 }
 
@@ -372,6 +366,7 @@ pub fn run(
         stopped_by: "frames",
         ..Default::default()
     };
+    let mut last: Option<(Layer, Layer)> = None;
     for k in 1..=p.frames.max(1) {
         if k > 1 && !keep_going() {
             run.stopped_by = "canceled";
@@ -429,18 +424,23 @@ pub fn run(
         if let Some(target) = p.error_target
             && k % 2 == 0
         {
-            let (a, b) = read_layers(ctx, pipe)?;
-            let e = noise_estimate(&a, &b);
+            let layers = read_layers(ctx, pipe)?;
+            let e = noise_estimate(&layers.0, &layers.1);
             run.error_estimate = Some(e);
             if e <= target {
                 run.stopped_by = "error target";
+                // The layers just read are the last frame's: no second readback.
+                last = Some(layers);
                 break;
             }
         }
     }
     run.time = t0.elapsed();
     let frames = run.frames;
-    let (a, b) = read_layers(ctx, pipe)?;
+    let (a, b) = match last {
+        Some(layers) => layers,
+        None => read_layers(ctx, pipe)?,
+    };
     let (w, h) = pipe.accum.as_ref().expect("fitted").0;
     // Frame 1 alone leaves the second layer as it was: only what frames wrote counts.
     let scale = 1.0 / frames as f32;
