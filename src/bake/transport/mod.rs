@@ -26,6 +26,7 @@
 //! Quantised storage (§6) and the artifact format are in [`table`].
 
 pub mod table;
+pub mod verify;
 
 use super::{BakeError, Fnv64, Progress};
 use crate::scene::{Material, Object, World};
@@ -35,10 +36,11 @@ use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
-pub use table::{TableError, TransportTable};
+pub use table::{Fit, TableError, TransportTable};
 
 /// Revision of the bake algorithm, part of every table's content hash (see the CSL bake's).
-pub const ALGORITHM: u32 = 1;
+/// 2: every sample records its path's signature ([`Sample::path`]).
+pub const ALGORITHM: u32 = 2;
 
 /// Parameters of a transport-table bake.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -166,6 +168,97 @@ pub struct Sample {
     pub occluded: bool,
     /// The ray never leaves the object (only for refracting viewing rays).
     pub trapped: bool,
+    /// The path's signature: a 16-bit hash of the sequence of its interactions inside, each
+    /// as (smooth patch of the surface hit, refraction or reflection) ([`PathHash`]). Two
+    /// samples with the same signature crossed the same patches in the same way, so their
+    /// exits vary continuously between them; samples with different ones left on different
+    /// paths, and the render never interpolates across them.
+    pub path: u16,
+}
+
+/// The signature of a path inside an object ([`Sample::path`]): FNV-1a over its interactions.
+#[derive(Clone, Copy, Debug)]
+pub struct PathHash(Fnv64);
+
+impl PathHash {
+    pub fn new() -> Self {
+        PathHash(Fnv64::new())
+    }
+
+    /// One interaction: the smooth patch hit, and whether the light refracted through it (or
+    /// reflected off it).
+    pub fn push(&mut self, patch: u32, refracted: bool) {
+        self.0.write_u32(patch << 1 | refracted as u32);
+    }
+
+    /// The 16-bit signature.
+    pub fn finish(self) -> u16 {
+        let h = self.0.finish();
+        (h ^ h >> 16 ^ h >> 32 ^ h >> 48) as u16
+    }
+}
+
+impl Default for PathHash {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The smooth patch of every triangle of `object` (its parts' triangles in order, as the
+/// world's triangle numbering has them): triangles that share a vertex belong to the same
+/// patch, vertices being the same when their positions and normals agree (so a seam of the
+/// texture coordinates, which splits vertices but not the surface, does not split a patch,
+/// and a hard edge, where the normals differ, does). A path's signature names the patches it
+/// crosses.
+pub fn smooth_patches(object: &Object) -> Vec<u32> {
+    use std::collections::HashMap;
+    let mut parent: Vec<u32> = Vec::new();
+    fn find(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            let p = parent[parent[i as usize] as usize];
+            parent[i as usize] = p;
+            i = p;
+        }
+        i
+    }
+    let mut tri_vertex: Vec<u32> = Vec::new();
+    for part in &object.parts {
+        let m = &part.mesh;
+        let scale = m
+            .positions
+            .iter()
+            .fold(0.0f32, |a, p| a.max(p.abs().max_element()))
+            .max(1e-6);
+        let mut weld: HashMap<[i32; 6], u32> = HashMap::new();
+        let ids: Vec<u32> = m
+            .positions
+            .iter()
+            .zip(&m.normals)
+            .map(|(p, n)| {
+                let q = (*p / scale * 1e5).round();
+                let nq = (n.normalize_or_zero() * 1e3).round();
+                let key = [q.x, q.y, q.z, nq.x, nq.y, nq.z].map(|v| v as i32);
+                *weld.entry(key).or_insert_with(|| {
+                    parent.push(parent.len() as u32);
+                    parent.len() as u32 - 1
+                })
+            })
+            .collect();
+        for t in &m.indices {
+            let [a, b, c] = t.map(|i| ids[i as usize]);
+            for (x, y) in [(a, b), (b, c)] {
+                let (rx, ry) = (find(&mut parent, x), find(&mut parent, y));
+                if rx != ry {
+                    parent[rx.max(ry) as usize] = rx.min(ry);
+                }
+            }
+            tri_vertex.push(a);
+        }
+    }
+    tri_vertex
+        .into_iter()
+        .map(|v| find(&mut parent, v))
+        .collect()
 }
 
 /// Bake statistics. The sample counts follow from the records (a loaded table has them too);
@@ -180,13 +273,17 @@ pub struct TransportStats {
     pub rays: u64,
     pub time_trace: Duration,
     pub time_quantise: Duration,
+    /// Checking the table against photons ([`verify`]).
+    pub time_verify: Duration,
     pub time_total: Duration,
 }
 
 /// Trace one sampling ray entering at vertex `p` (outward normal `n`, index of refraction
 /// `ior`) along `w`, counting ray casts in `rays`.
-fn trace_sample(
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn trace_sample(
     accel: &Accel,
+    patches: &[u32],
     p: Vec3,
     n: Vec3,
     w: Vec3,
@@ -211,8 +308,10 @@ fn trace_sample(
             path_length: 0.0,
             occluded,
             trapped: true,
+            path: 0,
         };
     };
+    let mut sig = PathHash::new();
     let mut o = p - n * eps;
     let mut last = p;
     let mut path_length = 0.0f32;
@@ -249,6 +348,7 @@ fn trace_sample(
                 path_length,
                 occluded,
                 trapped: false,
+                path: sig.finish(),
             };
         };
         if inside {
@@ -258,6 +358,10 @@ fn trace_sample(
             break;
         }
         last = hit.point;
+        let patch = patches
+            .get(hit.triangle as usize)
+            .copied()
+            .unwrap_or(u32::MAX >> 1);
         match *accel.material(&hit) {
             Material::Dielectric { ior, .. } => {
                 let eta = if hit.front_face { 1.0 / ior } else { ior };
@@ -267,13 +371,18 @@ fn trace_sample(
                         transmittance *= 1.0 - fresnel_dielectric(cos, eta);
                         d = t;
                         inside = hit.front_face;
+                        sig.push(patch, true);
                     }
-                    None => d = reflect(d, hit.normal),
+                    None => {
+                        d = reflect(d, hit.normal);
+                        sig.push(patch, false);
+                    }
                 }
             }
             Material::Mirror { reflectance } => {
                 transmittance *= reflectance.element_sum() / 3.0;
                 d = reflect(d, hit.normal);
+                sig.push(patch, false);
             }
             _ => {
                 return trapped(hit, d, path_length, occluded);
@@ -288,6 +397,7 @@ fn trace_sample(
         path_length,
         occluded,
         trapped: true,
+        path: sig.finish(),
     }
 }
 
@@ -300,6 +410,7 @@ fn trapped(hit: Hit, d: Vec3, path_length: f32, occluded: bool) -> Sample {
         path_length,
         occluded,
         trapped: true,
+        path: 0,
     }
 }
 
@@ -360,6 +471,7 @@ pub fn bake_transport(
     check_table_size(vertices.len(), params)?;
     let local = super::csl::rigid_frame_world(world, object);
     let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
+    let patches = smooth_patches(&local.objects[0]);
     let (lo, hi) = local.bounds();
     let dirs = params.directions();
     if !progress(Progress {
@@ -389,6 +501,7 @@ pub fn bake_transport(
                     let w = sampling_direction(frame, phi, theta);
                     out.push(trace_sample(
                         &accel,
+                        &patches,
                         v.position,
                         frame.0,
                         w,
@@ -436,6 +549,15 @@ pub fn bake_transport(
     table.stats.rays = rays;
     table.stats.time_trace = time_trace;
     table.stats.time_quantise = t0.elapsed();
+    if !progress(Progress {
+        stage: "verify",
+        fraction: 0.97,
+    }) {
+        return Err(BakeError::Canceled);
+    }
+    let t0 = Instant::now();
+    table.fit = verify::verify(world, object_name, &table);
+    table.stats.time_verify = t0.elapsed();
     table.stats.time_total = t_start.elapsed();
     progress(Progress {
         stage: "done",
@@ -481,6 +603,29 @@ pub fn source_hash(world: &World, object: &Object, params: &TransportParams) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn smooth_patches_split_at_hard_edges_not_at_seams() {
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 2, 2], "target": [0, 0, 0]},
+                "materials": {"g": {"type": "dielectric", "ior": 1.5}},
+                "objects": [
+                  {"name": "ball", "shape": {"type": "sphere", "radius": 0.5, "segments": 16}, "material": "g"},
+                  {"name": "can", "shape": {"type": "cylinder", "radius": 0.3, "height": 0.8, "segments": 16}, "material": "g"}]}"#,
+        )
+        .unwrap();
+        let count = |name: &str| {
+            let p = smooth_patches(world.object(name).unwrap());
+            assert_eq!(p.len(), world.object(name).unwrap().triangle_count());
+            p.into_iter()
+                .collect::<std::collections::HashSet<_>>()
+                .len()
+        };
+        // A UV sphere is one smooth surface (its seam shares positions and normals); a
+        // cylinder is three: the side and the two caps, meeting at hard edges.
+        assert_eq!(count("ball"), 1);
+        assert_eq!(count("can"), 3);
+    }
 
     #[test]
     fn sampling_directions_follow_eq_3_and_invert() {

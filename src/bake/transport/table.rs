@@ -3,16 +3,20 @@
 //! Per sample, as the paper: the exit position as 3 × 16 bits within the object's bounding box,
 //! the exit direction as two 16-bit angles (polar φ ∈ [0, π] from +z, azimuth θ ∈ [0, 2π)), the
 //! transmittance in 16 bits: 12 bytes. We keep the two flags (self-occluded, trapped) in the top
-//! two bits of the transmittance word, which leaves it 14 bits (steps of 6·10⁻⁵). A tinted
-//! (absorbing) object adds the path length inside as 16 bits of the table's longest path, so
-//! that the render recovers the RGB transmittance F·exp(−σL) exactly in colour: 14 bytes.
+//! two bits of the transmittance word, which leaves it 14 bits (steps of 6·10⁻⁵). Beyond the
+//! paper, each sample adds its path's 16-bit signature (the patches it crossed, see
+//! [`super::Sample::path`]), so that the render interpolates only between samples that left on
+//! the same path: 14 bytes. A tinted (absorbing) object adds the path length inside as 16 bits
+//! of the table's longest path, so that the render recovers the RGB transmittance F·exp(−σL)
+//! exactly in colour: 16 bytes. The header keeps the table's fit ([`TransportTable::fit`]).
 //!
 //! ```text
 //! header   magic "LTTABLE\0" (8) · version u32 · vertices u32 · rings u32 · azimuths u32
 //!          max depth u32 · flags u32 (bit 0: path lengths stored) · source hash u64
 //!          params hash u64 · bounds lo 3×f32 · bounds hi 3×f32 · longest path f32
+//!          fit error f32 (NaN: not checked) · light lost at path splits f32 (NaN: idem)
 //! records  vertices × directions × (position 3×u16 · φ u16 · θ u16 · transmittance|flags u16
-//!          [· path u16])
+//!          · path signature u16 [· path length u16])
 //! trailer  FNV-1a 64 of every byte before it (u64)
 //! ```
 //!
@@ -25,8 +29,8 @@ use std::f32::consts::{PI, TAU};
 use thiserror::Error;
 
 pub const MAGIC: [u8; 8] = *b"LTTABLE\0";
-pub const VERSION: u32 = 1;
-const HEADER: usize = 8 + 6 * 4 + 2 * 8 + 7 * 4;
+pub const VERSION: u32 = 2;
+const HEADER: usize = 8 + 6 * 4 + 2 * 8 + 9 * 4;
 const OCCLUDED: u16 = 1 << 14;
 const TRAPPED: u16 = 1 << 15;
 const T_MAX: f32 = ((1 << 14) - 1) as f32;
@@ -56,6 +60,8 @@ pub struct Record {
     pub transmittance: u16,
     /// Path length inside in units of the table's longest path / 65535 (0 when not stored).
     pub path: u16,
+    /// The path's signature ([`super::Sample::path`]).
+    pub signature: u16,
 }
 
 /// Largest quantisation errors over the table (the paper's Fig. 12 figures).
@@ -89,6 +95,20 @@ pub struct TransportTable {
     /// Quantisation errors (known only right after a bake; zero for a loaded table).
     pub errors: QuantErrors,
     pub stats: TransportStats,
+    /// How well the table predicts fresh photons (`bake::transport::verify`), checked by the
+    /// bake and stored with it; `None` for a table nobody checked.
+    pub fit: Option<Fit>,
+}
+
+/// A table's fit against photons traced through the object (`bake::transport::verify`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fit {
+    /// Relative L1 of the caustic the table predicts on a plane below the object against the
+    /// photons' (3 × 3 blur), the worst of the light directions checked.
+    pub error: f32,
+    /// Fraction of the light leaving the lit triangles that no volume carries because the
+    /// triangle's corners leave on different paths, the largest of the light directions.
+    pub split_loss: f32,
 }
 
 fn q16(x: f32) -> u16 {
@@ -149,6 +169,7 @@ impl TransportTable {
                     } else {
                         0
                     },
+                    signature: s.path,
                 }
             })
             .collect();
@@ -163,6 +184,7 @@ impl TransportTable {
             records,
             errors: QuantErrors::default(),
             stats: TransportStats::default(),
+            fit: None,
         };
         let diag = (hi - lo).length().max(1e-12);
         let mut e = QuantErrors::default();
@@ -184,9 +206,9 @@ impl TransportTable {
         table
     }
 
-    /// Bytes per stored sample: 12, or 14 with path lengths.
+    /// Bytes per stored sample: 14, or 16 with path lengths.
     pub fn bytes_per_sample(&self) -> usize {
-        if self.absorbing { 14 } else { 12 }
+        if self.absorbing { 16 } else { 14 }
     }
 
     /// Bytes the samples would take unquantised (f32 position, direction, transmittance, and
@@ -214,12 +236,13 @@ impl TransportTable {
             path_length: r.path as f32 / 65535.0 * self.max_path,
             occluded: r.transmittance & OCCLUDED != 0,
             trapped: r.transmittance & TRAPPED != 0,
+            path: r.signature,
         }
     }
 
     /// The artifact bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(HEADER + self.records.len() * 14 + 8);
+        let mut b = Vec::with_capacity(HEADER + self.records.len() * 16 + 8);
         b.extend_from_slice(&MAGIC);
         for v in [
             VERSION,
@@ -239,6 +262,10 @@ impl TransportTable {
             .into_iter()
             .chain(self.hi.to_array())
             .chain([self.max_path])
+            .chain(match self.fit {
+                Some(f) => [f.error, f.split_loss],
+                None => [f32::NAN; 2],
+            })
         {
             b.extend_from_slice(&v.to_le_bytes());
         }
@@ -247,6 +274,7 @@ impl TransportTable {
                 b.extend_from_slice(&v.to_le_bytes());
             }
             b.extend_from_slice(&r.transmittance.to_le_bytes());
+            b.extend_from_slice(&r.signature.to_le_bytes());
             if self.absorbing {
                 b.extend_from_slice(&r.path.to_le_bytes());
             }
@@ -288,7 +316,7 @@ impl TransportTable {
             return Err(TableError::Invalid(format!("unknown flags {flags:#x}")));
         }
         let absorbing = flags & 1 != 0;
-        let per = if absorbing { 14 } else { 12 };
+        let per = if absorbing { 16 } else { 14 };
         let count = vertex_count as u64 * params.directions() as u64;
         let expected = (HEADER as u64)
             .saturating_add(count.saturating_mul(per))
@@ -315,6 +343,15 @@ impl TransportTable {
         if !(max_path.is_finite() && max_path >= 0.0) {
             return Err(TableError::Invalid("bad path length scale".into()));
         }
+        let (fit_error, split_loss) = (f32_at(76), f32_at(80));
+        let fit = match (fit_error.is_nan(), split_loss.is_nan()) {
+            (true, true) => None,
+            (false, false) if fit_error >= 0.0 && (0.0..=1.0).contains(&split_loss) => Some(Fit {
+                error: fit_error,
+                split_loss,
+            }),
+            _ => return Err(TableError::Invalid("bad fit figures".into())),
+        };
         let u16_at = |at: usize| u16::from_le_bytes([bytes[at], bytes[at + 1]]);
         let records: Vec<Record> = (0..count as usize)
             .map(|k| {
@@ -323,7 +360,8 @@ impl TransportTable {
                     position: [u16_at(at), u16_at(at + 2), u16_at(at + 4)],
                     direction: [u16_at(at + 6), u16_at(at + 8)],
                     transmittance: u16_at(at + 10),
-                    path: if absorbing { u16_at(at + 12) } else { 0 },
+                    signature: u16_at(at + 12),
+                    path: if absorbing { u16_at(at + 14) } else { 0 },
                 }
             })
             .collect();
@@ -338,6 +376,7 @@ impl TransportTable {
             records,
             errors: QuantErrors::default(),
             stats: TransportStats::default(),
+            fit,
         };
         table.count_samples();
         Ok(table)

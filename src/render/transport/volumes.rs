@@ -241,6 +241,47 @@ pub fn lookup_with(
     w: Vec3,
     usage: Use,
 ) -> Option<Exit> {
+    lookup_on(table, v, vertex, w, usage, None)
+}
+
+/// The light travelling along `w` into table vertex `v`, split by the paths it leaves on:
+/// for every distinct path signature among the usable samples of the four nearest sampling
+/// directions, the exit interpolated from those samples alone (the others carry nothing, as an
+/// occluded sample does in [`lookup`]). The transmittances add up to [`lookup`]'s; positions
+/// and directions are never interpolated between samples that left on different paths, which
+/// would put the exit somewhere no light leaves (a streak across the receiver). Empty when the
+/// light comes from below the tangent plane or no nearby sample transmits.
+pub fn lookup_paths(
+    table: &TransportTable,
+    v: usize,
+    vertex: &Vertex,
+    w: Vec3,
+) -> Vec<(u16, Exit)> {
+    let mut paths: Vec<u16> = Vec::with_capacity(4);
+    let Some(corners) = corners(table, vertex, w) else {
+        return Vec::new();
+    };
+    for (k, m) in corners {
+        let s = table.sample(v, table.params.index(k, m));
+        if !(s.occluded || s.trapped) && s.transmittance > 0.0 && !paths.contains(&s.path) {
+            paths.push(s.path);
+        }
+    }
+    paths
+        .into_iter()
+        .filter_map(|p| Some((p, lookup_on(table, v, vertex, w, Use::Light, Some(p))?)))
+        .collect()
+}
+
+/// The (ring, azimuth) grid cell direction `w` falls in at `vertex`: its four corners (ring k0,
+/// azimuths m0 and m1, then ring k0 + 1), `None` at or below the horizon.
+fn corners(table: &TransportTable, vertex: &Vertex, w: Vec3) -> Option<[(u32, u32); 4]> {
+    let (k0, _, m0, m1, _) = cell(table, vertex, w)?;
+    Some([(k0, m0), (k0, m1), (k0 + 1, m0), (k0 + 1, m1)])
+}
+
+/// The grid cell of [`corners`] and the fractions across it: (k0, fr, m0, m1, fa).
+fn cell(table: &TransportTable, vertex: &Vertex, w: Vec3) -> Option<(u32, f32, u32, u32, f32)> {
     let p = &table.params;
     let frame = tangent_frame(vertex.normal);
     let (phi, theta) = local_angles(frame, w);
@@ -255,9 +296,26 @@ pub fn lookup_with(
     let m0 = (a.floor() as u32).min(p.azimuths - 1);
     let fa = (a - m0 as f32).clamp(0.0, 1.0);
     let m1 = (m0 + 1) % p.azimuths;
+    Some((k0, fr, m0, m1, fa))
+}
+
+/// [`lookup_with`], with only the samples of path signature `path` when given.
+fn lookup_on(
+    table: &TransportTable,
+    v: usize,
+    vertex: &Vertex,
+    w: Vec3,
+    usage: Use,
+    path: Option<u16>,
+) -> Option<Exit> {
+    let p = &table.params;
+    let (k0, fr, m0, m1, fa) = cell(table, vertex, w)?;
     let sample = |k: u32, m: u32| -> Option<Exit> {
         let s = table.sample(v, p.index(k, m));
         if usage == Use::Light && (s.occluded || s.trapped) {
+            return None;
+        }
+        if path.is_some_and(|p| p != s.path) {
             return None;
         }
         let beer = if table.absorbing {
@@ -493,6 +551,10 @@ pub struct VolumeStats {
     pub reflection_volumes: usize,
     /// Flux the lit triangles reflect (W, RGB), not part of `flux`.
     pub reflected_flux: Vec3,
+    /// Flux entering lit triangles that no volume carries because their corners leave on
+    /// different paths ([`lookup_paths`]): the light the table cannot follow there (W, RGB),
+    /// not part of `flux`.
+    pub split_flux: Vec3,
 }
 
 /// The glass of one object as the volumes see it: its table vertices, their world positions,
@@ -537,30 +599,374 @@ impl Glass {
         }
     }
 
-    /// Every triangle whose three corners are lit sweeps their rays into a volume (appended
-    /// to `out`); returns the flux the volumes carry.
+    /// Every triangle whose three corners are lit sweeps their rays into volumes (appended
+    /// to `out`); returns the flux the volumes carry and the flux left out.
+    ///
+    /// Where the four nearest samples of all three corners left on one and the same path
+    /// ([`lookup_paths`]), the corners' interpolated exits sweep one volume, as the paper
+    /// does. Where they did not, interpolating would send light where none goes (the streaks
+    /// of a flat bottom or an open tube), so with a `split` tracer the triangle is split: its
+    /// corners and the midpoints of its edges are traced through the object exactly, and each
+    /// quarter whose corners share a path sweeps a volume; a quarter whose corners do not is
+    /// split again, down to [`SPLIT_DEPTH`] levels, where the light of corners on a path the
+    /// others do not share is left out. Without a tracer (reflection volumes: one path) the
+    /// shared paths' volumes are swept and the rest left out.
     fn sweep(
         &self,
-        lit: &[Option<LitVertex>],
+        lit: &[Vec<(u16, LitVertex)>],
+        split: Option<&Splitter>,
         bounded: bool,
         bounds: (Vec3, Vec3),
         out: &mut Vec<Volume>,
-    ) -> Vec3 {
-        let mut flux = Vec3::ZERO;
-        for &[a, b, c] in &self.tris {
-            let (Some(la), Some(lb), Some(lc)) = (lit[a], lit[b], lit[c]) else {
-                continue;
-            };
-            let v = &self.vertices;
-            let Some((ng, area)) = facing(
-                [v[a].position, v[b].position, v[c].position],
-                v[a].normal + v[b].normal + v[c].normal,
-            ) else {
-                continue;
-            };
-            flux += emit([la, lb, lc], ng, area, bounded, bounds, out);
+    ) -> (Vec3, Vec3) {
+        use rayon::prelude::*;
+        let per_tri: Vec<(Vec<Volume>, Vec3, Vec3)> = self
+            .tris
+            .par_iter()
+            .filter_map(|&[a, b, c]| {
+                let (la, lb, lc) = (&lit[a], &lit[b], &lit[c]);
+                if la.is_empty() || lb.is_empty() || lc.is_empty() {
+                    return None;
+                }
+                let v = &self.vertices;
+                let (ng, area) = facing(
+                    [v[a].position, v[b].position, v[c].position],
+                    v[a].normal + v[b].normal + v[c].normal,
+                )?;
+                let mut vols = Vec::new();
+                let (flux, lost) = match split {
+                    Some(sp) if !one_path([la, lb, lc]) => {
+                        let corner = |i: usize| Corner {
+                            position: v[i].position,
+                            normal: v[i].normal,
+                        };
+                        sp.emit(
+                            [corner(a), corner(b), corner(c)],
+                            &v[a],
+                            ng,
+                            area,
+                            bounded,
+                            bounds,
+                            &mut vols,
+                        )
+                    }
+                    _ => emit_shared([la, lb, lc], ng, area, bounded, bounds, &mut vols),
+                };
+                Some((vols, flux, lost))
+            })
+            .collect();
+        let (mut flux, mut lost) = (Vec3::ZERO, Vec3::ZERO);
+        for (vols, f, l) in per_tri {
+            out.extend(vols);
+            flux += f;
+            lost += l;
         }
-        flux
+        (flux, lost)
+    }
+}
+
+/// Whether the light of three corners leaves on one and the same path, each corner's on that
+/// one alone.
+fn one_path(corners: [&[(u16, LitVertex)]; 3]) -> bool {
+    let one = |l: &[(u16, LitVertex)]| (l.len() == 1).then(|| l[0].0);
+    let [a, b, c] = corners.map(one);
+    a.is_some() && a == b && b == c
+}
+
+/// The volumes of the paths all three corners share (appended to `out`): (flux carried, flux
+/// left out).
+fn emit_shared(
+    [la, lb, lc]: [&[(u16, LitVertex)]; 3],
+    ng: Vec3,
+    area: f32,
+    bounded: bool,
+    bounds: (Vec3, Vec3),
+    out: &mut Vec<Volume>,
+) -> (Vec3, Vec3) {
+    let entering = |l: &[(u16, LitVertex)]| {
+        l.iter()
+            .map(|(_, x)| x.2 * (-x.1.dot(ng)).max(0.0) * x.0.transmittance)
+            .sum::<Vec3>()
+    };
+    let total = (entering(la) + entering(lb) + entering(lc)) / 3.0 * area;
+    let mut carried = Vec3::ZERO;
+    for &(path, xa) in la {
+        let on = |l: &[(u16, LitVertex)]| l.iter().find(|x| x.0 == path).map(|x| x.1);
+        if let (Some(xb), Some(xc)) = (on(lb), on(lc)) {
+            carried += emit([xa, xb, xc], ng, area, bounded, bounds, out);
+        }
+    }
+    (carried, (total - carried).max(Vec3::ZERO))
+}
+
+/// How many times [`Glass::sweep`] halves a triangle whose corners leave on different paths
+/// (4² = 16 pieces at most).
+pub const SPLIT_DEPTH: u32 = 2;
+
+/// A point of a glass triangle in the object's rigid frame: position and unit shading normal.
+#[derive(Clone, Copy, Debug)]
+struct Corner {
+    position: Vec3,
+    normal: Vec3,
+}
+
+/// Traces light into a glass object exactly, for the triangles [`Glass::sweep`] splits: the
+/// object alone in its rigid frame, its smooth patches (for the path signatures), the table's
+/// most interactions, and what the frame's source and blockers need.
+struct Splitter<'a> {
+    accel: &'a Accel,
+    patches: &'a [u32],
+    max_depth: u32,
+    source: &'a Source,
+    blockers: Option<&'a Accel>,
+    m: glam::Mat4,
+    rot: glam::Quat,
+    scale: f32,
+}
+
+impl Splitter<'_> {
+    /// The light arriving at `c` (rigid frame) and where it leaves: (path, lit corner), or
+    /// `None` where no light enters or none leaves.
+    fn trace(&self, c: Corner, vertex: &Vertex) -> Option<(u16, LitVertex)> {
+        let pw = self.m.transform_point3(c.position);
+        let (w_world, e) = self.source.at(pw)?;
+        let w = self.rot.inverse() * w_world;
+        if w.dot(c.normal) >= 0.0 {
+            return None;
+        }
+        let mut rays = 0;
+        let s = crate::bake::transport::trace_sample(
+            self.accel,
+            self.patches,
+            c.position,
+            c.normal,
+            w,
+            vertex.ior,
+            self.max_depth,
+            &mut rays,
+        );
+        if s.occluded || s.trapped || s.transmittance <= 0.0 {
+            return None;
+        }
+        if let Some(b) = self.blockers {
+            let (to, dist) = self.source.towards(pw);
+            if b.occluded(pw + to * (1e-4 * self.scale), to, dist) {
+                return None;
+            }
+        }
+        let position = self.m.transform_point3(s.position);
+        let direction = (self.rot * s.direction).normalize();
+        let reach = self
+            .blockers
+            .and_then(|b| b.intersect(position, direction, f32::INFINITY).map(|h| h.t));
+        let transmittance = s.transmittance * (-vertex.absorption * s.path_length).exp();
+        let exit = Exit {
+            position,
+            direction,
+            transmittance,
+        };
+        Some((s.path, (exit, w, e, reach)))
+    }
+
+    /// The volumes of triangle `c` (unit normal `ng`, area `area`), the light traced at its
+    /// corners and the triangle split where they leave on different paths: (flux carried,
+    /// flux left out).
+    #[allow(clippy::too_many_arguments)]
+    fn emit(
+        &self,
+        c: [Corner; 3],
+        vertex: &Vertex,
+        ng: Vec3,
+        area: f32,
+        bounded: bool,
+        bounds: (Vec3, Vec3),
+        out: &mut Vec<Volume>,
+    ) -> (Vec3, Vec3) {
+        let n = 1u32 << SPLIT_DEPTH;
+        let mut split = Split {
+            tracer: self,
+            c,
+            centroid: Corner {
+                position: (c[0].position + c[1].position + c[2].position) / 3.0,
+                normal: (c[0].normal + c[1].normal + c[2].normal).normalize_or(c[0].normal),
+            },
+            vertex,
+            ng,
+            area,
+            bounded,
+            bounds,
+            traced: std::collections::HashMap::new(),
+        };
+        split.split([(n, 0), (0, n), (0, 0)], SPLIT_DEPTH, out)
+    }
+}
+
+/// One triangle being split ([`Splitter::emit`]). Its points are named by integer barycentric
+/// coordinates (i, j) over 2^[`SPLIT_DEPTH`] (the weights of its first and second corners), so
+/// that the pieces share the points they have in common and each is traced once.
+struct Split<'s, 'a> {
+    tracer: &'s Splitter<'a>,
+    c: [Corner; 3],
+    centroid: Corner,
+    vertex: &'s Vertex,
+    ng: Vec3,
+    /// The whole triangle's area.
+    area: f32,
+    bounded: bool,
+    bounds: (Vec3, Vec3),
+    traced: std::collections::HashMap<(u32, u32), Option<(u16, LitVertex)>>,
+}
+
+impl Split<'_, '_> {
+    /// The point (i, j) of the triangle.
+    fn point(&self, (i, j): (u32, u32)) -> Corner {
+        let n = (1u32 << SPLIT_DEPTH) as f32;
+        let (a, b) = (i as f32 / n, j as f32 / n);
+        let w = [a, b, 1.0 - a - b];
+        Corner {
+            position: (0..3).map(|k| self.c[k].position * w[k]).sum(),
+            normal: (0..3)
+                .map(|k| self.c[k].normal * w[k])
+                .sum::<Vec3>()
+                .normalize_or(self.c[0].normal),
+        }
+    }
+
+    /// The light at point `key`, traced once, from a point a thousandth of the way towards the
+    /// triangle's centroid: a corner on a crease or a rim (where the table's own samples
+    /// disagree) then enters and leaves through the patches the triangle's inside does, not
+    /// through whichever side of an edge the ray happens to graze.
+    fn lit(&mut self, key: (u32, u32)) -> Option<(u16, LitVertex)> {
+        if let Some(l) = self.traced.get(&key) {
+            return *l;
+        }
+        let p = self.point(key);
+        let q = Corner {
+            position: p.position.lerp(self.centroid.position, 1e-3),
+            normal: p
+                .normal
+                .lerp(self.centroid.normal, 1e-3)
+                .normalize_or(p.normal),
+        };
+        let l = self.tracer.trace(q, self.vertex);
+        self.traced.insert(key, l);
+        l
+    }
+
+    /// The piece with corners `keys`, `depth` halvings from the finest.
+    fn split(
+        &mut self,
+        keys: [(u32, u32); 3],
+        depth: u32,
+        out: &mut Vec<Volume>,
+    ) -> (Vec3, Vec3) {
+        let area = self.area / (1u32 << (2 * (SPLIT_DEPTH - depth))) as f32;
+        let lit = keys.map(|k| self.lit(k));
+        if lit.iter().all(|l| l.is_none()) {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        if let [Some(a), Some(b), Some(c)] = lit
+            && a.0 == b.0
+            && b.0 == c.0
+        {
+            let f = emit(
+                [a.1, b.1, c.1],
+                self.ng,
+                area,
+                self.bounded,
+                self.bounds,
+                out,
+            );
+            return (f, Vec3::ZERO);
+        }
+        if depth == 0 {
+            return self.finest(keys.map(|k| self.point(k)), lit, area, out);
+        }
+        let mid = |a: (u32, u32), b: (u32, u32)| ((a.0 + b.0) / 2, (a.1 + b.1) / 2);
+        let [k0, k1, k2] = keys;
+        let m = [mid(k0, k1), mid(k1, k2), mid(k2, k0)];
+        let mut total = (Vec3::ZERO, Vec3::ZERO);
+        for piece in [
+            [k0, m[0], m[2]],
+            [m[0], k1, m[1]],
+            [m[2], m[1], k2],
+            [m[0], m[1], m[2]],
+        ] {
+            let (f, l) = self.split(piece, depth - 1, out);
+            total.0 += f;
+            total.1 += l;
+        }
+        total
+    }
+
+    /// A piece of the finest level (corners `c`, area `area`) whose corners still leave on
+    /// different paths (or some not at all): each path of its lit corners gets a volume
+    /// carrying the share of the corners on it (a third each), the other corners replaced by
+    /// a point on the path, found by tracing from the point three quarters of the way to the
+    /// centroid of the path's corners. A path with no such point loses its share (the flux
+    /// left out).
+    fn finest(
+        &self,
+        c: [Corner; 3],
+        lit: [Option<(u16, LitVertex)>; 3],
+        area: f32,
+        out: &mut Vec<Volume>,
+    ) -> (Vec3, Vec3) {
+        let ng = self.ng;
+        let density = |x: &LitVertex| x.2 * (-x.1.dot(ng)).max(0.0) * x.0.transmittance;
+        let (mut carried, mut lost) = (Vec3::ZERO, Vec3::ZERO);
+        let mut done: Vec<u16> = Vec::with_capacity(3);
+        for &(path, _) in lit.iter().flatten() {
+            if done.contains(&path) {
+                continue;
+            }
+            done.push(path);
+            let on: Vec<usize> = (0..3)
+                .filter(|&i| lit[i].is_some_and(|l| l.0 == path))
+                .collect();
+            let share = on.len() as f32 / 3.0;
+            let centre = on.iter().map(|&i| c[i].position).sum::<Vec3>() / on.len() as f32;
+            let normal = on
+                .iter()
+                .map(|&i| c[i].normal)
+                .sum::<Vec3>()
+                .normalize_or(c[on[0]].normal);
+            let mut corners = [None; 3];
+            for i in 0..3 {
+                corners[i] = if on.contains(&i) {
+                    lit[i].map(|l| l.1)
+                } else {
+                    let q = Corner {
+                        position: c[i].position.lerp(centre, 0.75),
+                        normal: c[i].normal.lerp(normal, 0.75).normalize_or(normal),
+                    };
+                    self.tracer
+                        .trace(q, self.vertex)
+                        .filter(|l| l.0 == path)
+                        .map(|l| l.1)
+                };
+            }
+            let own = on
+                .iter()
+                .filter_map(|&i| lit[i].map(|l| density(&l.1)))
+                .sum::<Vec3>()
+                / 3.0
+                * area;
+            match corners {
+                [Some(a), Some(b), Some(d)] => {
+                    let mut scaled = Vec::with_capacity(1);
+                    let f = emit([a, b, d], ng, area, self.bounded, self.bounds, &mut scaled);
+                    // The volume carries its path's share; its flux follows its corners'.
+                    for mut v in scaled {
+                        v.flux_density = v.flux_density.map(|x| x * share);
+                        out.push(v);
+                    }
+                    carried += f * share;
+                }
+                _ => lost += own,
+            }
+        }
+        (carried, lost)
     }
 }
 
@@ -667,45 +1073,85 @@ pub fn build_volumes(
     };
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
     let mut volumes = Vec::new();
+    let own: std::sync::OnceLock<(Accel, Vec<u32>)> = std::sync::OnceLock::new();
     for src in sources {
-        // Per vertex: the exit (world space), the light's travel direction (rigid frame) and
-        // its irradiance.
-        let lit: Vec<Option<LitVertex>> = {
+        // Per vertex and path it leaves on: the exit (world space), the light's travel
+        // direction (rigid frame) and its irradiance.
+        let lit: Vec<Vec<(u16, LitVertex)>> = {
             use rayon::prelude::*;
             (0..vertices.len())
                 .into_par_iter()
                 .map(|i| {
                     let pw = world_pos[i];
-                    let (w_world, e) = src.at(pw)?;
+                    let Some((w_world, e)) = src.at(pw) else {
+                        return Vec::new();
+                    };
                     let w = inv_rot * w_world;
-                    let exit = lookup(table, i, &vertices[i], w)?;
+                    let exits = lookup_paths(table, i, &vertices[i], w);
+                    if exits.is_empty() {
+                        return Vec::new();
+                    }
                     if let Some(b) = blockers {
                         let (to, dist) = src.towards(pw);
                         let o = pw + to * (1e-4 * scale);
                         if b.occluded(o, to, dist) {
-                            return None;
+                            return Vec::new();
                         }
                     }
-                    let position = m.transform_point3(exit.position);
-                    let direction = (*rot * exit.direction).normalize();
-                    // Where the exit ray meets the rest of the scene (None: it leaves).
-                    let reach = blockers
-                        .and_then(|b| b.intersect(position, direction, f32::INFINITY).map(|h| h.t));
-                    Some((
-                        Exit {
-                            position,
-                            direction,
-                            transmittance: exit.transmittance,
-                        },
-                        w,
-                        e,
-                        reach,
-                    ))
+                    exits
+                        .into_iter()
+                        .map(|(path, exit)| {
+                            let position = m.transform_point3(exit.position);
+                            let direction = (*rot * exit.direction).normalize();
+                            // Where the exit ray meets the rest of the scene (None: it leaves).
+                            let reach = blockers.and_then(|b| {
+                                b.intersect(position, direction, f32::INFINITY).map(|h| h.t)
+                            });
+                            let exit = Exit {
+                                position,
+                                direction,
+                                transmittance: exit.transmittance,
+                            };
+                            (path, (exit, w, e, reach))
+                        })
+                        .collect()
                 })
                 .collect()
         };
-        stats.lit_vertices += lit.iter().filter(|l| l.is_some()).count();
-        stats.flux += glass.sweep(&lit, blockers.is_some(), (lo, hi), &mut volumes);
+        stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
+        // The object alone, to trace the triangles whose corners leave on different paths:
+        // built once, when a frame first needs it.
+        let needs_split = glass.tris.iter().any(|&[a, b, c]| {
+            let (la, lb, lc) = (&lit[a], &lit[b], &lit[c]);
+            !(la.is_empty() || lb.is_empty() || lc.is_empty() || one_path([la, lb, lc]))
+        });
+        let splitter = needs_split.then(|| {
+            let (accel, patches) = own.get_or_init(|| {
+                let local = crate::bake::csl::rigid_frame_world(world, object);
+                let accel = crate::bake::csl::bake_accel(&local);
+                let patches = crate::bake::transport::smooth_patches(&local.objects[0]);
+                (accel, patches)
+            });
+            Splitter {
+                accel,
+                patches,
+                max_depth: table.params.max_depth,
+                source: src,
+                blockers,
+                m: *m,
+                rot: *rot,
+                scale,
+            }
+        });
+        let (flux, split) = glass.sweep(
+            &lit,
+            splitter.as_ref(),
+            blockers.is_some(),
+            (lo, hi),
+            &mut volumes,
+        );
+        stats.flux += flux;
+        stats.split_flux += split;
         check_volume_count(volumes.len(), sources)?;
     }
     stats.volumes = volumes.len();
@@ -745,7 +1191,7 @@ pub fn build_reflection_volumes(
     let inv_rot = glass.rot.inverse();
     let mut volumes = Vec::new();
     for src in sources {
-        let lit: Vec<Option<LitVertex>> = {
+        let lit: Vec<Vec<(u16, LitVertex)>> = {
             use rayon::prelude::*;
             (0..glass.vertices.len())
                 .into_par_iter()
@@ -778,10 +1224,13 @@ pub fn build_reflection_volumes(
                     };
                     Some((exit, inv_rot * w, e, reach))
                 })
+                .map(|l: Option<LitVertex>| l.map_or_else(Vec::new, |x| vec![(0, x)]))
                 .collect()
         };
-        stats.lit_vertices += lit.iter().filter(|l| l.is_some()).count();
-        stats.reflected_flux += glass.sweep(&lit, blockers.is_some(), (lo, hi), &mut volumes);
+        stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
+        stats.reflected_flux += glass
+            .sweep(&lit, None, blockers.is_some(), (lo, hi), &mut volumes)
+            .0;
         check_volume_count(volumes.len(), sources)?;
     }
     stats.volumes = volumes.len();

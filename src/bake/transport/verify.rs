@@ -1,0 +1,246 @@
+//! A table's fit: how well the caustic it predicts matches photons traced through the object.
+//!
+//! For each of [`DIRECTIONS`] (directional light, the object's rigid frame), the table's
+//! illumination volumes (`render::transport::volumes`, the render's own construction, with its
+//! splitting of triangles whose corners leave on different paths) are evaluated over the cells of
+//! a plane across the light, two radii past the object's centre, each cell averaged exactly over
+//! its area; photons from a regular grid across the light are traced through the object by the
+//! bake's own rules ([`super::trace_sample`]: Fresnel, total internal reflection, absorption)
+//! and binned on the same cells. The fit error is the relative L1 of the two after a 3 × 3
+//! blur, Σ|model − photons| / Σ photons, the worst over the directions: 0 is a perfect fit, and
+//! light the volumes leave out counts. Only the transmitted light is compared: the reflected
+//! light needs no table.
+
+use super::{TransportTable, smooth_patches, table::Fit, trace_sample};
+use crate::render::transport::volumes::{Source, build_volumes};
+use crate::scene::{Material, World};
+use crate::trace::Accel;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Light directions (travel, the object's rigid frame) a bake checks its table for: straight
+/// down and two slanting ones.
+pub const DIRECTIONS: [Vec3; 3] = [
+    Vec3::new(0.0, -1.0, 0.0),
+    Vec3::new(0.6, -0.8, 0.0),
+    Vec3::new(-0.3, -0.8, 0.52),
+];
+
+/// Photon rays per side of the grid across the light.
+pub const GRID: usize = 256;
+
+/// Cells per side of the plane the caustics are compared on, which spans six radii.
+pub const CELLS: usize = 32;
+
+/// The fit of `table`, baked for object `object_name` of `world` ([`TransportTable::fit`]);
+/// `None` when the object is missing, or when no photon leaves it (nothing to compare).
+pub fn verify(world: &World, object_name: &str, table: &TransportTable) -> Option<Fit> {
+    let object = world.object(object_name)?;
+    let mut local = crate::bake::csl::rigid_frame_world(world, object);
+    let accel = crate::bake::csl::bake_accel(&local);
+    let patches = smooth_patches(&local.objects[0]);
+    let (lo, hi) = local.bounds();
+    // The volumes reach as far as the scene's bounds: a far triangle (never traced) takes
+    // them past the plane.
+    let far = 10.0 * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()).max(1e-3);
+    local.objects.push(crate::scene::Object {
+        name: format!("{}#verify", object.name),
+        parts: vec![crate::scene::Part {
+            mesh: std::sync::Arc::new(crate::scene::Mesh {
+                positions: vec![
+                    Vec3::splat(-far),
+                    Vec3::new(far, -far, far),
+                    Vec3::splat(far),
+                ],
+                normals: vec![Vec3::Y; 3],
+                indices: vec![[0, 1, 2]],
+            }),
+            material: local.objects[0].parts[0].material,
+        }],
+        transform: glam::Mat4::IDENTITY,
+    });
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo) * 0.5).length().max(1e-6);
+    let mut worst: Option<Fit> = None;
+    for dir in DIRECTIONS {
+        let light = dir.normalize();
+        let Some(fit) = verify_direction(&local, table, &accel, &patches, light, centre, radius)
+        else {
+            continue;
+        };
+        worst = Some(match worst {
+            None => fit,
+            Some(w) => Fit {
+                error: w.error.max(fit.error),
+                split_loss: w.split_loss.max(fit.split_loss),
+            },
+        });
+    }
+    worst
+}
+
+fn verify_direction(
+    local: &World,
+    table: &TransportTable,
+    accel: &Accel,
+    patches: &[u32],
+    light: Vec3,
+    centre: Vec3,
+    radius: f32,
+) -> Option<Fit> {
+    let name = &local.objects[0].name;
+    let source = Source::Directional {
+        direction: light,
+        irradiance: Vec3::ONE,
+    };
+    let (mut volumes, stats) = build_volumes(local, name, table, &[source], None).ok()?;
+    let (u, v) = light.any_orthonormal_pair();
+    let p0 = centre + light * (2.0 * radius);
+    let half = 3.0 * radius;
+    let m = CELLS;
+    let cell = 2.0 * half / m as f32;
+    let at = |i: f32, j: f32| p0 + u * (-half + i * cell) + v * (-half + j * cell);
+    // The model: every volume over the cells its cross-section covers, reaching the plane.
+    let n = -light;
+    for vol in &mut volumes {
+        vol.length = 1e3 * radius;
+    }
+    // Fixed chunks summed in order: the same figures on any number of threads (the fit is
+    // part of the table's bytes).
+    let model = sum_in_order(
+        volumes.par_chunks(64).map(|chunk| {
+            let mut acc = vec![0f64; m * m];
+            for vol in chunk {
+                let Some(q) = vol.cross_section(p0.as_dvec3(), n.as_dvec3()) else {
+                    continue;
+                };
+                let (mut a0, mut a1) = (f64::INFINITY, f64::NEG_INFINITY);
+                let (mut b0, mut b1) = (f64::INFINITY, f64::NEG_INFINITY);
+                for p in q {
+                    let r = p - p0.as_dvec3();
+                    let (a, b) = (
+                        (r.dot(u.as_dvec3()) + f64::from(half)) / f64::from(cell),
+                        (r.dot(v.as_dvec3()) + f64::from(half)) / f64::from(cell),
+                    );
+                    (a0, a1, b0, b1) = (a0.min(a), a1.max(a), b0.min(b), b1.max(b));
+                }
+                let clamp = |x: f64| x.clamp(0.0, m as f64) as usize;
+                for j in clamp(b0.floor())..clamp(b1.floor() + 1.0) {
+                    for i in clamp(a0.floor())..clamp(a1.floor() + 1.0) {
+                        let (fi, fj) = (i as f32, j as f32);
+                        let fp = [
+                            at(fi, fj),
+                            at(fi + 1.0, fj),
+                            at(fi + 1.0, fj + 1.0),
+                            at(fi, fj + 1.0),
+                        ];
+                        if let Some(a) = vol.arrival(at(fi + 0.5, fj + 0.5), n, Some(&fp)) {
+                            acc[j * m + i] += f64::from(a.irradiance.element_sum()) / 3.0;
+                        }
+                    }
+                }
+            }
+            acc
+        }),
+        m,
+    );
+    // The photons: a grid across the light over the object's bounding sphere, each carrying
+    // the flux of its spacing², traced in by the bake's rules.
+    let g = GRID;
+    let spacing = 2.0 * radius / g as f32;
+    let start = centre - light * (2.0 * radius);
+    let photons = sum_in_order(
+        (0..g).into_par_iter().map(|row| {
+            let mut acc = vec![0f64; m * m];
+            for col in 0..g {
+                let (i, j) = (col as f32 + 0.5, row as f32 + 0.5);
+                let o = start + u * (-radius + i * spacing) + v * (-radius + j * spacing);
+                let Some(hit) = accel.intersect(o, light, f32::INFINITY) else {
+                    continue;
+                };
+                let Material::Dielectric { ior, absorption } = *accel.material(&hit) else {
+                    continue;
+                };
+                if !hit.front_face {
+                    continue;
+                }
+                let mut rays = 0;
+                let s = trace_sample(
+                    accel,
+                    patches,
+                    hit.point,
+                    hit.normal,
+                    light,
+                    ior,
+                    table.params.max_depth,
+                    &mut rays,
+                );
+                if s.trapped || s.transmittance <= 0.0 {
+                    continue;
+                }
+                let c = s.direction.dot(light);
+                if c <= 1e-4 {
+                    continue;
+                }
+                let t = (p0 - s.position).dot(light) / c;
+                if t <= 0.0 {
+                    continue;
+                }
+                let q = s.position + s.direction * t - p0;
+                let (a, b) = ((q.dot(u) + half) / cell, (q.dot(v) + half) / cell);
+                if a >= 0.0 && b >= 0.0 && (a as usize) < m && (b as usize) < m {
+                    let beer = (-absorption * s.path_length).exp().element_sum() / 3.0;
+                    acc[b as usize * m + a as usize] +=
+                        f64::from(s.transmittance * beer * spacing * spacing);
+                }
+            }
+            acc
+        }),
+        m,
+    );
+    let area = f64::from(cell * cell);
+    let photons: Vec<f64> = photons.iter().map(|e| e / area).collect();
+    let (bm, bp) = (blur(&model, m), blur(&photons, m));
+    let total: f64 = bp.iter().sum();
+    if total <= 0.0 {
+        return None;
+    }
+    let error = bm.iter().zip(&bp).map(|(a, b)| (a - b).abs()).sum::<f64>() / total;
+    let entering = (stats.flux + stats.split_flux).element_sum();
+    Some(Fit {
+        error: error as f32,
+        split_loss: if entering > 0.0 {
+            stats.split_flux.element_sum() / entering
+        } else {
+            0.0
+        },
+    })
+}
+
+/// The images of `parts` added in their order (deterministic whatever the threads).
+fn sum_in_order(parts: impl IndexedParallelIterator<Item = Vec<f64>>, m: usize) -> Vec<f64> {
+    let parts: Vec<Vec<f64>> = parts.collect();
+    let mut out = vec![0f64; m * m];
+    for p in parts {
+        out.iter_mut().zip(p).for_each(|(x, y)| *x += y);
+    }
+    out
+}
+
+/// 3 × 3 box blur of an m × m image, clamped at the edges.
+fn blur(img: &[f64], m: usize) -> Vec<f64> {
+    (0..m * m)
+        .map(|k| {
+            let (i, j) = ((k % m) as i64, (k / m) as i64);
+            let mut s = 0.0;
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let x = (i + di).clamp(0, m as i64 - 1) as usize;
+                    let y = (j + dj).clamp(0, m as i64 - 1) as usize;
+                    s += img[y * m + x];
+                }
+            }
+            s / 9.0
+        })
+        .collect()
+}
