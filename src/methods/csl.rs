@@ -395,14 +395,15 @@ impl RenderPlan for Plan {
         let out = env.render(&mut timings, |r| {
             r.render_csl(world, &RenderOptions::default(), Some(&layer))
         })?;
-        // How well each static set baked now fits its object: fresh photons against the model
-        // (a few tenths of a second on the CPU: not repeated for a set from the store, whose
-        // bake job recorded it, nor on a GPU frame's every render).
+        // How well each set baked now fits its object: fresh photons against the model, for a
+        // dynamic bake the set interpolated for this light (a few tenths of a second on the
+        // CPU: not repeated for a set from the store, whose bake job recorded it, nor on a GPU
+        // frame's every render).
         let t = Instant::now();
         let fits: Vec<Option<f64>> = sets
             .iter()
             .map(|s| {
-                (!self.params.dynamic && !s.cached && s.set.stats.energy_traced > 0.0)
+                (!s.cached && (self.params.dynamic || s.set.stats.energy_traced > 0.0))
                     .then(|| {
                         crate::bake::csl::verify(
                             world,
@@ -562,6 +563,32 @@ impl Bake {
         let bytes = set.to_bytes();
         env.store
             .save(ArtifactKind::CslDynamic, set.source_hash, &bytes);
+        // The fit where interpolation does the most: the light at the centres of a few faces,
+        // between three bake directions (`bake::csl::verify` on the interpolated set).
+        let t = Instant::now();
+        (env.progress)(0.99, "verify");
+        let fits: Vec<f64> = {
+            let ico = set.icosphere();
+            let n = ico.faces.len();
+            [0, n / 3, 2 * n / 3]
+                .into_iter()
+                .filter_map(|fi| {
+                    let d = ico.faces[fi]
+                        .iter()
+                        .map(|&v| ico.vertices[v as usize])
+                        .sum::<glam::Vec3>()
+                        .normalize();
+                    crate::bake::csl::verify(
+                        &self.world,
+                        &self.object,
+                        &set.interpolate(d),
+                        &params.csl,
+                    )
+                })
+                .collect()
+        };
+        let fit = fits.iter().copied().reduce(f64::max);
+        let time_verify = t.elapsed();
         let note = format!(
             "{}: {} directions, {} CSLs ({:.1} per direction), {} edges: {} pairs matched, {} \
              black partners; {} triples ({:.2} per face, {} matched on all three edges); {} \
@@ -596,17 +623,35 @@ impl Bake {
                     "tracking_rays": s.tracking_rays,
                     "bytes": bytes.len(),
                     "source_hash": format!("{:016x}", set.source_hash),
+                    // The worst relative L1 of interpolated sets against fresh photons, at
+                    // the centres of three faces (`bake::csl::verify`).
+                    "fit_error": fit,
+                    "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
                 },
             }),
             timings: vec![
                 ("bakes".into(), s.time_bakes),
                 ("tracking".into(), s.time_tracking),
                 ("triples".into(), s.time_triples),
+                ("verify".into(), time_verify),
             ],
             bytes,
             ext: ArtifactKind::CslDynamic.ext(),
             content_type: "application/octet-stream",
-            notes: vec![note],
+            notes: std::iter::once(note)
+                .chain(fit.map(|e| {
+                    format!(
+                        "{}: sets interpolated between bake directions fit within {e:.2} \
+                         relative L1 of fresh photons{}",
+                        self.object,
+                        if e > POOR_FIT {
+                            ": poorly (render it with method photons)"
+                        } else {
+                            ""
+                        }
+                    )
+                }))
+                .collect(),
         })
     }
 }
