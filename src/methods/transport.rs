@@ -282,7 +282,9 @@ impl RenderPlan for Plan {
             let name = &world.objects[t.object].name;
             if let Some(f) = t.table.fit.filter(|f| f.error > POOR_FIT) {
                 tracing::warn!(object = %name, fit_error = f.error, "the transport table fits this object poorly");
-                frames.notes.push(fit_note(name, &f));
+                frames
+                    .notes
+                    .push(format!("warning: {}", fit_note(name, &f)));
             }
         }
         frames.notes.push(format!(
@@ -344,7 +346,7 @@ impl BakePlan for Bake {
         env.store
             .save(ArtifactKind::Transport, table.source_hash, &bytes);
         let (s, e) = (&table.stats, &table.errors);
-        let notes = vec![
+        let mut notes = vec![
             format!(
                 "{}: {} vertices × {} directions = {} samples ({} self-occluded, {} trapped), \
                  {} rays, trace {:.0} ms, total {:.0} ms",
@@ -371,7 +373,6 @@ impl BakePlan for Bake {
                 e.transmittance,
             ),
         ];
-        let mut notes = notes;
         if let Some(f) = table.fit {
             notes.push(fit_note(&self.object, &f));
         }

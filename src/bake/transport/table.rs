@@ -40,7 +40,9 @@ const T_MAX: f32 = ((1 << 14) - 1) as f32;
 pub enum TableError {
     #[error("not a light transport table (bad magic)")]
     BadMagic,
-    #[error("transport table format version {0} is not supported (expected {VERSION})")]
+    #[error(
+        "transport table format version {0} is not supported (expected {VERSION}): bake it again"
+    )]
     UnsupportedVersion(u32),
     #[error("transport table truncated: {got} bytes, expected {expected}")]
     Truncated { got: usize, expected: usize },

@@ -552,8 +552,7 @@ pub struct VolumeStats {
     /// Flux the lit triangles reflect (W, RGB), not part of `flux`.
     pub reflected_flux: Vec3,
     /// Flux entering lit triangles that no volume carries because their corners leave on
-    /// different paths ([`lookup_paths`]): the light the table cannot follow there (W, RGB),
-    /// not part of `flux`.
+    /// different paths and the splitting could not place it (W, RGB), not part of `flux`.
     pub split_flux: Vec3,
 }
 
@@ -608,9 +607,9 @@ impl Glass {
     /// of a flat bottom or an open tube), so with a `split` tracer the triangle is split: its
     /// corners and the midpoints of its edges are traced through the object exactly, and each
     /// quarter whose corners share a path sweeps a volume; a quarter whose corners do not is
-    /// split again, down to [`SPLIT_DEPTH`] levels, where the light of corners on a path the
-    /// others do not share is left out. Without a tracer (reflection volumes: one path) the
-    /// shared paths' volumes are swept and the rest left out.
+    /// split again, down to [`SPLIT_DEPTH`] levels ([`Split::finest`] places what is left
+    /// there). Without a tracer (reflection volumes: one path) the shared paths' volumes are
+    /// swept and the rest left out.
     fn sweep(
         &self,
         lit: &[Vec<(u16, LitVertex)>],
@@ -683,20 +682,19 @@ fn emit_shared(
     bounds: (Vec3, Vec3),
     out: &mut Vec<Volume>,
 ) -> (Vec3, Vec3) {
-    let entering = |l: &[(u16, LitVertex)]| {
-        l.iter()
-            .map(|(_, x)| x.2 * (-x.1.dot(ng)).max(0.0) * x.0.transmittance)
-            .sum::<Vec3>()
-    };
+    let density = |x: &LitVertex| x.2 * (-x.1.dot(ng)).max(0.0) * x.0.transmittance;
+    let entering = |l: &[(u16, LitVertex)]| l.iter().map(|(_, x)| density(x)).sum::<Vec3>();
     let total = (entering(la) + entering(lb) + entering(lc)) / 3.0 * area;
-    let mut carried = Vec3::ZERO;
+    // Light on the shared paths is placed (whether or not its volume then reaches anything).
+    let (mut carried, mut placed) = (Vec3::ZERO, Vec3::ZERO);
     for &(path, xa) in la {
         let on = |l: &[(u16, LitVertex)]| l.iter().find(|x| x.0 == path).map(|x| x.1);
         if let (Some(xb), Some(xc)) = (on(lb), on(lc)) {
             carried += emit([xa, xb, xc], ng, area, bounded, bounds, out);
+            placed += (density(&xa) + density(&xb) + density(&xc)) / 3.0 * area;
         }
     }
-    (carried, (total - carried).max(Vec3::ZERO))
+    (carried, (total - placed).max(Vec3::ZERO))
 }
 
 /// How many times [`Glass::sweep`] halves a triangle whose corners leave on different paths
@@ -854,12 +852,7 @@ impl Split<'_, '_> {
     }
 
     /// The piece with corners `keys`, `depth` halvings from the finest.
-    fn split(
-        &mut self,
-        keys: [(u32, u32); 3],
-        depth: u32,
-        out: &mut Vec<Volume>,
-    ) -> (Vec3, Vec3) {
+    fn split(&mut self, keys: [(u32, u32); 3], depth: u32, out: &mut Vec<Volume>) -> (Vec3, Vec3) {
         let area = self.area / (1u32 << (2 * (SPLIT_DEPTH - depth))) as f32;
         let lit = keys.map(|k| self.lit(k));
         if lit.iter().all(|l| l.is_none()) {
