@@ -4,6 +4,7 @@
 //! that it can be cached by content hash.
 
 pub mod csl;
+pub(crate) mod plane;
 pub mod store;
 pub mod transport;
 

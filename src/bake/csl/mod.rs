@@ -716,30 +716,17 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
         n: VERIFY_GRID,
     };
     let (rays, _) = trace::trace_grid(&accel, &grid, params, &|_| true)?;
-    let r = set.radius;
-    let p0 = set.centre + light * (2.0 * r);
-    let half = 3.0 * r;
+    let plane = crate::bake::plane::FitPlane::new(light, set.centre, set.radius, VERIFY_CELLS);
     let m = VERIFY_CELLS;
-    let cell = 2.0 * half / m as f32;
     // Photons: each grid ray carries its energy over spacing² of the light's plane.
     let flux = f64::from(grid.spacing()).powi(2);
     let mut photons = vec![0f64; m * m];
     for ray in &rays {
-        let c = ray.dir.dot(light);
-        if c <= 1e-4 {
-            continue;
-        }
-        let t = (p0 - ray.origin).dot(light) / c;
-        if t <= 0.0 {
-            continue;
-        }
-        let q = ray.origin + ray.dir * t - p0;
-        let (a, b) = ((q.dot(u) + half) / cell, (q.dot(v) + half) / cell);
-        if a >= 0.0 && b >= 0.0 && (a as usize) < m && (b as usize) < m {
-            photons[b as usize * m + a as usize] += f64::from(ray.weight()) * flux;
+        if let Some(k) = plane.cell_of(ray.origin, ray.dir) {
+            photons[k] += f64::from(ray.weight()) * flux;
         }
     }
-    let area = f64::from(cell * cell);
+    let area = plane.cell_area();
     photons.iter_mut().for_each(|e| *e /= area);
     let n = -light;
     let model: Vec<f64> = (0..m * m)
@@ -747,9 +734,7 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
             let (i, j) = (k % m, k / m);
             let mut e = 0f64;
             for (di, dj) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                let x = p0
-                    + u * (-half + (i as f32 + di) * cell)
-                    + v * (-half + (j as f32 + dj) * cell);
+                let x = plane.at(i as f32 + di, j as f32 + dj);
                 e += set
                     .csls
                     .iter()
@@ -759,27 +744,7 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
             e / 4.0
         })
         .collect();
-    let blur = |img: &[f64]| -> Vec<f64> {
-        (0..m * m)
-            .map(|k| {
-                let (i, j) = ((k % m) as i64, (k / m) as i64);
-                let mut s = 0.0;
-                for dj in -1..=1 {
-                    for di in -1..=1 {
-                        let (x, y) = (
-                            (i + di).clamp(0, m as i64 - 1),
-                            (j + dj).clamp(0, m as i64 - 1),
-                        );
-                        s += img[y as usize * m + x as usize];
-                    }
-                }
-                s / 9.0
-            })
-            .collect()
-    };
-    let (bm, bp) = (blur(&model), blur(&photons));
-    let total: f64 = bp.iter().sum();
-    (total > 0.0).then(|| bm.iter().zip(&bp).map(|(a, b)| (a - b).abs()).sum::<f64>() / total)
+    crate::bake::plane::relative_l1(&model, &photons, m)
 }
 
 #[cfg(test)]

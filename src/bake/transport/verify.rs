@@ -12,6 +12,7 @@
 //! light needs no table.
 
 use super::{TransportTable, smooth_patches, table::Fit, trace_sample};
+use crate::bake::plane::{FitPlane, relative_l1};
 use crate::render::transport::volumes::{Source, build_volumes};
 use crate::scene::{Material, World};
 use crate::trace::Accel;
@@ -94,12 +95,9 @@ fn verify_direction(
         irradiance: Vec3::ONE,
     };
     let (mut volumes, stats) = build_volumes(local, name, table, &[source], None).ok()?;
-    let (u, v) = light.any_orthonormal_pair();
-    let p0 = centre + light * (2.0 * radius);
-    let half = 3.0 * radius;
+    let plane = FitPlane::new(light, centre, radius, CELLS);
     let m = CELLS;
-    let cell = 2.0 * half / m as f32;
-    let at = |i: f32, j: f32| p0 + u * (-half + i * cell) + v * (-half + j * cell);
+    let at = |i: f32, j: f32| plane.at(i, j);
     // The model: every volume over the cells its cross-section covers, reaching the plane.
     let n = -light;
     for vol in &mut volumes {
@@ -111,20 +109,16 @@ fn verify_direction(
         volumes.par_chunks(64).map(|chunk| {
             let mut acc = vec![0f64; m * m];
             for vol in chunk {
-                let Some(q) = vol.cross_section(p0.as_dvec3(), n.as_dvec3()) else {
+                let Some(q) = vol.cross_section(plane.p0.as_dvec3(), n.as_dvec3()) else {
                     continue;
                 };
-                let (mut a0, mut a1) = (f64::INFINITY, f64::NEG_INFINITY);
-                let (mut b0, mut b1) = (f64::INFINITY, f64::NEG_INFINITY);
+                let (mut a0, mut a1) = (f32::INFINITY, f32::NEG_INFINITY);
+                let (mut b0, mut b1) = (f32::INFINITY, f32::NEG_INFINITY);
                 for p in q {
-                    let r = p - p0.as_dvec3();
-                    let (a, b) = (
-                        (r.dot(u.as_dvec3()) + f64::from(half)) / f64::from(cell),
-                        (r.dot(v.as_dvec3()) + f64::from(half)) / f64::from(cell),
-                    );
+                    let (a, b) = plane.coords(p.as_vec3());
                     (a0, a1, b0, b1) = (a0.min(a), a1.max(a), b0.min(b), b1.max(b));
                 }
-                let clamp = |x: f64| x.clamp(0.0, m as f64) as usize;
+                let clamp = |x: f32| x.clamp(0.0, m as f32) as usize;
                 for j in clamp(b0.floor())..clamp(b1.floor() + 1.0) {
                     for i in clamp(a0.floor())..clamp(a1.floor() + 1.0) {
                         let (fi, fj) = (i as f32, j as f32);
@@ -154,7 +148,8 @@ fn verify_direction(
             let mut acc = vec![0f64; m * m];
             for col in 0..g {
                 let (i, j) = (col as f32 + 0.5, row as f32 + 0.5);
-                let o = start + u * (-radius + i * spacing) + v * (-radius + j * spacing);
+                let o =
+                    start + plane.u * (-radius + i * spacing) + plane.v * (-radius + j * spacing);
                 let Some(hit) = accel.intersect(o, light, f32::INFINITY) else {
                     continue;
                 };
@@ -178,34 +173,18 @@ fn verify_direction(
                 if s.trapped || s.transmittance <= 0.0 {
                     continue;
                 }
-                let c = s.direction.dot(light);
-                if c <= 1e-4 {
-                    continue;
-                }
-                let t = (p0 - s.position).dot(light) / c;
-                if t <= 0.0 {
-                    continue;
-                }
-                let q = s.position + s.direction * t - p0;
-                let (a, b) = ((q.dot(u) + half) / cell, (q.dot(v) + half) / cell);
-                if a >= 0.0 && b >= 0.0 && (a as usize) < m && (b as usize) < m {
+                if let Some(k) = plane.cell_of(s.position, s.direction) {
                     let beer = (-absorption * s.path_length).exp().element_sum() / 3.0;
-                    acc[b as usize * m + a as usize] +=
-                        f64::from(s.transmittance * beer * spacing * spacing);
+                    acc[k] += f64::from(s.transmittance * beer * spacing * spacing);
                 }
             }
             acc
         }),
         m,
     );
-    let area = f64::from(cell * cell);
+    let area = plane.cell_area();
     let photons: Vec<f64> = photons.iter().map(|e| e / area).collect();
-    let (bm, bp) = (blur(&model, m), blur(&photons, m));
-    let total: f64 = bp.iter().sum();
-    if total <= 0.0 {
-        return None;
-    }
-    let error = bm.iter().zip(&bp).map(|(a, b)| (a - b).abs()).sum::<f64>() / total;
+    let error = relative_l1(&model, &photons, m)?;
     let entering = (stats.flux + stats.split_flux).element_sum();
     Some(Fit {
         error: error as f32,
@@ -225,22 +204,4 @@ fn sum_in_order(parts: impl IndexedParallelIterator<Item = Vec<f64>>, m: usize) 
         out.iter_mut().zip(p).for_each(|(x, y)| *x += y);
     }
     out
-}
-
-/// 3 × 3 box blur of an m × m image, clamped at the edges.
-fn blur(img: &[f64], m: usize) -> Vec<f64> {
-    (0..m * m)
-        .map(|k| {
-            let (i, j) = ((k % m) as i64, (k / m) as i64);
-            let mut s = 0.0;
-            for dj in -1..=1 {
-                for di in -1..=1 {
-                    let x = (i + di).clamp(0, m as i64 - 1) as usize;
-                    let y = (j + dj).clamp(0, m as i64 - 1) as usize;
-                    s += img[y * m + x];
-                }
-            }
-            s / 9.0
-        })
-        .collect()
 }
