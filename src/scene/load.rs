@@ -702,6 +702,7 @@ pub fn resolve(
             ),
         });
     }
+    check_extent(&camera, &lights, &objects)?;
     let media = resolve_media(&desc.media, &objects, &camera, &lights, limits)?;
     if !media.is_empty() {
         warnings.push(
@@ -720,6 +721,69 @@ pub fn resolve(
         water,
         media,
     })
+}
+
+/// How far from the origin (metres, along any axis) a scene may reach: every object's
+/// transformed bounds, the camera's eye and target and the lights' positions. Beyond it single
+/// precision cannot place a ray on a surface (at 10⁵ m a float's step is 8 mm), and extreme
+/// values (a radius of 3·10³⁸) made the tracers index out of bounds or run on forever.
+pub const WORLD_EXTENT: f32 = 1.0e5;
+
+/// Refuses a scene that reaches past [`WORLD_EXTENT`] or whose transformed geometry is not
+/// finite, naming the object, light or camera field.
+fn check_extent(camera: &Camera, lights: &[Light], objects: &[Object]) -> Result<(), SceneError> {
+    let within = |p: Vec3| p.is_finite() && p.abs().max_element() <= WORLD_EXTENT;
+    let far = |what: &str| {
+        format!(
+            "{what} reaches beyond the world's extent: every coordinate must be finite and within \
+             ±{WORLD_EXTENT} m of the origin"
+        )
+    };
+    for (field, p) in [("camera.eye", camera.eye), ("camera.target", camera.target)] {
+        if !within(p) {
+            return Err(SceneError::invalid(field, far("the camera")));
+        }
+    }
+    for (i, l) in lights.iter().enumerate() {
+        let points: Vec<Vec3> = match *l {
+            Light::Point { position, .. } | Light::Spot { position, .. } => vec![position],
+            Light::Line { start, end, .. } => vec![start, end],
+            _ => Vec::new(),
+        };
+        if !points.into_iter().all(within) {
+            return Err(SceneError::invalid(
+                format!("lights[{i}]"),
+                far("the light"),
+            ));
+        }
+    }
+    for o in objects {
+        for part in &o.parts {
+            let (lo, hi) = part.mesh.bounds();
+            if part.mesh.positions.is_empty() {
+                continue;
+            }
+            let corners = (0..8).map(|k| {
+                Vec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                )
+            });
+            let ok = lo.is_finite()
+                && hi.is_finite()
+                && corners
+                    .into_iter()
+                    .all(|c| within(o.transform.transform_point3(c)));
+            if !ok {
+                return Err(SceneError::invalid(
+                    "objects",
+                    far(&format!("object '{}'", o.name)),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Checks the scene's media and places them: a box, or the whole scene (every object, the

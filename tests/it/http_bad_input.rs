@@ -395,6 +395,41 @@ async fn limits_media_types_and_fields() {
     srv.stop().await;
 }
 
+/// Extreme finite values: a glass sphere of radius 3·10³⁸ (a `reference` render of it made the
+/// photon tracer run on for ever) and one scaled by 10³⁰ (a `csl` bake of it panicked, index
+/// out of bounds) are refused with 422 naming the world's extent, before any job is queued;
+/// a light or camera that far is refused too.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_beyond_the_worlds_extent_gets_422() {
+    let srv = Server::start("bad-extent", |_, _| {}).await;
+    let mut huge = scene_sized(16, 16);
+    huge["objects"][1]["shape"]["radius"] = 3e38.into();
+    let mut scaled = scene_sized(16, 16);
+    scaled["objects"][1]["transform"] = serde_json::json!({"scale": 1e30});
+    let mut far_light = scene_sized(16, 16);
+    far_light["lights"] =
+        serde_json::json!([{"type": "point", "position": [0, 1e6, 0], "intensity": 1}]);
+    let mut far_eye = scene_sized(16, 16);
+    far_eye["camera"]["eye"] = serde_json::json!([0, 0, 2e5]);
+    for (scene, field, what) in [
+        (&huge, "objects", "object 'glass'"),
+        (&scaled, "objects", "object 'glass'"),
+        (&far_light, "lights[0]", "the light"),
+        (&far_eye, "camera.eye", "the camera"),
+    ] {
+        let body = serde_json::json!({"scene": scene, "method": "reference", "photons": 10000, "wait": false});
+        let p = problem(srv.post_json("/v1/renders", &body).await, 422).await;
+        assert_eq!(p["field"], format!("scene.{field}"), "{p}");
+        let detail = p["detail"].as_str().unwrap();
+        assert!(detail.contains(what) && detail.contains("extent"), "{p}");
+        let body = serde_json::json!({"scene": scene, "object": "glass", "method": "csl"});
+        let p = problem(srv.post_json("/v1/bakes", &body).await, 422).await;
+        assert_eq!(p["field"], format!("scene.{field}"), "{p}");
+    }
+    healthy(&srv).await;
+    srv.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_full_queue_answers_429_with_retry_after() {
     let srv = Server::start("queue-full", |j, _| {
