@@ -729,8 +729,13 @@ pub fn resolve(
 /// values (a radius of 3·10³⁸) made the tracers index out of bounds or run on forever.
 pub const WORLD_EXTENT: f32 = 1.0e5;
 
-/// Refuses a scene that reaches past [`WORLD_EXTENT`] or whose transformed geometry is not
-/// finite, naming the object, light or camera field.
+/// The smallest an object may be, relative to its distance from the origin (and absolute,
+/// in metres, within a metre of it): about a hundred single-precision steps.
+pub const MIN_SPAN: f32 = 1.0e-5;
+
+/// Refuses a scene that reaches past [`WORLD_EXTENT`], whose transformed geometry is not
+/// finite, or with an object smaller than [`MIN_SPAN`] allows, naming the object, light or
+/// camera field.
 fn check_extent(camera: &Camera, lights: &[Light], objects: &[Object]) -> Result<(), SceneError> {
     let within = |p: Vec3| p.is_finite() && p.abs().max_element() <= WORLD_EXTENT;
     let far = |what: &str| {
@@ -770,15 +775,31 @@ fn check_extent(camera: &Camera, lights: &[Light], objects: &[Object]) -> Result
                     if k & 4 == 0 { lo.z } else { hi.z },
                 )
             });
-            let ok = lo.is_finite()
-                && hi.is_finite()
-                && corners
-                    .into_iter()
-                    .all(|c| within(o.transform.transform_point3(c)));
-            if !ok {
+            let world: Vec<Vec3> = corners.map(|c| o.transform.transform_point3(c)).collect();
+            if !(lo.is_finite() && hi.is_finite() && world.iter().all(|&c| within(c))) {
                 return Err(SceneError::invalid(
                     "objects",
                     far(&format!("object '{}'", o.name)),
+                ));
+            }
+            // Smaller than a few hundred float steps at its place, its triangles collapse
+            // onto each other (a sphere of 10⁻¹² m made the BVH builder fail).
+            let (wlo, whi) = world
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), &c| {
+                    (a.min(c), b.max(c))
+                });
+            let span = (whi - wlo).length();
+            let need = MIN_SPAN * (wlo.abs().max(whi.abs()).max_element()).max(1.0);
+            if span < need {
+                return Err(SceneError::invalid(
+                    "objects",
+                    format!(
+                        "object '{}' spans {span:.1e} m, too small to trace where it is: at \
+                         least {need:.1e} m ({MIN_SPAN:.0e} of its distance from the origin, \
+                         and 10 µm near it)",
+                        o.name
+                    ),
                 ));
             }
         }

@@ -398,7 +398,7 @@ async fn limits_media_types_and_fields() {
 /// Extreme finite values: a glass sphere of radius 3·10³⁸ (a `reference` render of it made the
 /// photon tracer run on for ever) and one scaled by 10³⁰ (a `csl` bake of it panicked, index
 /// out of bounds) are refused with 422 naming the world's extent, before any job is queued;
-/// a light or camera that far is refused too.
+/// a light or camera that far is refused too, and so is an object too small to trace.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_scene_beyond_the_worlds_extent_gets_422() {
     let srv = Server::start("bad-extent", |_, _| {}).await;
@@ -411,17 +411,40 @@ async fn a_scene_beyond_the_worlds_extent_gets_422() {
         serde_json::json!([{"type": "point", "position": [0, 1e6, 0], "intensity": 1}]);
     let mut far_eye = scene_sized(16, 16);
     far_eye["camera"]["eye"] = serde_json::json!([0, 0, 2e5]);
+    // Found by the property test (`http_props`): a sphere of 10⁻¹² m, whose triangles
+    // collapse onto one point, made the BVH builder panic.
+    let mut tiny = scene_sized(16, 16);
+    tiny["objects"][1]["shape"]["radius"] = 1e-6.into();
+    tiny["objects"][1]["transform"] =
+        serde_json::json!({"scale": 1e-6, "translation": [1.7, 0, 1.4]});
     for (scene, field, what) in [
-        (&huge, "objects", "object 'glass'"),
-        (&scaled, "objects", "object 'glass'"),
-        (&far_light, "lights[0]", "the light"),
-        (&far_eye, "camera.eye", "the camera"),
+        (
+            &huge,
+            "objects",
+            "object 'glass' reaches beyond the world's extent",
+        ),
+        (
+            &scaled,
+            "objects",
+            "object 'glass' reaches beyond the world's extent",
+        ),
+        (
+            &far_light,
+            "lights[0]",
+            "the light reaches beyond the world's extent",
+        ),
+        (
+            &far_eye,
+            "camera.eye",
+            "the camera reaches beyond the world's extent",
+        ),
+        (&tiny, "objects", "too small to trace"),
     ] {
         let body = serde_json::json!({"scene": scene, "method": "reference", "photons": 10000, "wait": false});
         let p = problem(srv.post_json("/v1/renders", &body).await, 422).await;
         assert_eq!(p["field"], format!("scene.{field}"), "{p}");
         let detail = p["detail"].as_str().unwrap();
-        assert!(detail.contains(what) && detail.contains("extent"), "{p}");
+        assert!(detail.contains(what), "{p}");
         let body = serde_json::json!({"scene": scene, "object": "glass", "method": "csl"});
         let p = problem(srv.post_json("/v1/bakes", &body).await, 422).await;
         assert_eq!(p["field"], format!("scene.{field}"), "{p}");

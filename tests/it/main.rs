@@ -19,6 +19,7 @@ mod http_bakes;
 mod http_concurrency;
 mod http_no_gpu;
 mod http_openapi;
+mod http_props;
 mod http_render;
 mod http_restart;
 mod photons;
