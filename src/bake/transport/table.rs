@@ -108,8 +108,9 @@ pub struct Fit {
     /// Relative L1 of the caustic the table predicts on a plane below the object against the
     /// photons' (3 × 3 blur), the worst of the light directions checked.
     pub error: f32,
-    /// Fraction of the light leaving the lit triangles that no volume carries because the
-    /// triangle's corners leave on different paths, the largest of the light directions.
+    /// Fraction of the light entering the lit triangles that no volume carries because the
+    /// triangle's corners leave on different paths and splitting it could not place that
+    /// light, the largest of the light directions.
     pub split_loss: f32,
 }
 
