@@ -360,7 +360,11 @@ impl JobSystem {
 
     /// Stops taking jobs and waits up to `grace` for running ones; past it, running jobs are
     /// interrupted and left queued for the next start. Queued jobs stay queued in the store.
-    pub fn shutdown(&self, grace: Duration) {
+    /// A job that does not stop within [`ABORT_WAIT`] of the interruption (a loop that never
+    /// checks) is abandoned: this returns anyway, so that the process ends, and the store
+    /// still has the job as running, which the next start re-queues. Returns how many worker
+    /// threads were abandoned.
+    pub fn shutdown(&self, grace: Duration) -> usize {
         self.queues.lock().unwrap_or_else(|e| e.into_inner()).closed = true;
         self.wake.notify_all();
         let threads: Vec<_> =
@@ -370,11 +374,39 @@ impl JobSystem {
             std::thread::sleep(Duration::from_millis(20));
         }
         self.abort.store(true, Ordering::SeqCst);
-        for t in threads {
-            let _ = t.join();
+        let deadline = Instant::now() + ABORT_WAIT;
+        while threads.iter().any(|t| !t.is_finished()) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
         }
+        let mut abandoned = 0;
+        for t in threads {
+            if t.is_finished() {
+                let _ = t.join();
+            } else {
+                abandoned += 1;
+                tracing::error!(
+                    thread = t.thread().name().unwrap_or("?"),
+                    "a job did not stop after the shutdown grace; abandoning it (it is re-queued \
+                     at the next start)"
+                );
+            }
+        }
+        abandoned
+    }
+
+    /// Adds a thread for [`Self::shutdown`] to wait for (tests: a job that never stops).
+    #[cfg(test)]
+    fn adopt(&self, t: std::thread::JoinHandle<()>) {
+        self.threads
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(t);
     }
 }
+
+/// How long [`JobSystem::shutdown`] waits for interrupted jobs to stop before it abandons
+/// them.
+pub const ABORT_WAIT: Duration = Duration::from_secs(3);
 
 /// The text of a caught panic.
 pub fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
@@ -384,5 +416,33 @@ pub fn panic_message(p: Box<dyn std::any::Any + Send>) -> String {
         s.clone()
     } else {
         "unknown panic".into()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job that never checks for cancellation cannot hold the process past the grace:
+    /// shutdown abandons its thread after [`ABORT_WAIT`] and returns.
+    #[test]
+    fn shutdown_returns_though_a_job_never_stops() {
+        let dir = std::env::temp_dir().join(format!("caustica-shutdown-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut cfg = JobConfig::new(&dir);
+        cfg.probe_gpu = false;
+        let sys = JobSystem::start(cfg).unwrap();
+        let (release, blocked) = std::sync::mpsc::channel::<()>();
+        sys.adopt(
+            std::thread::Builder::new()
+                .name("caustica-stubborn".into())
+                .spawn(move || {
+                    let _ = blocked.recv();
+                })
+                .unwrap(),
+        );
+        assert_eq!(sys.shutdown(Duration::from_millis(50)), 1);
+        release.send(()).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
