@@ -33,6 +33,7 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/v1/bakes/{id}/artifact"),
     ("POST", "/v1/renders"),
     ("GET", "/v1/renders/{id}"),
+    ("DELETE", "/v1/renders/{id}"),
     ("GET", "/v1/renders/{id}/image"),
     ("GET", "/healthz"),
     ("GET", "/readyz"),
@@ -144,7 +145,7 @@ pub fn app(state: AppState) -> Router {
         .route("/v1/bakes/{id}", get(get_bake).delete(delete_bake))
         .route("/v1/bakes/{id}/artifact", get(get_bake_artifact))
         .route("/v1/renders", axum::routing::post(post_render))
-        .route("/v1/renders/{id}", get(get_render))
+        .route("/v1/renders/{id}", get(get_render).delete(delete_render))
         .route("/v1/renders/{id}/image", get(get_render_image))
         .route("/healthz", get(healthz))
         .route("/readyz", get(readyz))

@@ -254,6 +254,52 @@ async fn a_render_past_the_wait_answers_202_and_completes() {
     srv.stop().await;
 }
 
+/// `DELETE /v1/renders/{id}` cancels a render: a running one (a billion photons) stops at its
+/// next progress check and its record says `canceled`; a render that succeeded answers 409, an
+/// unknown one 404.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_can_be_canceled() {
+    let srv = Server::start("render-cancel", |_, h| h.render_wait = Duration::ZERO).await;
+    let submit = |photons: u64| {
+        let body = serde_json::json!({"scene": scene_sized(16, 16), "method": "reference",
+                                      "photons": photons, "spp": 1});
+        let srv = &srv;
+        async move {
+            let r = srv.post_json("/v1/renders", &body).await;
+            assert_eq!(r.status(), 202);
+            r.headers()["location"].to_str().unwrap().to_string()
+        }
+    };
+    let big = submit(1_000_000_000).await;
+    let r = srv.client.delete(srv.url(&big)).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(v["state"], "canceled", "{v}");
+    let (_, v) = srv.get_json(&big).await;
+    assert_eq!(v["state"], "canceled", "{v}");
+
+    let small = submit(5000).await;
+    poll("render to finish", Duration::from_secs(120), || async {
+        let (_, v) = srv.get_json(&small).await;
+        (v["state"] == "succeeded").then_some(())
+    })
+    .await;
+    let r = srv.client.delete(srv.url(&small)).send().await.unwrap();
+    let p = problem(r, 409).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("already succeeded"),
+        "{p}"
+    );
+    let r = srv
+        .client
+        .delete(srv.url("/v1/renders/rn_00000000000000000000000000000000"))
+        .send()
+        .await
+        .unwrap();
+    problem(r, 404).await;
+    srv.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_render_past_its_job_time_limit_is_a_504_problem() {
     let srv = Server::start("render-timeout", |j, _| {

@@ -1,6 +1,6 @@
 //! `POST /v1/bakes`, `GET`/`DELETE /v1/bakes/{id}`, `GET /v1/bakes/{id}/artifact`.
 
-use super::jobs::{JobView, artifact_response, job_view, load_job, not_finished, wait_terminal};
+use super::jobs::{JobView, artifact_response, cancel_job, job_view, load_job, not_finished};
 use super::scenes::scene_ref;
 use super::{blocking, json_body};
 use crate::http::{AppError, AppState};
@@ -11,7 +11,6 @@ use axum::Json;
 use axum::extract::{Path, Request, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
-use std::time::Duration;
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -104,22 +103,7 @@ pub async fn delete_bake(
     State(st): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
-    let r = load_job(&st, &id, JobKind::Bake)?;
-    if r.state == JobState::Succeeded {
-        return Err(AppError::new(
-            StatusCode::CONFLICT,
-            "already-finished",
-            "Already finished",
-            format!("bake {id} already succeeded; there is nothing to cancel"),
-        ));
-    }
-    if let Some(h) = st.jobs.handle(&id) {
-        st.jobs.cancel(&id)?;
-        // The worker stops at its next progress check; wait for it (bounded) so the answer
-        // tells the final state.
-        wait_terminal(&st, &h, Duration::from_secs(30)).await;
-    }
-    Ok(Json(job_view(&st, &id, JobKind::Bake)?))
+    cancel_job(&st, &id, JobKind::Bake).await
 }
 
 pub async fn get_bake_artifact(

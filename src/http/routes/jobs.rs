@@ -98,6 +98,33 @@ pub(super) fn job_view(st: &AppState, id: &str, kind: JobKind) -> Result<JobView
 }
 
 /// Waits until the job ends, `wait` passes or shutdown begins. True when it ended.
+/// `DELETE` of a bake or a render: a queued job is dropped, a running one stops at its next
+/// progress check (waited for, up to 30 s, so that the answer tells the final state); 409 when
+/// it already succeeded, 404 when there is no such job.
+pub(super) async fn cancel_job(
+    st: &AppState,
+    id: &str,
+    kind: JobKind,
+) -> Result<axum::Json<JobView>, AppError> {
+    let r = load_job(st, id, kind)?;
+    if r.state == JobState::Succeeded {
+        return Err(AppError::new(
+            StatusCode::CONFLICT,
+            "already-finished",
+            "Already finished",
+            format!(
+                "{} {id} already succeeded; there is nothing to cancel",
+                kind.as_str()
+            ),
+        ));
+    }
+    if let Some(h) = st.jobs.handle(id) {
+        st.jobs.cancel(id)?;
+        wait_terminal(st, &h, Duration::from_secs(30)).await;
+    }
+    Ok(axum::Json(job_view(st, id, kind)?))
+}
+
 pub(super) async fn wait_terminal(st: &AppState, h: &Arc<JobHandle>, wait: Duration) -> bool {
     let mut rx = h.subscribe();
     let mut stop = st.shutdown.clone();

@@ -11,7 +11,7 @@ pub mod scenes;
 pub use bakes::{delete_bake, get_bake, get_bake_artifact, post_bake};
 pub use jobs::{JobView, Timing, server_timing};
 pub use ops::{healthz, method_not_allowed, metrics, not_found, openapi_json, readyz};
-pub use renders::{get_render, get_render_image, post_render};
+pub use renders::{delete_render, get_render, get_render_image, post_render};
 pub use scenes::{get_scene, post_scene};
 
 use super::{AppError, AppState};

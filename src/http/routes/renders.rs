@@ -2,7 +2,7 @@
 //! `GET /v1/renders/{id}/image`.
 
 use super::jobs::{
-    JobView, artifact_response, job_view, load_job, not_finished, server_timing, view,
+    JobView, artifact_response, cancel_job, job_view, load_job, not_finished, server_timing, view,
     wait_terminal,
 };
 use super::scenes::scene_ref;
@@ -111,6 +111,14 @@ pub async fn get_render(
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
     Ok(Json(job_view(&st, &id, JobKind::Render)?))
+}
+
+/// `DELETE /v1/renders/{id}`: cancels a render (see `cancel_job`).
+pub async fn delete_render(
+    State(st): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<JobView>, AppError> {
+    cancel_job(&st, &id, JobKind::Render).await
 }
 
 pub async fn get_render_image(
