@@ -782,7 +782,7 @@ fn check_extent(camera: &Camera, lights: &[Light], objects: &[Object]) -> Result
                     far(&format!("object '{}'", o.name)),
                 ));
             }
-            // Smaller than a few hundred float steps at its place, its triangles collapse
+            // Smaller than about a hundred float steps at its place, its triangles collapse
             // onto each other (a sphere of 10⁻¹² m made the BVH builder fail).
             let (wlo, whi) = world
                 .iter()
