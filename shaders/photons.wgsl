@@ -13,9 +13,7 @@
 #include "common.inc.wgsl"
 #include "occlusion.inc.wgsl"
 
-const KIND_DIRECTIONAL: u32 = 0u;
-const KIND_POINT: u32 = 1u;
-const KIND_SPOT: u32 = 2u;
+// A population's light kind: LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT (common.inc.wgsl) and:
 const KIND_LINE: u32 = 3u;
 const KIND_ENVIRONMENT: u32 = 4u;
 const NONE: u32 = 0xffffffffu;
@@ -247,7 +245,7 @@ fn emit(pop: Population) -> Emitted {
     let n = f32(pop.ids.z);
     let kind = pop.ids.x;
     var e: Emitted;
-    if kind == KIND_DIRECTIONAL {
+    if kind == LIGHT_DIRECTIONAL {
         var d = pop.direction.xyz;
         if pop.position.w > 0.0 {
             d = uniform_cone(d, cos(pop.position.w));
@@ -263,7 +261,7 @@ fn emit(pop: Population) -> Emitted {
         e = from_point(mix(pop.position.xyz, pop.end.xyz, rnd()), pop, n);
     } else {
         e = from_point(pop.position.xyz, pop, n);
-        if kind == KIND_SPOT {
+        if kind == LIGHT_SPOT {
             e.flux *= spot_falloff(dot(e.d, pop.direction.xyz), pop.spot.x, pop.spot.y);
         }
     }

@@ -7,7 +7,9 @@ radius, some of them folds that make the surface concave in places), with smooth
 averaged from the faces. The lowest point rests on y = 0 (a flat contact is not made: the blob
 touches the floor at one point). One material: KHR_materials_transmission 1 with
 KHR_materials_ior 1.5 (clear glass for Caustica)."""
-import json, math, os, struct
+import math
+
+from glb import Glb
 
 # Icosahedron.
 t = (1 + 5 ** 0.5) / 2
@@ -56,27 +58,11 @@ for a, b, c in faces:
             nrm[v][i] += n[i]
 nrm = [tuple(x / math.sqrt(sum(y * y for y in n)) for x in n) for n in nrm]
 
-bin_ = bytearray()
-views, accessors = [], []
-
-
-def add(data, fmt, target, comp, typ, count, minmax=None):
-    while len(bin_) % 4:
-        bin_.append(0)
-    off = len(bin_)
-    bin_.extend(struct.pack('<' + fmt * len(data), *data))
-    views.append({'buffer': 0, 'byteOffset': off, 'byteLength': len(bin_) - off, 'target': target})
-    acc = {'bufferView': len(views) - 1, 'componentType': comp, 'count': count, 'type': typ}
-    if minmax:
-        acc['min'], acc['max'] = minmax
-    accessors.append(acc)
-    return len(accessors) - 1
-
-
+glb = Glb()
 mm = ([min(p[k] for p in pos) for k in range(3)], [max(p[k] for p in pos) for k in range(3)])
-pa = add([c for p in pos for c in p], 'f', 34962, 5126, 'VEC3', len(pos), mm)
-na = add([c for n in nrm for c in n], 'f', 34962, 5126, 'VEC3', len(nrm))
-ia = add([i for f in faces for i in f], 'I', 34963, 5125, 'SCALAR', 3 * len(faces))
+pa = glb.add([c for p in pos for c in p], 'f', 34962, 5126, 'VEC3', len(pos), mm)
+na = glb.add([c for n in nrm for c in n], 'f', 34962, 5126, 'VEC3', len(nrm))
+ia = glb.add([i for f in faces for i in f], 'I', 34963, 5125, 'SCALAR', 3 * len(faces))
 doc = {
     'asset': {'version': '2.0', 'generator': 'make_blob.py (Caustica)'},
     'extensionsUsed': ['KHR_materials_transmission', 'KHR_materials_ior'],
@@ -90,16 +76,6 @@ doc = {
                                             'roughnessFactor': 0.0},
                    'extensions': {'KHR_materials_transmission': {'transmissionFactor': 1.0},
                                   'KHR_materials_ior': {'ior': 1.5}}}],
-    'buffers': [{'byteLength': len(bin_)}],
-    'bufferViews': views,
-    'accessors': accessors,
 }
-js = json.dumps(doc, separators=(',', ':')).encode()
-js += b' ' * (-len(js) % 4)
-while len(bin_) % 4:
-    bin_.append(0)
-out = bytearray(b'glTF' + struct.pack('<II', 2, 12 + 8 + len(js) + 8 + len(bin_)))
-out += struct.pack('<I', len(js)) + b'JSON' + js
-out += struct.pack('<I', len(bin_)) + b'BIN\x00' + bin_
-open(os.path.join(os.path.dirname(os.path.abspath(__file__)), 'blob.glb'), 'wb').write(out)
-print(f'blob.glb: {len(out)} bytes, {len(pos)} vertices, {len(faces)} triangles')
+size = glb.write(doc, 'blob.glb')
+print(f'blob.glb: {size} bytes, {len(pos)} vertices, {len(faces)} triangles')

@@ -5,7 +5,9 @@ Units: metres, +Y up, the cup standing on y = 0. Inner radius 0.4, outer 0.43, h
 the inner bottom at y = 0.03. Two materials: "chrome" (metallic 1, roughness 0: a mirror for
 Caustica) on the inner wall, "ceramic" (metallic 0, roughness 1: diffuse) elsewhere. The inner
 wall's normals point towards the axis (the reflecting side)."""
-import json, math, os, struct
+import math
+
+from glb import Glb
 
 SEG = 192
 R_IN, R_OUT, H, FLOOR = 0.4, 0.43, 0.36, 0.03
@@ -76,28 +78,13 @@ ceramic = merge(
     disc(R_OUT, 0.0, up=False),
 )
 
-bin_, views, accessors, prims = bytearray(), [], [], []
-
-
-def add(data, fmt, target, comp, typ, count, minmax=None):
-    while len(bin_) % 4:
-        bin_.append(0)
-    off = len(bin_)
-    bin_.extend(struct.pack('<' + fmt * (len(data)), *data))
-    views.append({'buffer': 0, 'byteOffset': off, 'byteLength': len(bin_) - off, 'target': target})
-    acc = {'bufferView': len(views) - 1, 'componentType': comp, 'count': count, 'type': typ}
-    if minmax:
-        acc['min'], acc['max'] = minmax
-    accessors.append(acc)
-    return len(accessors) - 1
-
-
+glb, prims = Glb(), []
 for mat, (pos, nrm, idx) in enumerate([chrome, ceramic]):
     flat = [c for p in pos for c in p]
     mm = ([min(p[k] for p in pos) for k in range(3)], [max(p[k] for p in pos) for k in range(3)])
-    pa = add(flat, 'f', 34962, 5126, 'VEC3', len(pos), mm)
-    na = add([c for n in nrm for c in n], 'f', 34962, 5126, 'VEC3', len(nrm))
-    ia = add(idx, 'I', 34963, 5125, 'SCALAR', len(idx))
+    pa = glb.add(flat, 'f', 34962, 5126, 'VEC3', len(pos), mm)
+    na = glb.add([c for n in nrm for c in n], 'f', 34962, 5126, 'VEC3', len(nrm))
+    ia = glb.add(idx, 'I', 34963, 5125, 'SCALAR', len(idx))
     prims.append({'attributes': {'POSITION': pa, 'NORMAL': na}, 'indices': ia, 'material': mat})
 
 doc = {
@@ -112,16 +99,6 @@ doc = {
         {'name': 'ceramic', 'pbrMetallicRoughness': {'baseColorFactor': [0.8, 0.8, 0.8, 1],
                                                      'metallicFactor': 0.0, 'roughnessFactor': 1.0}},
     ],
-    'buffers': [{'byteLength': len(bin_)}],
-    'bufferViews': views,
-    'accessors': accessors,
 }
-js = json.dumps(doc, separators=(',', ':')).encode()
-js += b' ' * (-len(js) % 4)
-while len(bin_) % 4:
-    bin_.append(0)
-out = bytearray(b'glTF' + struct.pack('<II', 2, 12 + 8 + len(js) + 8 + len(bin_)))
-out += struct.pack('<I', len(js)) + b'JSON' + js
-out += struct.pack('<I', len(bin_)) + b'BIN\x00' + bin_
-open(os.path.join(os.path.dirname(os.path.abspath(__file__)), 'cup.glb'), 'wb').write(out)
-print(f'cup.glb: {len(out)} bytes')
+size = glb.write(doc, 'cup.glb')
+print(f'cup.glb: {size} bytes')

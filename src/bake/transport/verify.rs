@@ -94,15 +94,13 @@ fn verify_direction(
         direction: light,
         irradiance: Vec3::ONE,
     };
-    let (mut volumes, stats) = build_volumes(local, name, table, &[source], None).ok()?;
+    let (volumes, stats) = build_volumes(local, name, table, &[source], None).ok()?;
     let plane = FitPlane::new(light, centre, radius, CELLS);
     let m = CELLS;
     let at = |i: f32, j: f32| plane.at(i, j);
-    // The model: every volume over the cells its cross-section covers, reaching the plane.
+    // The model: every volume over the cells its cross-section covers (the far triangle of
+    // `verify` takes them past the plane).
     let n = -light;
-    for vol in &mut volumes {
-        vol.length = 1e3 * radius;
-    }
     // Fixed chunks summed in order: the same figures on any number of threads (the fit is
     // part of the table's bytes).
     let model = sum_in_order(

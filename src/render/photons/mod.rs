@@ -26,6 +26,7 @@ pub mod gpu;
 
 use crate::reference::{object_sphere, power_towards};
 use crate::render::blockers::Blockers;
+use crate::render::lights::{KIND_DIRECTIONAL, KIND_POINT, KIND_SPOT};
 use crate::scene::{EnvMap, EnvSampler, Light, Material, World};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -117,9 +118,8 @@ pub struct GpuEnvDir {
     pub weight: [f32; 4],
 }
 
-const KIND_DIRECTIONAL: u32 = 0;
-const KIND_POINT: u32 = 1;
-const KIND_SPOT: u32 = 2;
+// A population's light kind: the direct pass's three (`render::lights`, LIGHT_* in
+// common.inc.wgsl) and two more.
 const KIND_LINE: u32 = 3;
 const KIND_ENVIRONMENT: u32 = 4;
 
