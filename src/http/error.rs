@@ -110,6 +110,19 @@ impl AppError {
         )
     }
 
+    /// The body did not arrive within the time allowed.
+    pub fn body_timeout(limit: std::time::Duration) -> Self {
+        AppError::new(
+            StatusCode::REQUEST_TIMEOUT,
+            "request-timeout",
+            "Request body too slow",
+            format!(
+                "the request body did not arrive within {} s",
+                limit.as_secs_f64()
+            ),
+        )
+    }
+
     pub fn internal(detail: impl Into<String>) -> Self {
         AppError::new(
             StatusCode::INTERNAL_SERVER_ERROR,
@@ -156,7 +169,10 @@ impl IntoResponse for AppError {
             r.headers_mut()
                 .insert(header::RETRY_AFTER, HeaderValue::from(s));
         }
-        if self.status == StatusCode::PAYLOAD_TOO_LARGE {
+        if matches!(
+            self.status,
+            StatusCode::PAYLOAD_TOO_LARGE | StatusCode::REQUEST_TIMEOUT
+        ) {
             // The rest of the body is never read: the connection cannot carry another request,
             // so say so and let the client open a fresh one instead of reusing a broken pipe.
             r.headers_mut()
@@ -252,11 +268,14 @@ impl AppError {
 impl From<SubmitError> for AppError {
     fn from(e: SubmitError) -> Self {
         match e {
-            SubmitError::QueueFull(n) => AppError::new(
+            SubmitError::QueueFull(kind, n) => AppError::new(
                 StatusCode::TOO_MANY_REQUESTS,
                 "queue-full",
                 "Queue full",
-                format!("the job queue is full ({n} jobs waiting, the limit); retry later"),
+                format!(
+                    "the {} queue is full ({n} waiting, the limit); retry later",
+                    kind.as_str()
+                ),
             )
             .retry_after(5),
             SubmitError::ShuttingDown => AppError::new(

@@ -7,6 +7,7 @@
 
 pub mod error;
 pub mod routes;
+pub mod server;
 
 pub use error::AppError;
 
@@ -46,6 +47,16 @@ pub const ROUTES: &[(&str, &str)] = &[
 pub struct HttpConfig {
     /// Largest request body, bytes.
     pub max_body: usize,
+    /// Largest JSON body (a render, a bake, a scene), bytes: a JSON document is parsed into a
+    /// tree, so it gets less room than a GLB.
+    pub max_json_body: usize,
+    /// Longest a request body may take to arrive (408 past it).
+    pub body_timeout: Duration,
+    /// Longest a client may take to send a request head, and longest an idle keep-alive
+    /// connection is kept.
+    pub header_timeout: Duration,
+    /// Most connections served at once; past it they are shed ([`server`]).
+    pub max_connections: usize,
     /// How long `POST /v1/renders` waits for the image before answering 202 with the job.
     pub render_wait: Duration,
     /// How long running jobs get to finish at shutdown before they are put back in the queue.
@@ -56,6 +67,10 @@ impl Default for HttpConfig {
     fn default() -> Self {
         HttpConfig {
             max_body: 64 << 20,
+            max_json_body: 8 << 20,
+            body_timeout: Duration::from_secs(60),
+            header_timeout: Duration::from_secs(10),
+            max_connections: 1024,
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),
         }
@@ -63,12 +78,26 @@ impl Default for HttpConfig {
 }
 
 impl HttpConfig {
-    /// Overrides from the environment: `CAUSTICA_MAX_BODY` (bytes), `CAUSTICA_RENDER_WAIT_S`,
-    /// `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range value is an error naming it.
+    /// Overrides from the environment: `CAUSTICA_MAX_BODY`, `CAUSTICA_MAX_JSON_BODY` (bytes),
+    /// `CAUSTICA_BODY_TIMEOUT_S`, `CAUSTICA_HEADER_TIMEOUT_S`, `CAUSTICA_MAX_CONNECTIONS`,
+    /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range
+    /// value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
         use crate::jobs::env_num;
         if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY", 1024.0, 4e9, true)? {
             self.max_body = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_JSON_BODY", 1024.0, 4e9, true)? {
+            self.max_json_body = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_BODY_TIMEOUT_S", 0.1, 86400.0, false)? {
+            self.body_timeout = Duration::from_secs_f64(v);
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_HEADER_TIMEOUT_S", 0.1, 3600.0, false)? {
+            self.header_timeout = Duration::from_secs_f64(v);
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_CONNECTIONS", 1.0, 1e6, true)? {
+            self.max_connections = v as usize;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);
@@ -88,6 +117,8 @@ pub struct AppState {
     /// Flips to true when shutdown begins: waiting handlers answer at once.
     pub shutdown: tokio::sync::watch::Receiver<bool>,
     shutdown_tx: Arc<tokio::sync::watch::Sender<bool>>,
+    /// Connections open, accepted, shed.
+    pub conns: Arc<server::ConnStats>,
 }
 
 impl AppState {
@@ -98,6 +129,7 @@ impl AppState {
             cfg: Arc::new(cfg),
             shutdown: rx,
             shutdown_tx: Arc::new(tx),
+            conns: Arc::default(),
         }
     }
 
@@ -153,6 +185,7 @@ pub fn app(state: AppState) -> Router {
         .route("/openapi.json", get(openapi_json))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn(server::limit_head))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             count_requests,
@@ -169,9 +202,9 @@ pub fn app(state: AppState) -> Router {
         .with_state(state)
 }
 
-/// Serves `state` on `listener` until `shutdown` resolves; then stops accepting, lets
-/// requests in flight finish, and gives running jobs `shutdown_grace` before putting them
-/// back in the queue.
+/// Serves `state` on `listener` ([`server::run`]: timeouts, connection cap) until `shutdown`
+/// resolves; then stops accepting, lets requests in flight finish, and gives running jobs
+/// `shutdown_grace` before putting them back in the queue.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     state: AppState,
@@ -185,9 +218,8 @@ pub async fn serve(
         tracing::info!("shutting down: no new connections, waiting for requests in flight");
         tx.send_replace(true);
     };
-    axum::serve(listener, app(state))
-        .with_graceful_shutdown(signal)
-        .await?;
+    let (cfg, conns) = (state.cfg.clone(), state.conns.clone());
+    server::run(listener, app(state), cfg, conns, signal).await;
     tracing::info!(grace_s = grace.as_secs_f64(), "waiting for running jobs");
     tokio::task::spawn_blocking(move || jobs.shutdown(grace))
         .await

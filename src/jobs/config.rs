@@ -10,8 +10,13 @@ pub struct JobConfig {
     /// Threads taking CPU jobs (each job may use rayon's pool inside). With more than one,
     /// the first is kept for renders.
     pub cpu_workers: usize,
-    /// Most jobs waiting in the queues together; past it submissions are refused.
+    /// Most renders waiting; past it render submissions are refused (429).
     pub max_queued: usize,
+    /// Most bakes waiting; past it bake submissions are refused (429). Counted apart from
+    /// renders, so a flood of bakes leaves renders room.
+    pub max_queued_bakes: usize,
+    /// What one render may ask for on this server.
+    pub caps: RequestCaps,
     pub bake_timeout: Duration,
     pub render_timeout: Duration,
     /// Scene limits applied to uploads and renders.
@@ -28,6 +33,8 @@ impl JobConfig {
                 .map(|n| n.get())
                 .unwrap_or(2),
             max_queued: 256,
+            max_queued_bakes: 64,
+            caps: RequestCaps::default(),
             bake_timeout: Duration::from_secs(3600),
             render_timeout: Duration::from_secs(300),
             // Image side capped below the library's 8192: a reference frame holds several
@@ -44,6 +51,7 @@ impl JobConfig {
 impl JobConfig {
     /// Overrides from the environment (`get` looks a variable up; `caustica serve` passes
     /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
+    /// `CAUSTICA_MAX_QUEUED_BAKES`, `CAUSTICA_MAX_PHOTONS`, `CAUSTICA_MAX_SPP`,
     /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
     /// `CAUSTICA_MAX_TRIANGLES`. An unparsable or out-of-range value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
@@ -52,6 +60,15 @@ impl JobConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_QUEUED", 1.0, 1e6, true)? {
             self.max_queued = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_QUEUED_BAKES", 1.0, 1e6, true)? {
+            self.max_queued_bakes = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_PHOTONS", 1.0, 1e9, true)? {
+            self.caps.max_photons = v as u64;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_SPP", 1.0, 1024.0, true)? {
+            self.caps.max_spp = v as u32;
         }
         if let Some(v) = env_num(get, "CAUSTICA_BAKE_TIMEOUT_S", 1e-3, 1e7, false)? {
             self.bake_timeout = Duration::from_secs_f64(v);
@@ -66,6 +83,44 @@ impl JobConfig {
             self.limits.max_triangles = v as usize;
         }
         Ok(())
+    }
+}
+
+/// What one render may ask for on this server, below what the methods themselves accept
+/// (`reference`: 1e9 photons, 1024 samples a pixel), so that one request cannot hold a worker
+/// for long; its time is bounded by [`JobConfig::render_timeout`] besides.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RequestCaps {
+    /// Most `photons` a render may trace.
+    pub max_photons: u64,
+    /// Most camera samples a pixel (`spp`).
+    pub max_spp: u32,
+}
+
+impl Default for RequestCaps {
+    fn default() -> Self {
+        RequestCaps {
+            max_photons: 100_000_000,
+            max_spp: 256,
+        }
+    }
+}
+
+impl RequestCaps {
+    /// Checks a render's parameters (the request's fields besides the scene and method).
+    pub fn check(&self, params: &serde_json::Value) -> Result<(), crate::methods::ParamError> {
+        use crate::methods::ParamError;
+        let over = |field: &str, max: u64, var: &str| -> Result<(), ParamError> {
+            match params.get(field).and_then(|v| v.as_f64()) {
+                Some(n) if n > max as f64 => Err(ParamError::new(
+                    field,
+                    format!("at most {max} on this server ({var})"),
+                )),
+                _ => Ok(()),
+            }
+        };
+        over("photons", self.max_photons, "CAUSTICA_MAX_PHOTONS")?;
+        over("spp", self.max_spp as u64, "CAUSTICA_MAX_SPP")
     }
 }
 

@@ -90,11 +90,14 @@ impl std::fmt::Display for JobState {
     }
 }
 
-/// Lower runs first: interactive renders before bakes.
+/// Lower runs first: small renders, then other renders, then bakes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Priority {
-    Render = 0,
-    Bake = 1,
+    /// A render small enough to be interactive ([`Job::small`]): besides the other workers,
+    /// a worker of its own takes only these, so they flow while big renders and bakes run.
+    Small = 0,
+    Render = 1,
+    Bake = 2,
 }
 
 /// What a job produces: bytes to store and serve, plus timings and facts for the record.
@@ -198,9 +201,15 @@ pub trait Job: Send + Sync {
     /// The method that runs (for an `auto` render, the one it chose).
     fn method(&self) -> Method;
     fn lane(&self) -> Lane;
+    /// Whether this is a small render (a preview, a cached bake's frame): see
+    /// [`Priority::Small`].
+    fn small(&self) -> bool {
+        false
+    }
     fn priority(&self) -> Priority {
         match self.kind() {
             JobKind::Bake => Priority::Bake,
+            JobKind::Render if self.small() => Priority::Small,
             JobKind::Render => Priority::Render,
         }
     }

@@ -23,7 +23,7 @@ pub mod store;
 pub mod worker;
 
 pub use crate::methods::Lane;
-pub use config::{JobConfig, env_num};
+pub use config::{JobConfig, RequestCaps, env_num};
 pub use job::{
     Artifact, ErrorCode, Job, JobError, JobKind, JobSpec, JobState, Priority, build_job,
 };
@@ -101,8 +101,8 @@ pub enum Readiness {
 
 #[derive(Debug, thiserror::Error)]
 pub enum SubmitError {
-    #[error("the queue is full ({0} jobs waiting)")]
-    QueueFull(usize),
+    #[error("the {kind} queue is full ({1} waiting)", kind = .0.as_str())]
+    QueueFull(JobKind, usize),
     #[error("the server is shutting down")]
     ShuttingDown,
     #[error(transparent)]
@@ -186,17 +186,27 @@ impl JobSystem {
         }
         let mut threads = Vec::new();
         let n = sys.cfg.cpu_workers.max(1);
-        for i in 0..n {
+        // With more than one CPU worker, the first takes only renders, so that a render never
+        // waits behind long bakes; one more takes only small renders, so that a preview never
+        // waits behind big renders either (it shares the cores for its short run).
+        let roles = (0..n)
+            .map(|i| {
+                let up_to = if n > 1 && i == 0 {
+                    Priority::Render
+                } else {
+                    Priority::Bake
+                };
+                (format!("caustica-cpu-{i}"), up_to)
+            })
+            .chain([("caustica-cpu-small".to_string(), Priority::Small)]);
+        for (name, up_to) in roles {
             let s = sys.clone();
-            // With more than one CPU worker, the first takes only renders, so that an
-            // interactive reference render never waits behind long bakes.
-            let renders_only = n > 1 && i == 0;
             threads.push(
                 std::thread::Builder::new()
-                    .name(format!("caustica-cpu-{i}"))
+                    .name(name)
                     .spawn(move || {
                         let gpu = s.gpu.clone();
-                        s.worker(Lane::Cpu, Some(&gpu), renders_only)
+                        s.worker(Lane::Cpu, Some(&gpu), up_to)
                     })
                     .expect("spawn worker"),
             );
@@ -210,7 +220,7 @@ impl JobSystem {
                     if s.cfg.probe_gpu {
                         s.probe(&slot);
                     }
-                    s.worker(Lane::Gpu, Some(&slot), false);
+                    s.worker(Lane::Gpu, Some(&slot), Priority::Bake);
                 })
                 .expect("spawn GPU worker"),
         );
@@ -271,12 +281,19 @@ impl JobSystem {
         }
         {
             let q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
-            if q.len() >= self.cfg.max_queued {
-                return Err(SubmitError::QueueFull(q.len()));
+            let (n, cap) = match spec.kind {
+                JobKind::Render => (q.count(JobKind::Render), self.cfg.max_queued),
+                JobKind::Bake => (q.count(JobKind::Bake), self.cfg.max_queued_bakes),
+            };
+            if n >= cap {
+                return Err(SubmitError::QueueFull(spec.kind, n));
             }
         }
         let world = self.scenes.world(&spec.scene_id)?;
         let job = build_job(spec, world, &self.cfg.limits)?;
+        if spec.kind == JobKind::Render {
+            self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
+        }
         if existing.is_some() {
             self.store.requeue(id)?;
         } else {
@@ -343,15 +360,15 @@ impl JobSystem {
         h.state.send_replace(state);
     }
 
-    /// The next job of `lane` (highest priority, then oldest); with `renders_only`, only a
-    /// render. Waits for one; None once the queues are closed.
-    fn next(&self, lane: Lane, renders_only: bool) -> Option<Queued> {
+    /// The next job of `lane` (highest priority, then oldest) of priority at most `up_to`.
+    /// Waits for one; None once the queues are closed.
+    fn next(&self, lane: Lane, up_to: Priority) -> Option<Queued> {
         let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
         loop {
             if qs.closed {
                 return None;
             }
-            if let Some(q) = qs.pop(lane, renders_only) {
+            if let Some(q) = qs.pop(lane, up_to) {
                 return Some(q);
             }
             qs = self.wake.wait(qs).unwrap_or_else(|e| e.into_inner());

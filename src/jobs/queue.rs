@@ -1,8 +1,10 @@
-//! The bounded priority queues, one per [`Lane`]: renders before bakes, then oldest first.
+//! The bounded priority queues, one per [`Lane`]: small renders, then other renders, then
+//! bakes; oldest first within each. Renders and bakes are bounded separately, so a flood of
+//! bakes never makes renders wait for room.
 //! The [`super::JobSystem`] holds them behind a mutex and wakes workers with a condvar.
 
 use super::JobHandle;
-use super::job::{Job, Priority};
+use super::job::{Job, JobKind, Priority};
 use crate::methods::Lane;
 use std::collections::BinaryHeap;
 use std::sync::Arc;
@@ -47,6 +49,16 @@ impl Queues {
         self.cpu.len() + self.gpu.len()
     }
 
+    /// Jobs of `kind` waiting, in both lanes.
+    pub fn count(&self, kind: JobKind) -> usize {
+        let bake = |q: &&Queued| q.priority == Priority::Bake;
+        let bakes = self.cpu.iter().filter(bake).count() + self.gpu.iter().filter(bake).count();
+        match kind {
+            JobKind::Bake => bakes,
+            JobKind::Render => self.len() - bakes,
+        }
+    }
+
     /// Jobs waiting, per lane (cpu, gpu).
     pub fn depth(&self) -> (usize, usize) {
         (self.cpu.len(), self.gpu.len())
@@ -63,13 +75,11 @@ impl Queues {
         self.lane(q.job.lane()).push(q);
     }
 
-    /// The next job of `lane` (highest priority, then oldest); with `renders_only`, only a
-    /// render.
-    pub fn pop(&mut self, lane: Lane, renders_only: bool) -> Option<Queued> {
+    /// The next job of `lane` (highest priority, then oldest) whose priority is at most
+    /// `up_to` (`Priority::Bake`: any job).
+    pub fn pop(&mut self, lane: Lane, up_to: Priority) -> Option<Queued> {
         let heap = self.lane(lane);
-        let take = heap
-            .peek()
-            .is_some_and(|q| !renders_only || q.priority == Priority::Render);
+        let take = heap.peek().is_some_and(|q| q.priority <= up_to);
         if take { heap.pop() } else { None }
     }
 

@@ -241,6 +241,12 @@ pub fn apply_overrides(
     Ok(())
 }
 
+/// Most pixels (over all frames) of a small render ([`Job::small`]), and most camera samples of
+/// a small `reference` render.
+pub const SMALL_PIXELS: u64 = 1 << 20;
+/// Most photons of a small `reference` render.
+pub const SMALL_PHOTONS: u64 = 4_000_000;
+
 pub struct RenderJob {
     world: World,
     /// The method asked for (`auto` stays `auto` here; the plan knows the chosen one).
@@ -304,6 +310,27 @@ impl Job for RenderJob {
 
     fn lane(&self) -> Lane {
         self.plan.method().info().lane
+    }
+
+    /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most
+    /// [`SMALL_PHOTONS`] photons and [`SMALL_PIXELS`] camera samples; a GPU method's frame. The
+    /// baked methods are not small: their frame may have to bake first.
+    fn small(&self) -> bool {
+        let c = &self.world.camera;
+        let frames = self.times.as_ref().map_or(1, |t| t.len() as u64);
+        let pixels = c.width as u64 * c.height as u64 * frames;
+        if pixels > SMALL_PIXELS {
+            return false;
+        }
+        match self.plan.method() {
+            Method::Reference => {
+                let d = crate::reference::ReferenceParams::default();
+                let photons = self.p.photons.unwrap_or(d.photons);
+                let spp = self.p.spp.unwrap_or(d.spp) as u64;
+                photons <= SMALL_PHOTONS && pixels * spp <= SMALL_PIXELS
+            }
+            m => m.info().lane == Lane::Gpu,
+        }
     }
 
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {

@@ -2,7 +2,7 @@
 //! sees ([`JobCtx`]: progress, cancellation, its deadline, the GPU, the artifact store), and
 //! how a job's end is recorded.
 
-use super::job::{Artifact, ErrorCode, JobError, JobKind, JobState};
+use super::job::{Artifact, ErrorCode, JobError, JobKind, JobState, Priority};
 use super::queue::Queued;
 use super::{JobHandle, JobSystem, Readiness, panic_message, scenes};
 use crate::methods::{Env, Gpu, Lane, MethodError};
@@ -131,10 +131,24 @@ impl Gpu for JobCtx<'_> {
 }
 
 impl JobSystem {
-    /// Takes jobs of `lane` until the queues close.
-    pub(super) fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, renders_only: bool) {
-        while let Some(q) = self.next(lane, renders_only) {
-            self.run_one(q, gpu);
+    /// Takes jobs of `lane` of priority at most `up_to` until the queues close.
+    /// The small-render worker runs its jobs in a thread pool of its own, so that their
+    /// parallel loops do not queue behind a big job's in the global one.
+    pub(super) fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, up_to: Priority) {
+        let own_pool = (up_to == Priority::Small)
+            .then(|| {
+                rayon::ThreadPoolBuilder::new()
+                    .thread_name(|i| format!("caustica-small-{i}"))
+                    .build()
+                    .map_err(|e| tracing::warn!(error = %e, "no pool for small renders"))
+                    .ok()
+            })
+            .flatten();
+        while let Some(q) = self.next(lane, up_to) {
+            match &own_pool {
+                Some(pool) => pool.install(|| self.run_one(q, gpu)),
+                None => self.run_one(q, gpu),
+            }
         }
     }
 

@@ -132,6 +132,15 @@ impl AssetSource for MapSource {
 
 /// Parse scene JSON; errors carry the JSON path of the field at fault.
 pub fn parse_scene(json: &[u8]) -> Result<SceneDesc, SceneError> {
+    // Refuse a hostile shape before building anything from it.
+    super::shape::check_shape(json, &Default::default()).map_err(|e| SceneError::Parse {
+        path: if e.path == "." {
+            "scene".into()
+        } else {
+            e.path
+        },
+        message: e.message,
+    })?;
     let de = &mut serde_json::Deserializer::from_slice(json);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();

@@ -7,6 +7,7 @@ pub mod gltf;
 pub mod image;
 pub mod load;
 pub mod medium;
+pub mod shape;
 pub mod shapes;
 pub mod types;
 pub mod water;

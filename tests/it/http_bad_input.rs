@@ -456,7 +456,7 @@ async fn a_scene_beyond_the_worlds_extent_gets_422() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_full_queue_answers_429_with_retry_after() {
     let srv = Server::start("queue-full", |j, _| {
-        j.max_queued = 1;
+        j.max_queued_bakes = 1;
         j.cpu_workers = 1;
     })
     .await;

@@ -17,6 +17,8 @@ mod gpu_vs_reference;
 mod http_bad_input;
 mod http_bakes;
 mod http_concurrency;
+mod http_fairness;
+mod http_limits;
 mod http_no_gpu;
 mod http_openapi;
 mod http_props;

@@ -15,9 +15,10 @@ pub use renders::{delete_render, get_render, get_render_image, post_render};
 pub use scenes::{get_scene, post_scene};
 
 use super::{AppError, AppState};
+use crate::scene::shape::{ShapeLimits, check_shape};
 use axum::body::Bytes;
-use axum::extract::{FromRequest, Request};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::extract::Request;
+use axum::http::{HeaderMap, header};
 use serde::de::DeserializeOwned;
 
 /// The media type of the request, lowercased, without parameters.
@@ -47,19 +48,47 @@ pub(super) fn check_length(headers: &HeaderMap, limit: usize) -> Result<(), AppE
     }
 }
 
-pub(super) async fn body_bytes(st: &AppState, req: Request) -> Result<Bytes, AppError> {
-    check_length(req.headers(), st.cfg.max_body)?;
-    Bytes::from_request(req, st).await.map_err(|r| {
-        if r.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            AppError::too_large(st.cfg.max_body)
-        } else {
-            AppError::bad_request(r.body_text())
+/// The whole body, at most `limit` bytes, read within [`HttpConfig::body_timeout`]
+/// (a client that promises more than it sends gets a 408, not a connection held for ever).
+///
+/// [`HttpConfig::body_timeout`]: crate::http::HttpConfig
+pub(super) async fn body_bytes(
+    st: &AppState,
+    req: Request,
+    limit: usize,
+) -> Result<Bytes, AppError> {
+    let limit = limit.min(st.cfg.max_body);
+    check_length(req.headers(), limit)?;
+    let read = axum::body::to_bytes(req.into_body(), limit);
+    match tokio::time::timeout(st.cfg.body_timeout, read).await {
+        Err(_) => Err(AppError::body_timeout(st.cfg.body_timeout)),
+        Ok(Ok(b)) => Ok(b),
+        Ok(Err(e)) => {
+            let too_large = std::error::Error::source(&e)
+                .is_some_and(|s| s.is::<http_body_util::LengthLimitError>());
+            if too_large {
+                Err(AppError::too_large(limit))
+            } else {
+                Err(AppError::bad_request(format!(
+                    "reading the request body failed: {e}"
+                )))
+            }
         }
-    })
+    }
 }
 
-/// Parses a JSON body; the detail names the field at fault.
+/// A JSON body, at most [`HttpConfig::max_json_body`](crate::http::HttpConfig) bytes.
+pub(super) async fn json_bytes(st: &AppState, req: Request) -> Result<Bytes, AppError> {
+    body_bytes(st, req, st.cfg.max_json_body).await
+}
+
+/// Parses a JSON body; the detail names the field at fault. The body's shape is checked
+/// first ([`check_shape`]), so a hostile document is refused before it is built.
 pub(super) fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, AppError> {
+    check_shape(bytes, &ShapeLimits::default()).map_err(|e| {
+        let field = if e.path == "." { "body".into() } else { e.path };
+        AppError::invalid(&field, format!("{field}: {}", e.message))
+    })?;
     let de = &mut serde_json::Deserializer::from_slice(bytes);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
@@ -84,7 +113,7 @@ pub(super) async fn json_body<T: DeserializeOwned>(
             "Content-Type must be application/json, not '{mt}'"
         )));
     }
-    let b = body_bytes(st, req).await?;
+    let b = json_bytes(st, req).await?;
     parse_json(&b)
 }
 

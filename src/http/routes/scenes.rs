@@ -1,6 +1,6 @@
 //! `POST /v1/scenes`, `GET /v1/scenes/{id}`, and scenes given inline in other requests.
 
-use super::{blocking, body_bytes, check_length, media_type, valid_scene_id};
+use super::{blocking, body_bytes, check_length, json_bytes, media_type, valid_scene_id};
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::{SceneInfo, SceneInput};
 use axum::Json;
@@ -46,6 +46,17 @@ async fn read_multipart(st: &AppState, req: Request) -> Result<SceneInput, AppEr
             }
         })?;
         if name == "scene" {
+            if data.len() > st.cfg.max_json_body {
+                return Err(AppError::invalid(
+                    "scene",
+                    format!(
+                        "multipart part 'scene': {} bytes of scene JSON, more than the {} this \
+                         server accepts",
+                        data.len(),
+                        st.cfg.max_json_body
+                    ),
+                ));
+            }
             scene = Some(data.to_vec());
         } else {
             if files.len() >= MAX_FILES {
@@ -81,18 +92,23 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
     let mt = media_type(req.headers());
     let input = match mt.as_str() {
         "application/json" => SceneInput::Json {
-            scene: body_bytes(&st, req).await?.to_vec(),
+            scene: json_bytes(&st, req).await?.to_vec(),
             files: vec![],
         },
         "model/gltf-binary" => SceneInput::Gltf {
-            bytes: body_bytes(&st, req).await?.to_vec(),
+            bytes: body_bytes(&st, req, st.cfg.max_body).await?.to_vec(),
             binary: true,
         },
         "model/gltf+json" => SceneInput::Gltf {
-            bytes: body_bytes(&st, req).await?.to_vec(),
+            bytes: body_bytes(&st, req, st.cfg.max_body).await?.to_vec(),
             binary: false,
         },
-        "multipart/form-data" => read_multipart(&st, req).await?,
+        "multipart/form-data" => {
+            let limit = st.cfg.body_timeout;
+            tokio::time::timeout(limit, read_multipart(&st, req))
+                .await
+                .map_err(|_| AppError::body_timeout(limit))??
+        }
         "" => {
             return Err(AppError::unsupported_media(
                 "Content-Type is required: application/json, model/gltf-binary, \

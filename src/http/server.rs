@@ -1,0 +1,221 @@
+//! The connection loop: accepts TCP connections and serves each with hyper's HTTP/1.1, with
+//! the limits a public server needs and `axum::serve` does not set:
+//!
+//! - a **header-read timeout** ([`HttpConfig::header_timeout`]): a client must send a whole
+//!   request head within it, and an idle keep-alive connection is closed after it (slowloris,
+//!   sockets held open and silent);
+//! - a **connection cap** ([`HttpConfig::max_connections`]): past it a connection is shed: it
+//!   gets `503` problem+json with `Retry-After` at once, except `GET /healthz`, which is still
+//!   answered, so a flood of idle sockets cannot make the process look dead; past a second,
+//!   smaller cap on connections being shed, new ones are closed unanswered;
+//! - request heads larger than hyper's own limits are refused by [`limit_head`] first, as
+//!   problem+json (`414` for a long URI, `431` for too many or too large headers).
+//!
+//! Body-read deadlines are applied where bodies are read (`routes::body_bytes`).
+
+use super::{AppError, HttpConfig};
+use axum::Router;
+use axum::extract::Request;
+use axum::http::StatusCode;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use hyper_util::rt::{TokioIo, TokioTimer};
+use hyper_util::service::TowerToHyperService;
+use std::future::Future;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+use tokio::sync::{Semaphore, watch};
+
+/// Longest request target, bytes (414 past it).
+pub const MAX_URI: usize = 8 << 10;
+/// Most header fields in a request (431 past it).
+pub const MAX_HEADERS: usize = 100;
+/// Most bytes of header names and values together (431 past it).
+pub const MAX_HEADER_BYTES: usize = 32 << 10;
+/// Connections being shed at once; past it, new ones are closed without an answer.
+const MAX_SHEDDING: usize = 256;
+/// How long a shed connection gets to send its request line.
+const SHED_READ: Duration = Duration::from_secs(2);
+
+/// Connection counters, for `/metrics`.
+#[derive(Default, Debug)]
+pub struct ConnStats {
+    pub open: AtomicU64,
+    pub accepted: AtomicU64,
+    pub shed: AtomicU64,
+    pub dropped: AtomicU64,
+}
+
+/// Refuses request heads over [`MAX_URI`], [`MAX_HEADERS`] or [`MAX_HEADER_BYTES`] with a
+/// problem (hyper's own, higher limits answer without a body).
+pub async fn limit_head(req: Request, next: Next) -> Response {
+    let uri = req.uri().to_string().len();
+    if uri > MAX_URI {
+        return AppError::new(
+            StatusCode::URI_TOO_LONG,
+            "uri-too-long",
+            "URI too long",
+            format!("the request target is {uri} bytes; the limit is {MAX_URI}"),
+        )
+        .into_response();
+    }
+    let h = req.headers();
+    let bytes: usize = h.iter().map(|(k, v)| k.as_str().len() + v.len()).sum();
+    if h.len() > MAX_HEADERS || bytes > MAX_HEADER_BYTES {
+        return AppError::new(
+            StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+            "headers-too-large",
+            "Request header fields too large",
+            format!(
+                "the request has {} header fields of {bytes} bytes; the limits are \
+                 {MAX_HEADERS} fields and {MAX_HEADER_BYTES} bytes",
+                h.len()
+            ),
+        )
+        .into_response();
+    }
+    next.run(req).await
+}
+
+/// Serves `app` on `listener` until `shutdown` resolves, then stops accepting, asks every
+/// connection to close after its request in flight, and waits for them.
+pub async fn run(
+    listener: tokio::net::TcpListener,
+    app: Router,
+    cfg: Arc<HttpConfig>,
+    stats: Arc<ConnStats>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) {
+    let slots = Arc::new(Semaphore::new(cfg.max_connections));
+    let shedding = Arc::new(Semaphore::new(MAX_SHEDDING));
+    // Connections watch `stop` for the graceful shutdown; `done_rx` clones live as long as
+    // they do.
+    let (stop_tx, stop_rx) = watch::channel(false);
+    let (done_tx, done_rx) = watch::channel(());
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let (stream, _addr) = tokio::select! {
+            _ = &mut shutdown => break,
+            r = listener.accept() => match r {
+                Ok(c) => c,
+                Err(e) => {
+                    // Out of file descriptors (or a connection reset before accept): back off
+                    // briefly instead of spinning; the loop goes on.
+                    tracing::warn!(error = %e, "accept failed");
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    continue;
+                }
+            },
+        };
+        let _ = stream.set_nodelay(true);
+        match slots.clone().try_acquire_owned() {
+            Ok(permit) => {
+                stats.accepted.fetch_add(1, Ordering::Relaxed);
+                stats.open.fetch_add(1, Ordering::Relaxed);
+                let (app, cfg, stats) = (app.clone(), cfg.clone(), stats.clone());
+                let (mut stop, done) = (stop_rx.clone(), done_rx.clone());
+                tokio::spawn(async move {
+                    let svc = TowerToHyperService::new(app);
+                    let mut b = hyper::server::conn::http1::Builder::new();
+                    b.timer(TokioTimer::new())
+                        .header_read_timeout(cfg.header_timeout)
+                        .max_headers(2 * MAX_HEADERS)
+                        .keep_alive(true);
+                    let conn = b.serve_connection(TokioIo::new(stream), svc);
+                    let mut conn = std::pin::pin!(conn);
+                    let r = tokio::select! {
+                        r = conn.as_mut() => r,
+                        _ = async { let _ = stop.wait_for(|s| *s).await; } => {
+                            conn.as_mut().graceful_shutdown();
+                            // Serve out the request in flight, then end.
+                            conn.as_mut().await
+                        }
+                    };
+                    if let Err(e) = r {
+                        tracing::debug!(error = %e, "connection ended");
+                    }
+                    stats.open.fetch_sub(1, Ordering::Relaxed);
+                    drop((permit, done));
+                });
+            }
+            Err(_) => match shedding.clone().try_acquire_owned() {
+                Ok(permit) => {
+                    stats.shed.fetch_add(1, Ordering::Relaxed);
+                    tokio::spawn(async move {
+                        shed(stream).await;
+                        drop(permit);
+                    });
+                }
+                Err(_) => {
+                    stats.dropped.fetch_add(1, Ordering::Relaxed);
+                    drop(stream);
+                }
+            },
+        }
+    }
+    drop(listener);
+    stop_tx.send_replace(true);
+    drop(done_rx);
+    done_tx.closed().await;
+}
+
+/// Answers a connection past the cap: `/healthz` as usual, anything else `503` with
+/// `Retry-After`; then closes it.
+async fn shed(mut stream: TcpStream) {
+    let mut buf = [0u8; 256];
+    let mut n = 0;
+    let read = async {
+        while n < buf.len() && !buf[..n].contains(&b'\n') {
+            match stream.read(&mut buf[n..]).await {
+                Ok(0) | Err(_) => break,
+                Ok(k) => n += k,
+            }
+        }
+    };
+    if tokio::time::timeout(SHED_READ, read).await.is_err() {
+        return;
+    }
+    let line = &buf[..n];
+    let health = line.starts_with(b"GET /healthz ") || line.starts_with(b"GET /healthz?");
+    let (status, ctype, body, extra) = if health {
+        (
+            "200 OK",
+            "application/json",
+            serde_json::json!({"status": "ok"}).to_string(),
+            "",
+        )
+    } else {
+        let p = AppError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "overloaded",
+            "Too many connections",
+            "the server has as many connections open as it accepts; retry shortly",
+        );
+        let body = serde_json::json!({
+            "type": format!("{}{}", super::error::TYPE_BASE, p.kind),
+            "title": p.title,
+            "status": 503,
+            "detail": p.detail,
+        });
+        (
+            "503 Service Unavailable",
+            "application/problem+json",
+            body.to_string(),
+            "retry-after: 1\r\n",
+        )
+    };
+    let head = format!(
+        "HTTP/1.1 {status}\r\ncontent-type: {ctype}\r\ncontent-length: {}\r\n{extra}\
+         connection: close\r\n\r\n",
+        body.len()
+    );
+    let write = async {
+        stream.write_all(head.as_bytes()).await?;
+        stream.write_all(body.as_bytes()).await?;
+        stream.shutdown().await
+    };
+    let _ = tokio::time::timeout(SHED_READ, write).await;
+}

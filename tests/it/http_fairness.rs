@@ -1,0 +1,133 @@
+//! Scheduling under load (issue: hardening): a small render flows while big renders hold every
+//! CPU worker, a flood of bakes leaves renders room in the queue, and one render cannot ask
+//! for more than the server's caps.
+
+use crate::support::scenes::scene_sized;
+use crate::support::server::*;
+use std::time::{Duration, Instant};
+
+async fn delete(srv: &Server, loc: &str) -> serde_json::Value {
+    let r = srv.client.delete(srv.url(loc)).send().await.unwrap();
+    r.json().await.unwrap()
+}
+
+async fn state_is(srv: &Server, loc: &str, want: &str, limit: Duration) {
+    poll(&format!("{loc} to be {want}"), limit, || async {
+        let (_, v) = srv.get_json(loc).await;
+        (v["state"] == want).then_some(())
+    })
+    .await;
+}
+
+/// A small reference render answered with its image (asserting 200), and how long it took.
+async fn small_render(srv: &Server, seed: u64) -> Duration {
+    let t = Instant::now();
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                "photons": 2000, "spp": 1, "seed": seed}),
+        )
+        .await;
+    assert_eq!(r.status(), 200, "{}", r.text().await.unwrap());
+    image::load_from_memory(&r.bytes().await.unwrap()).unwrap();
+    t.elapsed()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_small_render_flows_while_big_renders_hold_every_worker() {
+    let srv = Server::start("fair-small", |j, _| j.cpu_workers = 2).await;
+    let mut big = Vec::new();
+    for seed in 0..2 {
+        let r = srv
+            .post_json(
+                "/v1/renders",
+                &serde_json::json!({"scene": scene_sized(64, 64), "method": "reference",
+                    "photons": 100_000_000u64, "seed": seed, "wait": false}),
+            )
+            .await;
+        assert_eq!(r.status(), 202);
+        big.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    for loc in &big {
+        state_is(&srv, loc, "running", Duration::from_secs(60)).await;
+    }
+    small_render(&srv, 1).await;
+    for loc in &big {
+        let (_, v) = srv.get_json(loc).await;
+        assert_eq!(
+            v["state"], "running",
+            "the big renders still hold both workers: {v}"
+        );
+    }
+    for loc in &big {
+        delete(&srv, loc).await;
+        state_is(&srv, loc, "canceled", Duration::from_secs(30)).await;
+    }
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_flood_of_bakes_leaves_renders_room() {
+    let srv = Server::start("fair-flood", |j, _| {
+        j.cpu_workers = 1;
+        j.max_queued_bakes = 3;
+    })
+    .await;
+    let bake = |seed: u64| {
+        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
+    };
+    let mut accepted = Vec::new();
+    let mut refused = 0;
+    for seed in 0..8 {
+        let r = srv.post_json("/v1/bakes", &bake(seed)).await;
+        match r.status().as_u16() {
+            202 => accepted.push(r.headers()["location"].to_str().unwrap().to_string()),
+            429 => {
+                let p = problem(r, 429).await;
+                assert!(p["detail"].as_str().unwrap().contains("bake queue"), "{p}");
+                refused += 1;
+            }
+            s => panic!("bake {seed}: {s}"),
+        }
+    }
+    assert!(refused >= 4, "{refused} refused");
+    // The bake queue is full and its worker busy: renders still get in and through.
+    let mut times: Vec<Duration> = Vec::new();
+    for seed in 0..10 {
+        times.push(small_render(&srv, seed).await);
+    }
+    times.sort();
+    eprintln!(
+        "10 small renders under a bake flood: median {:?}, worst {:?}",
+        times[5], times[9]
+    );
+    for loc in &accepted {
+        delete(&srv, loc).await;
+    }
+    for loc in &accepted {
+        state_is(&srv, loc, "canceled", Duration::from_secs(30)).await;
+    }
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_cannot_ask_past_the_servers_caps() {
+    let srv = Server::start("fair-caps", |j, _| j.caps.max_photons = 1_000_000).await;
+    for (field, v, want) in [
+        (
+            "photons",
+            2_000_000u64,
+            "at most 1000000 on this server (CAUSTICA_MAX_PHOTONS)",
+        ),
+        ("spp", 512, "at most 256 on this server (CAUSTICA_MAX_SPP)"),
+    ] {
+        let mut body = serde_json::json!({"scene": scene_sized(8, 8), "method": "reference"});
+        body[field] = v.into();
+        let p = problem(srv.post_json("/v1/renders", &body).await, 422).await;
+        assert_eq!(p["field"], field, "{p}");
+        assert!(p["detail"].as_str().unwrap().contains(want), "{p}");
+    }
+    srv.stop().await;
+}
