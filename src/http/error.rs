@@ -2,8 +2,8 @@
 //! the one place where domain errors become status codes.
 
 use crate::jobs::scenes::IngestError;
-use crate::jobs::store::StoreError;
-use crate::jobs::{ErrorCode, JobError, SubmitError};
+use crate::jobs::store::{JobRecord, StoreError};
+use crate::jobs::{ArtifactError, ErrorCode, JobError, JobKind, SubmitError};
 use crate::methods::ParamError;
 use crate::scene::SceneError;
 use axum::http::{HeaderValue, StatusCode, header};
@@ -197,6 +197,36 @@ impl From<StoreError> for AppError {
     fn from(e: StoreError) -> Self {
         tracing::error!(error = %e, "storage error");
         AppError::internal(format!("storage: {e}"))
+    }
+}
+
+impl AppError {
+    /// The artifact of job `r` cannot be served.
+    pub fn artifact(r: &JobRecord, e: ArtifactError) -> Self {
+        match e {
+            ArtifactError::Lost { why, requeued } => {
+                let path = match r.kind {
+                    JobKind::Bake => "bakes",
+                    JobKind::Render => "renders",
+                };
+                let then = if requeued {
+                    format!("the job was queued again: poll /v1/{path}/{}", r.id)
+                } else {
+                    "the job could not be queued again".into()
+                };
+                let e = AppError::new(
+                    StatusCode::INTERNAL_SERVER_ERROR,
+                    "artifact-lost",
+                    "Artifact lost",
+                    format!(
+                        "the stored result of {} failed its check ({why}); {then}",
+                        r.id
+                    ),
+                );
+                if requeued { e.retry_after(5) } else { e }
+            }
+            ArtifactError::Store(s) => s.into(),
+        }
     }
 }
 

@@ -111,6 +111,16 @@ pub enum SubmitError {
     Store(#[from] StoreError),
 }
 
+/// Why a succeeded job's artifact cannot be served.
+#[derive(Debug, thiserror::Error)]
+pub enum ArtifactError {
+    /// It failed its check; `requeued`: the job runs again.
+    #[error("the stored artifact failed its check: {why}")]
+    Lost { why: String, requeued: bool },
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
 /// The queue, the workers and the records.
 pub struct JobSystem {
     pub store: Arc<Store>,
@@ -409,6 +419,43 @@ impl JobSystem {
             }
         }
         abandoned
+    }
+
+    /// The artifact of succeeded job `r`, checked ([`Store::read_artifact`]). One that fails
+    /// its check (missing, a link, truncated, altered) is not served: the job is marked failed
+    /// with the reason and submitted again from its recorded inputs, and the error says whether
+    /// it was.
+    pub fn artifact(&self, r: &JobRecord) -> Result<Vec<u8>, ArtifactError> {
+        let Some(path) = &r.artifact_path else {
+            return Err(ArtifactError::Store(StoreError::Corrupt(
+                "succeeded job without an artifact".into(),
+            )));
+        };
+        let expect = r.artifact_len.zip(r.artifact_sha256.as_deref());
+        match self.store.read_artifact(path, expect) {
+            Ok(b) => Ok(b),
+            Err(StoreError::Integrity(why)) => {
+                tracing::error!(job = %r.id, %why, "artifact failed its check; re-running the job");
+                self.store.finish(
+                    &r.id,
+                    JobState::Failed,
+                    0.0,
+                    &[],
+                    &serde_json::json!({ "error_code": ErrorCode::Store }),
+                    Some(&format!("the stored artifact failed its check: {why}")),
+                    None,
+                )?;
+                let requeued = match self.submit(&r.id, &r.spec()) {
+                    Ok((_, started)) => started,
+                    Err(e) => {
+                        tracing::warn!(job = %r.id, error = %e, "cannot re-run the job");
+                        false
+                    }
+                };
+                Err(ArtifactError::Lost { why, requeued })
+            }
+            Err(e) => Err(e.into()),
+        }
     }
 
     /// Adds a thread for [`Self::shutdown`] to wait for (tests: a job that never stops).

@@ -23,10 +23,14 @@ pub enum StoreError {
     Io(#[from] std::io::Error),
     #[error("corrupt record: {0}")]
     Corrupt(String),
+    /// A stored artifact is missing, a link, or not the bytes that were written.
+    #[error("artifact failed its check: {0}")]
+    Integrity(String),
 }
 
 /// Schema migrations, applied in order; `PRAGMA user_version` records how many ran.
-const MIGRATIONS: &[&str] = &[r#"
+const MIGRATIONS: &[&str] = &[
+    r#"
     CREATE TABLE scenes (
         id TEXT PRIMARY KEY,
         scene_json BLOB NOT NULL,
@@ -64,7 +68,21 @@ const MIGRATIONS: &[&str] = &[r#"
         request_hash TEXT NOT NULL,
         job_id TEXT NOT NULL
     );
-"#];
+"#,
+    // 2: each artifact's length and SHA-256, checked when it is served.
+    r#"
+    ALTER TABLE jobs ADD COLUMN artifact_len INTEGER;
+    ALTER TABLE jobs ADD COLUMN artifact_sha256 TEXT;
+"#,
+];
+
+/// An artifact as written: its file name under `artifacts/`, length and SHA-256 (hex).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredArtifact {
+    pub name: String,
+    pub len: u64,
+    pub sha256: String,
+}
 
 /// A stored scene: canonical JSON and the files it names.
 #[derive(Clone, Debug)]
@@ -94,6 +112,10 @@ pub struct JobRecord {
     pub error: Option<String>,
     pub artifact_type: Option<String>,
     pub artifact_path: Option<String>,
+    /// Length and SHA-256 of the artifact as written (absent for records older than the
+    /// check).
+    pub artifact_len: Option<u64>,
+    pub artifact_sha256: Option<String>,
     pub created_at: i64,
     pub started_at: Option<i64>,
     pub finished_at: Option<i64>,
@@ -117,6 +139,8 @@ impl JobRecord {
             error: None,
             artifact_type: None,
             artifact_path: None,
+            artifact_len: None,
+            artifact_sha256: None,
             created_at: now_ms(),
             started_at: None,
             finished_at: None,
@@ -151,14 +175,52 @@ pub fn now_ms() -> i64 {
 pub struct Store {
     conn: Mutex<Connection>,
     artifacts: PathBuf,
+    /// What looked wrong with the data directory at start (logged, and shown by `/readyz`).
+    pub warnings: Vec<String>,
 }
+
+/// The SQLite WAL header magic (big-endian; the low bit is the checksum byte order).
+const WAL_MAGIC: [u32; 2] = [0x377f_0682, 0x377f_0683];
 
 impl Store {
     /// Opens (creating if needed) the database and artifact folder under `dir` and runs the
     /// migrations.
     pub fn open(dir: &Path) -> Result<Store, StoreError> {
-        std::fs::create_dir_all(dir.join("artifacts"))?;
-        let conn = Connection::open(dir.join("caustica.sqlite3"))?;
+        let artifacts = dir.join("artifacts");
+        std::fs::create_dir_all(&artifacts)?;
+        let db = dir.join("caustica.sqlite3");
+        let mut warnings = Vec::new();
+        if std::fs::metadata(&db).is_ok_and(|m| m.len() == 0) {
+            warnings.push(format!(
+                "the database {} is an empty file: every scene and job record is gone \
+                 (starting with an empty store)",
+                db.display()
+            ));
+        }
+        let wal = dir.join("caustica.sqlite3-wal");
+        if let Ok(b) = std::fs::read(&wal)
+            && !b.is_empty()
+        {
+            let magic = b
+                .get(..4)
+                .map(|m| u32::from_be_bytes([m[0], m[1], m[2], m[3]]));
+            if !magic.is_some_and(|m| WAL_MAGIC.contains(&m)) {
+                warnings.push(format!(
+                    "the write-ahead log {} is not a SQLite WAL ({} bytes of something else): \
+                     transactions it held are lost",
+                    wal.display(),
+                    b.len()
+                ));
+            }
+        }
+        let removed = remove_temp_files(&artifacts);
+        if removed > 0 {
+            tracing::warn!(
+                removed,
+                "removed temporary artifact files left by an earlier run"
+            );
+        }
+        let conn = Connection::open(&db)?;
         conn.busy_timeout(std::time::Duration::from_secs(5))?;
         conn.pragma_update(None, "journal_mode", "WAL")?;
         // WAL + NORMAL: a committed transaction survives a process crash (kill -9); only a
@@ -172,9 +234,22 @@ impl Store {
             tx.pragma_update(None, "user_version", (i + 1) as i64)?;
             tx.commit()?;
         }
+        let jobs: i64 = conn.query_row("SELECT COUNT(*) FROM jobs", [], |r| r.get(0))?;
+        let files = std::fs::read_dir(&artifacts).map_or(0, |d| d.count());
+        if jobs == 0 && files > 0 {
+            warnings.push(format!(
+                "the database holds no jobs but {} holds {files} artifacts: the database was \
+                 lost or replaced",
+                artifacts.display()
+            ));
+        }
+        for w in &warnings {
+            tracing::error!(warning = %w, "data directory");
+        }
         Ok(Store {
             conn: Mutex::new(conn),
-            artifacts: dir.join("artifacts"),
+            artifacts,
+            warnings,
         })
     }
 
@@ -269,7 +344,7 @@ impl Store {
             .query_row(
                 "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
                         timings, info, error, artifact_type, artifact_path, created_at,
-                        started_at, finished_at
+                        started_at, finished_at, artifact_len, artifact_sha256
                  FROM jobs WHERE id = ?1",
                 [id],
                 row_to_record,
@@ -278,19 +353,34 @@ impl Store {
         r.transpose()
     }
 
-    /// Jobs left queued or running by a previous process, oldest first.
+    /// Jobs left queued or running by a previous process, oldest first. A record that cannot
+    /// be read (invalid JSON in a column, an unknown method) is quarantined: marked failed with
+    /// the reason, logged, and left out, so that one bad row does not stop the server.
     pub fn unfinished_jobs(&self) -> Result<Vec<JobRecord>, StoreError> {
-        let c = self.conn();
-        let mut st = c.prepare(
-            "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
-                    timings, info, error, artifact_type, artifact_path, created_at,
-                    started_at, finished_at
-             FROM jobs WHERE state IN ('queued', 'running') ORDER BY seq",
-        )?;
-        let rows = st
-            .query_map([], row_to_record)?
-            .collect::<Result<Vec<_>, _>>()?;
-        rows.into_iter().collect()
+        let ids: Vec<String> = {
+            let c = self.conn();
+            let mut st =
+                c.prepare("SELECT id FROM jobs WHERE state IN ('queued', 'running') ORDER BY seq")?;
+            st.query_map([], |r| r.get(0))?
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        let mut out = Vec::new();
+        for id in ids {
+            match self.get_job(&id) {
+                Ok(Some(r)) => out.push(r),
+                Ok(None) => {}
+                Err(e) => {
+                    tracing::error!(job = %id, error = %e, "quarantining an unreadable job record");
+                    self.conn().execute(
+                        "UPDATE jobs SET state = 'failed', finished_at = ?2, stage = 'failed',
+                             error = ?3
+                         WHERE id = ?1",
+                        params![id, now_ms(), format!("quarantined at start: {e}")],
+                    )?;
+                }
+            }
+        }
+        Ok(out)
     }
 
     pub fn set_running(&self, id: &str) -> Result<(), StoreError> {
@@ -309,7 +399,7 @@ impl Store {
         Ok(())
     }
 
-    /// Records the end of a job. `artifact`: content type and path of its written artifact.
+    /// Records the end of a job. `artifact`: content type and the written artifact.
     #[allow(clippy::too_many_arguments)]
     pub fn finish(
         &self,
@@ -319,12 +409,13 @@ impl Store {
         timings: &[(String, f64)],
         info: &serde_json::Value,
         error: Option<&str>,
-        artifact: Option<(&str, &str)>,
+        artifact: Option<(&str, &StoredArtifact)>,
     ) -> Result<(), StoreError> {
         let timings = serde_json::to_string(timings).expect("timings serialise");
         self.conn().execute(
             "UPDATE jobs SET state = ?2, progress = ?3, timings = ?4, info = ?5, error = ?6,
-                 artifact_type = ?7, artifact_path = ?8, finished_at = ?9, stage = ?10
+                 artifact_type = ?7, artifact_path = ?8, finished_at = ?9, stage = ?10,
+                 artifact_len = ?11, artifact_sha256 = ?12
              WHERE id = ?1",
             params![
                 id,
@@ -334,13 +425,15 @@ impl Store {
                 info.to_string(),
                 error,
                 artifact.map(|a| a.0),
-                artifact.map(|a| a.1),
+                artifact.map(|a| a.1.name.as_str()),
                 now_ms(),
                 if state == JobState::Succeeded {
                     "done"
                 } else {
                     state.as_str()
                 },
+                artifact.map(|a| a.1.len as i64),
+                artifact.map(|a| a.1.sha256.as_str()),
             ],
         )?;
         Ok(())
@@ -380,29 +473,98 @@ impl Store {
         Ok(())
     }
 
-    /// Writes an artifact atomically and returns its path relative to the artifact folder.
-    pub fn write_artifact(&self, id: &str, ext: &str, bytes: &[u8]) -> Result<String, StoreError> {
+    /// Writes an artifact atomically (temporary file, fsync, rename, fsync of the folder); on
+    /// an error (a full disk) the temporary file is removed and the error returned.
+    pub fn write_artifact(
+        &self,
+        id: &str,
+        ext: &str,
+        bytes: &[u8],
+    ) -> Result<StoredArtifact, StoreError> {
         let name = format!("{id}.{ext}");
         let tmp = self.artifacts.join(format!(".{name}.tmp"));
-        {
+        let written = (|| -> std::io::Result<()> {
             let mut f = std::fs::File::create(&tmp)?;
             f.write_all(bytes)?;
             f.sync_all()?;
+            std::fs::rename(&tmp, self.artifacts.join(&name))
+        })();
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e.into());
         }
-        std::fs::rename(&tmp, self.artifacts.join(&name))?;
         // Make the rename itself durable.
         if let Ok(d) = std::fs::File::open(&self.artifacts) {
             let _ = d.sync_all();
         }
-        Ok(name)
+        Ok(StoredArtifact {
+            name,
+            len: bytes.len() as u64,
+            sha256: super::scenes::sha256_hex(bytes),
+        })
     }
 
-    pub fn read_artifact(&self, name: &str) -> Result<Vec<u8>, StoreError> {
+    /// Reads an artifact without following links, and checks it against the length and
+    /// SHA-256 recorded when it was written (when the record has them).
+    pub fn read_artifact(
+        &self,
+        name: &str,
+        expect: Option<(u64, &str)>,
+    ) -> Result<Vec<u8>, StoreError> {
+        use std::io::Read;
+        use std::os::unix::fs::OpenOptionsExt;
         if name.contains('/') || name.contains("..") {
             return Err(StoreError::Corrupt(format!("artifact path {name:?}")));
         }
-        Ok(std::fs::read(self.artifacts.join(name))?)
+        let mut f = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(libc::O_NOFOLLOW)
+            .open(self.artifacts.join(name))
+            .map_err(|e| match e.raw_os_error() {
+                Some(libc::ELOOP) => StoreError::Integrity(format!("{name} is a symbolic link")),
+                _ if e.kind() == std::io::ErrorKind::NotFound => {
+                    StoreError::Integrity(format!("{name} is missing"))
+                }
+                _ => StoreError::Io(e),
+            })?;
+        let meta = f.metadata()?;
+        if !meta.is_file() {
+            return Err(StoreError::Integrity(format!("{name} is not a file")));
+        }
+        if let Some((len, _)) = expect
+            && meta.len() != len
+        {
+            return Err(StoreError::Integrity(format!(
+                "{name} is {} bytes, {len} were written",
+                meta.len()
+            )));
+        }
+        let mut bytes = Vec::with_capacity(meta.len() as usize);
+        f.read_to_end(&mut bytes)?;
+        if let Some((_, sha)) = expect
+            && super::scenes::sha256_hex(&bytes) != sha
+        {
+            return Err(StoreError::Integrity(format!(
+                "{name} does not hash to the SHA-256 recorded when it was written"
+            )));
+        }
+        Ok(bytes)
     }
+}
+
+/// Removes `.*.tmp` files (artifact writes a crash interrupted); how many.
+fn remove_temp_files(dir: &Path) -> usize {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    rd.filter_map(Result::ok)
+        .filter(|e| {
+            let n = e.file_name();
+            let n = n.to_string_lossy();
+            n.starts_with('.') && n.ends_with(".tmp")
+        })
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
 }
 
 type RowResult = Result<JobRecord, StoreError>;
@@ -439,6 +601,8 @@ fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
             created_at: r.get(14)?,
             started_at: r.get(15)?,
             finished_at: r.get(16)?,
+            artifact_len: r.get::<_, Option<i64>>(17)?.map(|n| n as u64),
+            artifact_sha256: r.get(18)?,
         })
     })();
     Ok(rec)

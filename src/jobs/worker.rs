@@ -294,7 +294,7 @@ impl JobSystem {
         let r = self
             .store
             .write_artifact(id, a.ext, &a.bytes)
-            .and_then(|path| {
+            .and_then(|stored| {
                 self.store.finish(
                     id,
                     JobState::Succeeded,
@@ -302,7 +302,7 @@ impl JobSystem {
                     &timings,
                     &a.info,
                     None,
-                    Some((a.content_type, &path)),
+                    Some((a.content_type, &stored)),
                 )
             });
         match r {

@@ -24,6 +24,7 @@ mod http_openapi;
 mod http_props;
 mod http_render;
 mod http_restart;
+mod http_storage;
 mod photons;
 mod pinhole;
 mod reference;

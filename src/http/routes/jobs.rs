@@ -149,10 +149,10 @@ pub(super) fn not_finished(kind: JobKind, id: &str, state: JobState) -> AppError
 }
 
 pub(super) fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError> {
-    let (Some(ty), Some(path)) = (&r.artifact_type, &r.artifact_path) else {
+    let Some(ty) = &r.artifact_type else {
         return Err(AppError::internal("succeeded job without an artifact"));
     };
-    let bytes = st.jobs.store.read_artifact(path)?;
+    let bytes = st.jobs.artifact(r).map_err(|e| AppError::artifact(r, e))?;
     let mut resp = (
         [
             (header::CONTENT_TYPE, ty.clone()),

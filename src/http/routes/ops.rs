@@ -12,25 +12,37 @@ pub async fn healthz() -> Json<serde_json::Value> {
     Json(serde_json::json!({"status": "ok"}))
 }
 
+/// Readiness; `storage_warnings` (and the end of a 503's detail) says what looked wrong with
+/// the data directory at start (an empty database, a garbage write-ahead log).
 pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value>, AppError> {
+    let warnings = &st.jobs.store.warnings;
+    let note = |e: AppError| {
+        if warnings.is_empty() {
+            e
+        } else {
+            let d = format!("{}; storage: {}", e.detail, warnings.join("; "));
+            AppError::new(e.status, e.kind, e.title, d)
+        }
+    };
     match st.jobs.readiness() {
         Readiness::Ready { adapter } => Ok(Json(serde_json::json!({
             "status": "ready",
             "adapter": adapter,
+            "storage_warnings": warnings,
         }))),
-        Readiness::Starting => Err(AppError::new(
+        Readiness::Starting => Err(note(AppError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             "not-ready",
             "Not ready",
             "the GPU worker is still probing the adapter",
-        )
+        ))
         .retry_after(1)),
-        Readiness::NoGpu { error } => Err(AppError::new(
+        Readiness::NoGpu { error } => Err(note(AppError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             "no-gpu",
             "No GPU",
             format!("no GPU adapter renders: {error}"),
-        )),
+        ))),
     }
 }
 
