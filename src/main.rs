@@ -215,12 +215,35 @@ enum Cmd {
         /// ./caustica-data).
         #[arg(long)]
         data_dir: Option<PathBuf>,
+        /// API keys, one `NAME SCOPE SHA256` line each [env: CAUSTICA_API_KEYS_FILE; also
+        /// CAUSTICA_API_KEYS]: required on any address but loopback (`caustica key new`).
+        #[arg(long)]
+        api_keys: Option<PathBuf>,
         /// JSON logs (also CAUSTICA_LOG_FORMAT=json). Limits and timeouts come from the
-        /// environment: CAUSTICA_CPU_WORKERS, CAUSTICA_MAX_QUEUED, CAUSTICA_BAKE_TIMEOUT_S,
-        /// CAUSTICA_RENDER_TIMEOUT_S, CAUSTICA_MAX_IMAGE_SIDE, CAUSTICA_MAX_TRIANGLES,
-        /// CAUSTICA_MAX_BODY, CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
+        /// environment (docs/service.md): CAUSTICA_CPU_WORKERS, CAUSTICA_MAX_QUEUED,
+        /// CAUSTICA_MAX_QUEUED_BAKES, CAUSTICA_MAX_PHOTONS, CAUSTICA_MAX_SPP,
+        /// CAUSTICA_BAKE_TIMEOUT_S, CAUSTICA_RENDER_TIMEOUT_S, CAUSTICA_MAX_IMAGE_SIDE,
+        /// CAUSTICA_MAX_TRIANGLES, CAUSTICA_MAX_BODY, CAUSTICA_MAX_JSON_BODY,
+        /// CAUSTICA_BODY_TIMEOUT_S, CAUSTICA_HEADER_TIMEOUT_S, CAUSTICA_MAX_CONNECTIONS,
+        /// CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
         #[arg(long)]
         log_json: bool,
+    },
+    /// API keys for `serve`.
+    #[command(subcommand)]
+    Key(KeyCmd),
+}
+
+#[derive(Subcommand)]
+enum KeyCmd {
+    /// Makes a key: prints it (give it to the client; it is not stored) and the line for the
+    /// key file (`--api-keys`), which holds only its SHA-256.
+    New {
+        /// The key's name: its jobs and scenes belong to it (letters, digits, -_.@).
+        name: String,
+        /// An admin key: sees and cancels every job, reads /metrics.
+        #[arg(long)]
+        admin: bool,
     },
 }
 
@@ -285,7 +308,27 @@ fn main() -> Result<()> {
         || std::env::var("CAUSTICA_LOG_FORMAT").is_ok_and(|v| v.eq_ignore_ascii_case("json"));
     init_logging(json_logs);
     match cli.cmd {
-        Cmd::Serve { addr, data_dir, .. } => serve(addr, data_dir),
+        Cmd::Serve {
+            addr,
+            data_dir,
+            api_keys,
+            ..
+        } => serve(addr, data_dir, api_keys),
+        Cmd::Key(KeyCmd::New { name, admin }) => {
+            use caustica::http::auth::{Keys, hash_key, new_key};
+            let key = new_key()?;
+            let line = format!(
+                "{name} {} {}",
+                if admin { "admin" } else { "user" },
+                hash_key(&key)
+            );
+            Keys::default()
+                .parse(&line, "the name")
+                .map_err(anyhow::Error::msg)?;
+            println!("key:  {key}");
+            println!("line: {line}");
+            Ok(())
+        }
         Cmd::Render {
             scene,
             method,
@@ -818,7 +861,7 @@ fn init_logging(json: bool) {
 }
 
 /// `caustica serve`: flags, then environment, then defaults.
-fn serve(addr: Option<String>, data_dir: Option<PathBuf>) -> Result<()> {
+fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathBuf>) -> Result<()> {
     use caustica::http::{AppState, HttpConfig};
     use caustica::jobs::JobConfig;
     let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
@@ -837,17 +880,27 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>) -> Result<()> {
         jc.apply_env(&get).map_err(anyhow::Error::msg)?;
         let mut hc = HttpConfig::default();
         hc.apply_env(&get).map_err(anyhow::Error::msg)?;
-        let state = AppState::start(jc, hc)
-            .with_context(|| format!("starting the job system in {}", data_dir.display()))?;
+        hc.keys = caustica::http::auth::Keys::from_env(api_keys.as_deref(), &env)
+            .map_err(anyhow::Error::msg)?;
         let listener = tokio::net::TcpListener::bind(&addr)
             .await
             .with_context(|| format!("binding {addr}"))?;
         let bound = listener.local_addr()?;
+        if hc.keys.is_empty() && !bound.ip().is_loopback() {
+            anyhow::bail!(
+                "{bound} is not a loopback address: serving there needs API keys (--api-keys \
+                 FILE, CAUSTICA_API_KEYS_FILE or CAUSTICA_API_KEYS; `caustica key new NAME` \
+                 makes one)"
+            );
+        }
+        let keys = hc.keys.len();
+        let state = AppState::start(jc, hc)
+            .with_context(|| format!("starting the job system in {}", data_dir.display()))?;
         // Tests and scripts read this line to find the port.
         println!("caustica listening on http://{bound}");
         use std::io::Write;
         std::io::stdout().flush()?;
-        tracing::info!(%bound, data_dir = %data_dir.display(), "serving");
+        tracing::info!(%bound, data_dir = %data_dir.display(), keys, "serving");
         caustica::http::serve(listener, state, shutdown_signal()).await?;
         Ok(())
     })

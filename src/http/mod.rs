@@ -5,6 +5,7 @@
 //! [`app`] builds the router from an [`AppState`] (testable without a socket); [`serve`] runs
 //! it on a listener with graceful shutdown.
 
+pub mod auth;
 pub mod error;
 pub mod routes;
 pub mod server;
@@ -61,6 +62,8 @@ pub struct HttpConfig {
     pub render_wait: Duration,
     /// How long running jobs get to finish at shutdown before they are put back in the queue.
     pub shutdown_grace: Duration,
+    /// API keys ([`auth`]); none: every client is the anonymous admin (loopback only).
+    pub keys: auth::Keys,
 }
 
 impl Default for HttpConfig {
@@ -73,6 +76,7 @@ impl Default for HttpConfig {
             max_connections: 1024,
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),
+            keys: auth::Keys::default(),
         }
     }
 }
@@ -185,6 +189,10 @@ pub fn app(state: AppState) -> Router {
         .route("/openapi.json", get(openapi_json))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            auth::authenticate,
+        ))
         .layer(axum::middleware::from_fn(server::limit_head))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),

@@ -74,7 +74,34 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN artifact_len INTEGER;
     ALTER TABLE jobs ADD COLUMN artifact_sha256 TEXT;
 "#,
+    // 3: who holds each scene and job (API keys); '' is the anonymous client.
+    r#"
+    CREATE TABLE holds (
+        kind TEXT NOT NULL,
+        id TEXT NOT NULL,
+        owner TEXT NOT NULL,
+        PRIMARY KEY (kind, id, owner)
+    );
+    INSERT INTO holds (kind, id, owner) SELECT 'scene', id, '' FROM scenes;
+    INSERT INTO holds (kind, id, owner) SELECT 'job', id, '' FROM jobs;
+"#,
 ];
+
+/// What a hold is on: a scene or a job.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Held {
+    Scene,
+    Job,
+}
+
+impl Held {
+    fn as_str(self) -> &'static str {
+        match self {
+            Held::Scene => "scene",
+            Held::Job => "job",
+        }
+    }
+}
 
 /// An artifact as written: its file name under `artifacts/`, length and SHA-256 (hex).
 #[derive(Clone, Debug, PartialEq)]
@@ -446,6 +473,43 @@ impl Store {
             [id],
         )?;
         Ok(())
+    }
+
+    /// Records that `owner` holds scene or job `id` (again: no change).
+    pub fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "INSERT OR IGNORE INTO holds (kind, id, owner) VALUES (?1, ?2, ?3)",
+            params![what.as_str(), id, owner],
+        )?;
+        Ok(())
+    }
+
+    /// Whether `owner` holds `id`.
+    pub fn holds(&self, what: Held, id: &str, owner: &str) -> Result<bool, StoreError> {
+        Ok(self
+            .conn()
+            .query_row(
+                "SELECT 1 FROM holds WHERE kind = ?1 AND id = ?2 AND owner = ?3",
+                params![what.as_str(), id, owner],
+                |_| Ok(()),
+            )
+            .optional()?
+            .is_some())
+    }
+
+    /// Drops `owner`'s hold on `id`; how many holds remain.
+    pub fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError> {
+        let c = self.conn();
+        c.execute(
+            "DELETE FROM holds WHERE kind = ?1 AND id = ?2 AND owner = ?3",
+            params![what.as_str(), id, owner],
+        )?;
+        let n: i64 = c.query_row(
+            "SELECT COUNT(*) FROM holds WHERE kind = ?1 AND id = ?2",
+            params![what.as_str(), id],
+            |r| r.get(0),
+        )?;
+        Ok(n as usize)
     }
 
     /// The job an idempotency key was first used for, with the hash of that request.

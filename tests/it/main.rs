@@ -18,6 +18,7 @@ mod http_bad_input;
 mod http_bakes;
 mod http_concurrency;
 mod http_fairness;
+mod http_keys;
 mod http_limits;
 mod http_no_gpu;
 mod http_openapi;

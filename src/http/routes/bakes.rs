@@ -2,15 +2,17 @@
 
 use super::jobs::{JobView, artifact_response, cancel_job, job_view, load_job, not_finished};
 use super::scenes::scene_ref;
-use super::{blocking, json_body};
+use super::{blocking, json_body, principal};
+use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::sha256_hex;
+use crate::jobs::store::Held;
 use crate::jobs::{JobKind, JobSpec, JobState};
 use crate::methods::Method;
-use axum::Json;
 use axum::extract::{Path, Request, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use axum::{Extension, Json};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -26,6 +28,7 @@ struct BakeRequest {
 }
 
 pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
+    let p = principal(&req);
     let key = req
         .headers()
         .get("idempotency-key")
@@ -39,9 +42,9 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     }
     let b: BakeRequest = json_body(&st, req).await?;
     let scene_id = match (&b.scene, &b.scene_id) {
-        (Some(s), None) => scene_ref(&st, s, "scene").await?,
+        (Some(s), None) => scene_ref(&st, s, "scene", &p).await?,
         (None, Some(id)) => {
-            scene_ref(&st, &serde_json::Value::String(id.clone()), "scene_id").await?
+            scene_ref(&st, &serde_json::Value::String(id.clone()), "scene_id", &p).await?
         }
         _ => {
             return Err(AppError::invalid(
@@ -63,6 +66,14 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     let spec_json = serde_json::to_vec(&spec).expect("spec serialises");
     let hash = sha256_hex(&spec_json);
     let mut id = format!("bk_{}", &hash[..32]);
+    // Each client's idempotency keys are its own.
+    let key = key.map(|k| {
+        if p.owner.is_empty() {
+            k
+        } else {
+            format!("{}\u{1f}{k}", p.owner)
+        }
+    });
     if let Some(k) = &key {
         match st.jobs.store.idempotency(k)? {
             Some((h, job)) if h == hash => id = job,
@@ -84,33 +95,37 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     let jobs = st.jobs.clone();
     let (id2, spec2) = (id.clone(), spec.clone());
     blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    st.jobs.store.hold(Held::Job, &id, &p.owner)?;
     if let Some(k) = &key {
         st.jobs.store.put_idempotency(k, &hash, &id)?;
     }
-    let v = job_view(&st, &id, JobKind::Bake)?;
+    let v = job_view(&st, &id, JobKind::Bake, &p)?;
     let loc = format!("/v1/bakes/{id}");
     Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response())
 }
 
 pub async fn get_bake(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
-    Ok(Json(job_view(&st, &id, JobKind::Bake)?))
+    Ok(Json(job_view(&st, &id, JobKind::Bake, &p)?))
 }
 
 pub async fn delete_bake(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
-    cancel_job(&st, &id, JobKind::Bake).await
+    cancel_job(&st, &id, JobKind::Bake, &p).await
 }
 
 pub async fn get_bake_artifact(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Response, AppError> {
-    let r = load_job(&st, &id, JobKind::Bake)?;
+    let r = load_job(&st, &id, JobKind::Bake, &p)?;
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Bake, &id, r.state));
     }

@@ -1,8 +1,9 @@
 //! Bakes and renders are jobs: how the API shows one ([`JobView`]), finds one by id, waits for
 //! one, and serves its artifact with its timings.
 
+use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
-use crate::jobs::store::JobRecord;
+use crate::jobs::store::{Held, JobRecord};
 use crate::jobs::{JobHandle, JobKind, JobState};
 use crate::methods::Method;
 use axum::http::{HeaderValue, StatusCode, header};
@@ -80,9 +81,19 @@ pub(super) fn view(r: JobRecord, live: Option<&JobHandle>) -> JobView {
     }
 }
 
-pub(super) fn load_job(st: &AppState, id: &str, kind: JobKind) -> Result<JobRecord, AppError> {
+/// Job `id` of `kind`, if `p` may see it (an admin, or one who holds it; 404 otherwise, as
+/// for an unknown id).
+pub(super) fn load_job(
+    st: &AppState,
+    id: &str,
+    kind: JobKind,
+    p: &Principal,
+) -> Result<JobRecord, AppError> {
     let what = kind.as_str();
     if !super::valid_id(id, kind.id_prefix()) {
+        return Err(AppError::not_found(what, id));
+    }
+    if !p.admin && !st.jobs.store.holds(Held::Job, id, &p.owner)? {
         return Err(AppError::not_found(what, id));
     }
     match st.jobs.store.get_job(id)? {
@@ -91,8 +102,13 @@ pub(super) fn load_job(st: &AppState, id: &str, kind: JobKind) -> Result<JobReco
     }
 }
 
-pub(super) fn job_view(st: &AppState, id: &str, kind: JobKind) -> Result<JobView, AppError> {
-    let r = load_job(st, id, kind)?;
+pub(super) fn job_view(
+    st: &AppState,
+    id: &str,
+    kind: JobKind,
+    p: &Principal,
+) -> Result<JobView, AppError> {
+    let r = load_job(st, id, kind, p)?;
     let h = st.jobs.handle(id);
     Ok(view(r, h.as_deref()))
 }
@@ -100,13 +116,16 @@ pub(super) fn job_view(st: &AppState, id: &str, kind: JobKind) -> Result<JobView
 /// Waits until the job ends, `wait` passes or shutdown begins. True when it ended.
 /// `DELETE` of a bake or a render: a queued job is dropped, a running one stops at its next
 /// progress check (waited for, up to 30 s, so that the answer tells the final state); 409 when
-/// it already succeeded, 404 when there is no such job.
+/// it already succeeded, 404 when there is no such job. A user other than an admin drops only
+/// their own hold: the job is canceled once nobody holds it, and until then the answer shows
+/// it going on.
 pub(super) async fn cancel_job(
     st: &AppState,
     id: &str,
     kind: JobKind,
+    p: &Principal,
 ) -> Result<axum::Json<JobView>, AppError> {
-    let r = load_job(st, id, kind)?;
+    let r = load_job(st, id, kind, p)?;
     if r.state == JobState::Succeeded {
         return Err(AppError::new(
             StatusCode::CONFLICT,
@@ -118,11 +137,23 @@ pub(super) async fn cancel_job(
             ),
         ));
     }
+    if !p.admin {
+        let view = job_view(st, id, kind, p)?;
+        if st.jobs.store.release(Held::Job, id, &p.owner)? > 0 {
+            return Ok(axum::Json(view));
+        }
+    }
     if let Some(h) = st.jobs.handle(id) {
         st.jobs.cancel(id)?;
         wait_terminal(st, &h, Duration::from_secs(30)).await;
     }
-    Ok(axum::Json(job_view(st, id, kind)?))
+    let r = st
+        .jobs
+        .store
+        .get_job(id)?
+        .ok_or_else(|| AppError::not_found(kind.as_str(), id))?;
+    let h = st.jobs.handle(id);
+    Ok(axum::Json(view(r, h.as_deref())))
 }
 
 pub(super) async fn wait_terminal(st: &AppState, h: &Arc<JobHandle>, wait: Duration) -> bool {

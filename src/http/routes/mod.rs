@@ -14,6 +14,7 @@ pub use ops::{healthz, method_not_allowed, metrics, not_found, openapi_json, rea
 pub use renders::{delete_render, get_render, get_render_image, post_render};
 pub use scenes::{get_scene, post_scene};
 
+use super::auth::Principal;
 use super::{AppError, AppState};
 use crate::scene::shape::{ShapeLimits, check_shape};
 use axum::body::Bytes;
@@ -124,6 +125,17 @@ pub(super) async fn blocking<T: Send + 'static>(
     tokio::task::spawn_blocking(f)
         .await
         .map_err(|e| AppError::internal(format!("worker task failed: {e}")))?
+}
+
+/// Who sent `req` (put there by [`crate::http::auth::authenticate`]).
+pub(super) fn principal(req: &Request) -> Principal {
+    req.extensions()
+        .get::<Principal>()
+        .cloned()
+        .unwrap_or(Principal {
+            owner: String::new(),
+            admin: false,
+        })
 }
 
 pub(super) fn valid_id(id: &str, prefix: &str) -> bool {

@@ -6,15 +6,17 @@ use super::jobs::{
     wait_terminal,
 };
 use super::scenes::scene_ref;
-use super::{blocking, json_body};
+use super::{blocking, json_body, principal};
+use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::sha256_hex;
+use crate::jobs::store::Held;
 use crate::jobs::{JobKind, JobSpec, JobState};
 use crate::methods::Method;
-use axum::Json;
 use axum::extract::{Path, Request, State};
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use axum::{Extension, Json};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -40,6 +42,7 @@ fn render_id() -> String {
 
 pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
     let t0 = Instant::now();
+    let p = principal(&req);
     let body: serde_json::Value = json_body(&st, req).await?;
     let serde_json::Value::Object(mut o) = body else {
         return Err(AppError::invalid("body", "body: a JSON object"));
@@ -58,7 +61,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
         Some(serde_json::Value::Bool(b)) => b,
         Some(_) => return Err(AppError::invalid("wait", "wait: true or false")),
     };
-    let scene_id = scene_ref(&st, &scene, "scene").await?;
+    let scene_id = scene_ref(&st, &scene, "scene", &p).await?;
     let spec = JobSpec {
         kind: JobKind::Render,
         method,
@@ -73,12 +76,13 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     let jobs = st.jobs.clone();
     let (id2, spec2) = (id.clone(), spec.clone());
     let (h, _) = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    st.jobs.store.hold(Held::Job, &id, &p.owner)?;
     let loc = format!("/v1/renders/{id}");
     let done = match (&h, wait) {
         (Some(h), true) => wait_terminal(&st, h, st.cfg.render_wait).await,
         _ => false,
     };
-    let r = load_job(&st, &id, JobKind::Render)?;
+    let r = load_job(&st, &id, JobKind::Render, &p)?;
     if !done && !matches!(r.state, JobState::Succeeded | JobState::Failed) {
         let v = view(r, h.as_deref());
         return Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response());
@@ -108,24 +112,27 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
 
 pub async fn get_render(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
-    Ok(Json(job_view(&st, &id, JobKind::Render)?))
+    Ok(Json(job_view(&st, &id, JobKind::Render, &p)?))
 }
 
 /// `DELETE /v1/renders/{id}`: cancels a render (see `cancel_job`).
 pub async fn delete_render(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, AppError> {
-    cancel_job(&st, &id, JobKind::Render).await
+    cancel_job(&st, &id, JobKind::Render, &p).await
 }
 
 pub async fn get_render_image(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Response, AppError> {
-    let r = load_job(&st, &id, JobKind::Render)?;
+    let r = load_job(&st, &id, JobKind::Render, &p)?;
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Render, &id, r.state));
     }

@@ -1,12 +1,16 @@
 //! `POST /v1/scenes`, `GET /v1/scenes/{id}`, and scenes given inline in other requests.
 
-use super::{blocking, body_bytes, check_length, json_bytes, media_type, valid_scene_id};
+use super::{
+    blocking, body_bytes, check_length, json_bytes, media_type, principal, valid_scene_id,
+};
+use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::{SceneInfo, SceneInput};
-use axum::Json;
+use crate::jobs::store::Held;
 use axum::extract::{FromRequest, Multipart, Path, Request, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use axum::{Extension, Json};
 
 const MAX_FILES: usize = 64;
 
@@ -89,6 +93,7 @@ async fn ingest(st: &AppState, input: SceneInput) -> Result<SceneInfo, AppError>
 }
 
 pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
+    let p = principal(&req);
     let mt = media_type(req.headers());
     let input = match mt.as_str() {
         "application/json" => SceneInput::Json {
@@ -123,15 +128,17 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
         }
     };
     let info = ingest(&st, input).await?;
+    st.jobs.store.hold(Held::Scene, &info.id, &p.owner)?;
     let loc = format!("/v1/scenes/{}", info.id);
     Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())
 }
 
 pub async fn get_scene(
     State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
     Path(id): Path<String>,
 ) -> Result<Json<SceneInfo>, AppError> {
-    if !valid_scene_id(&id) {
+    if !valid_scene_id(&id) || !(p.admin || st.jobs.store.holds(Held::Scene, &id, &p.owner)?) {
         return Err(AppError::not_found("scene", &id));
     }
     let jobs = st.jobs.clone();
@@ -141,15 +148,19 @@ pub async fn get_scene(
         .ok_or_else(|| AppError::not_found("scene", &id))
 }
 
-/// A scene given inline (object) or by id (string): the stored id.
+/// A scene given inline (object) or by id (string): the stored id. `p` must hold a scene given
+/// by id (an unknown one and another client's answer alike); an inline one becomes theirs.
 pub(super) async fn scene_ref(
     st: &AppState,
     v: &serde_json::Value,
     field: &str,
+    p: &Principal,
 ) -> Result<String, AppError> {
     match v {
         serde_json::Value::String(id) => {
-            if !valid_scene_id(id) || st.jobs.store.get_scene(id)?.is_none() {
+            let visible = valid_scene_id(id)
+                && (p.admin || st.jobs.store.holds(Held::Scene, id, &p.owner)?);
+            if !visible || st.jobs.store.get_scene(id)?.is_none() {
                 return Err(AppError::invalid(
                     field,
                     format!("{field}: no stored scene with id '{id}'"),
@@ -175,6 +186,7 @@ pub(super) async fn scene_ref(
                 }
                 e
             })?;
+            st.jobs.store.hold(Held::Scene, &info.id, &p.owner)?;
             Ok(info.id)
         }
         _ => Err(AppError::invalid(
