@@ -185,6 +185,15 @@ impl IntoResponse for AppError {
 impl From<SceneError> for AppError {
     fn from(e: SceneError) -> Self {
         let field = e.field().to_string();
+        if let SceneError::Busy { .. } = e {
+            return AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "busy",
+                "Busy",
+                e.to_string(),
+            )
+            .retry_after(5);
+        }
         let (kind, title) = match &e {
             SceneError::Limit { .. } => ("limit-exceeded", "A limit was exceeded"),
             _ => ("invalid-scene", "Invalid scene"),

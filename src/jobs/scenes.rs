@@ -103,11 +103,8 @@ fn gltf_scene(
     limits: &Limits,
 ) -> Result<(SceneDesc, String, Vec<String>), SceneError> {
     let file = if binary { "model.glb" } else { "model.gltf" };
-    let imp = import_gltf(bytes, &limits.gltf, None).map_err(|e| SceneError::Asset {
-        path: "body".into(),
-        file: file.into(),
-        message: e.to_string(),
-    })?;
+    let imp = import_gltf(bytes, &limits.gltf, None)
+        .map_err(|e| SceneError::gltf("body".into(), file, e))?;
     if imp.parts.is_empty() {
         return Err(SceneError::Invalid {
             path: "body".into(),

@@ -32,6 +32,26 @@ pub enum SceneError {
     /// A limit (triangles, texture size, ...) was exceeded.
     #[error("{path}: {message}")]
     Limit { path: String, message: String },
+    /// The process had no room to decode an image in time; the same input may load later.
+    #[error("{path}: {message}")]
+    Busy { path: String, message: String },
+}
+
+impl SceneError {
+    /// The error for a glTF import of `file` at `path` that failed.
+    pub fn gltf(path: String, file: &str, e: crate::scene::gltf::GltfError) -> SceneError {
+        match e {
+            crate::scene::gltf::GltfError::Busy(message) => SceneError::Busy {
+                path,
+                message: format!("{file}: {message}"),
+            },
+            e => SceneError::Asset {
+                path,
+                file: file.to_string(),
+                message: e.to_string(),
+            },
+        }
+    }
 }
 
 impl SceneError {
@@ -48,7 +68,8 @@ impl SceneError {
             SceneError::Parse { path, .. }
             | SceneError::Invalid { path, .. }
             | SceneError::Asset { path, .. }
-            | SceneError::Limit { path, .. } => path,
+            | SceneError::Limit { path, .. }
+            | SceneError::Busy { path, .. } => path,
         }
     }
 }
@@ -622,11 +643,7 @@ pub fn resolve(
                 // Relative URIs inside a .gltf resolve next to it, not next to the scene.
                 let beside = gltf_import::PrefixedSource::beside(assets, file);
                 let imported = gltf_import::import_gltf(&bytes, &limits.gltf, Some(&beside))
-                    .map_err(|e| SceneError::Asset {
-                        path: sp("path"),
-                        file: file.clone(),
-                        message: e.to_string(),
-                    })?;
+                    .map_err(|e| SceneError::gltf(sp("path"), file, e))?;
                 warnings.extend(imported.warnings.iter().map(|w| format!("{file}: {w}")));
                 let m = o.transform.matrix();
                 // Lights inside the file move with the object.

@@ -270,7 +270,7 @@ async fn a_render_can_be_canceled() {
             r.headers()["location"].to_str().unwrap().to_string()
         }
     };
-    let big = submit(1_000_000_000).await;
+    let big = submit(100_000_000).await;
     let r = srv.client.delete(srv.url(&big)).send().await.unwrap();
     assert_eq!(r.status(), 200);
     let v: serde_json::Value = r.json().await.unwrap();
@@ -310,7 +310,7 @@ async fn a_render_past_its_job_time_limit_is_a_504_problem() {
         .post_json(
             "/v1/renders",
             &serde_json::json!({"scene": scene_sized(16, 16), "method": "reference",
-                                "photons": 1_000_000_000u64, "spp": 1}),
+                                "photons": 100_000_000u64, "spp": 1}),
         )
         .await;
     let p = problem(r, 504).await;

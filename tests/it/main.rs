@@ -20,6 +20,7 @@ mod http_concurrency;
 mod http_fairness;
 mod http_keys;
 mod http_limits;
+mod http_memory;
 mod http_no_gpu;
 mod http_openapi;
 mod http_props;

@@ -444,6 +444,7 @@ mod tests {
             warnings: vec![],
             suppressed: 0,
             decoded: 0,
+            image_bytes_left: 0,
         };
         let json = br#"{"asset":{"version":"2.0"}} "#; // 28 bytes
         let mut glb = b"glTF".to_vec();

@@ -6,7 +6,8 @@
 //! lights and cameras too.
 
 use super::container::{read_uri, short, view_bytes};
-use super::{Doc, State, panic_message};
+use super::{Doc, GltfError, State, panic_message};
+use crate::scene::image::DecodeRefusal;
 use crate::scene::world::Material;
 use glam::Vec3;
 use gltf::json;
@@ -43,15 +44,15 @@ fn srgb_to_linear(c: f32) -> f32 {
 /// Mean linear RGB of texture `t`'s image.
 fn texture_mean(
     doc: &Doc,
-    st: &State,
+    st: &mut State,
     t: usize,
-    cache: &mut HashMap<usize, Result<Vec3, String>>,
-) -> Result<Vec3, String> {
+    cache: &mut HashMap<usize, Result<Vec3, DecodeRefusal>>,
+) -> Result<Vec3, DecodeRefusal> {
     let tex = doc
         .root
         .textures
         .get(t)
-        .ok_or_else(|| format!("texture {t} does not exist"))?;
+        .ok_or_else(|| DecodeRefusal::Skip(format!("texture {t} does not exist")))?;
     let i = tex.source.value();
     if let Some(r) = cache.get(&i) {
         return r.clone();
@@ -61,27 +62,38 @@ fn texture_mean(
     r
 }
 
-fn image_mean(doc: &Doc, st: &State, i: usize) -> Result<Vec3, String> {
+fn image_mean(doc: &Doc, st: &mut State, i: usize) -> Result<Vec3, DecodeRefusal> {
+    let skip = |e: String| DecodeRefusal::Skip(e);
     let img = doc
         .root
         .images
         .get(i)
-        .ok_or_else(|| format!("image {i} does not exist"))?;
+        .ok_or_else(|| skip(format!("image {i} does not exist")))?;
     let bytes: Cow<[u8]> = match (&img.buffer_view, &img.uri) {
-        (Some(v), _) => Cow::Borrowed(view_bytes(doc, v.value()).map_err(|e| e.to_string())?.0),
+        (Some(v), _) => Cow::Borrowed(
+            view_bytes(doc, v.value())
+                .map_err(|e| skip(e.to_string()))?
+                .0,
+        ),
         (None, Some(uri)) => Cow::Owned(
             read_uri(uri, &format!("image {i}"), st.limits.max_buffer_bytes, st)
-                .map_err(|e| e.to_string())?,
+                .map_err(|e| skip(e.to_string()))?,
         ),
-        (None, None) => return Err(format!("image {i} has neither bufferView nor uri")),
+        (None, None) => return Err(skip(format!("image {i} has neither bufferView nor uri"))),
     };
     let max_side = st.limits.max_texture_side;
-    let decoded = catch_unwind(AssertUnwindSafe(|| {
-        crate::scene::image::decode_image_limited(&bytes, max_side)
+    let left = &mut st.image_bytes_left;
+    // The decoded image and its 8-bit RGB copy are held at once.
+    let (decoded, _held) = catch_unwind(AssertUnwindSafe(|| {
+        crate::scene::image::decode_image_budgeted(&bytes, max_side, left, 3)
     }))
-    .map_err(|p| format!("image decoder panicked: {}", panic_message(p)))?
-    .map_err(|e| format!("image {i}: {e}"))?;
+    .map_err(|p| skip(format!("image decoder panicked: {}", panic_message(p))))?
+    .map_err(|e| match e {
+        DecodeRefusal::Skip(m) => skip(format!("image {i}: {m}")),
+        busy => busy,
+    })?;
     let rgb = decoded.to_rgb8();
+    drop(decoded);
     let lut: Vec<f32> = (0..256).map(|v| srgb_to_linear(v as f32 / 255.0)).collect();
     let mut sum = [0f64; 3];
     for p in rgb.pixels() {
@@ -151,8 +163,8 @@ fn convert_material(
     st: &mut State,
     i: usize,
     m: &json::Material,
-    cache: &mut HashMap<usize, Result<Vec3, String>>,
-) -> MaterialInfo {
+    cache: &mut HashMap<usize, Result<Vec3, DecodeRefusal>>,
+) -> Result<MaterialInfo, GltfError> {
     let label = match &m.name {
         Some(n) => format!("material {i} '{}'", short(n)),
         None => format!("material {i}"),
@@ -189,9 +201,10 @@ fn convert_material(
     if let Some(info) = &pbr.base_color_texture {
         match texture_mean(doc, st, info.index.value(), cache) {
             Ok(mean) => base *= mean,
-            Err(e) => st.warn(format!(
+            Err(DecodeRefusal::Skip(e)) => st.warn(format!(
                 "{label}: base colour texture not used ({e}); the factor alone is used"
             )),
+            Err(DecodeRefusal::Busy(e)) => return Err(GltfError::Busy(format!("{label}: {e}"))),
         }
     }
     let ext = m.extensions.as_ref();
@@ -257,7 +270,7 @@ fn convert_material(
             albedo: base * (1.0 - metallic),
         }
     };
-    MaterialInfo {
+    Ok(MaterialInfo {
         label,
         base_color: base,
         metallic,
@@ -266,10 +279,10 @@ fn convert_material(
         ior,
         absorption,
         resolved,
-    }
+    })
 }
 
-pub(super) fn convert_materials(doc: &Doc, st: &mut State) -> Vec<MaterialInfo> {
+pub(super) fn convert_materials(doc: &Doc, st: &mut State) -> Result<Vec<MaterialInfo>, GltfError> {
     let mut cache = HashMap::new();
     doc.root
         .materials

@@ -195,6 +195,7 @@ mod tests {
             warnings: vec![],
             suppressed: 0,
             decoded: 0,
+            image_bytes_left: 0,
         };
         let strip = triangulate(Mode::TriangleStrip, &[0, 1, 2, 3], "t", &mut st);
         assert_eq!(strip, vec![[0, 1, 2], [1, 3, 2]]);

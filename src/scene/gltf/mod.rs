@@ -60,6 +60,9 @@ pub struct GltfLimits {
     pub max_texture_side: u32,
     /// Most bytes of buffer data (all buffers together) and of any one image.
     pub max_buffer_bytes: usize,
+    /// Most bytes of decoded images (with their working copies) in one file; an image past
+    /// it is not decoded (its material keeps its factor, with a warning).
+    pub max_image_bytes: u64,
 }
 
 impl Default for GltfLimits {
@@ -71,6 +74,7 @@ impl Default for GltfLimits {
             max_vertices: 8_000_000,
             max_texture_side: 8192,
             max_buffer_bytes: 256 << 20,
+            max_image_bytes: 128 << 20,
         }
     }
 }
@@ -108,6 +112,9 @@ pub enum GltfError {
     /// A [`GltfLimits`] cap was exceeded.
     #[error("limit exceeded: {0}")]
     Limit(String),
+    /// The process had no room to decode an image in time (try again later).
+    #[error("busy: {0}")]
+    Busy(String),
     /// The `gltf` crate (or a decoder) panicked on this input.
     #[error("glTF import panicked (malformed input): {0}")]
     Panic(String),
@@ -172,6 +179,8 @@ struct State<'a> {
     suppressed: usize,
     /// Vertex attribute / index elements decoded so far.
     decoded: usize,
+    /// What is left of [`GltfLimits::max_image_bytes`].
+    image_bytes_left: u64,
 }
 
 impl State<'_> {
@@ -217,6 +226,7 @@ fn import_inner(
         warnings: Vec::new(),
         suppressed: 0,
         decoded: 0,
+        image_bytes_left: limits.max_image_bytes,
     };
     let (json_bytes, bin) = split_container(bytes, &mut st)?;
     let gltf = catch_unwind(AssertUnwindSafe(|| {
@@ -248,7 +258,7 @@ fn import_inner(
     for i in 0..root.accessors.len() {
         check_accessor(&doc, i, &mut st)?;
     }
-    let materials = convert_materials(&doc, &mut st);
+    let materials = convert_materials(&doc, &mut st)?;
     let mut out = walk_scene(&doc, &materials, &mut st)?;
     out.materials = materials;
     if !root.animations.is_empty() {
