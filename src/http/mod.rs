@@ -58,6 +58,8 @@ pub struct HttpConfig {
     pub header_timeout: Duration,
     /// Most connections served at once; past it they are shed ([`server`]).
     pub max_connections: usize,
+    /// Most bytes of request bodies held at once ([`server::BodyBudget`]).
+    pub max_body_bytes_in_flight: usize,
     /// How long `POST /v1/renders` waits for the image before answering 202 with the job.
     pub render_wait: Duration,
     /// How long running jobs get to finish at shutdown before they are put back in the queue.
@@ -74,6 +76,7 @@ impl Default for HttpConfig {
             body_timeout: Duration::from_secs(60),
             header_timeout: Duration::from_secs(10),
             max_connections: 1024,
+            max_body_bytes_in_flight: 512 << 20,
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),
             keys: auth::Keys::default(),
@@ -84,6 +87,7 @@ impl Default for HttpConfig {
 impl HttpConfig {
     /// Overrides from the environment: `CAUSTICA_MAX_BODY`, `CAUSTICA_MAX_JSON_BODY` (bytes),
     /// `CAUSTICA_BODY_TIMEOUT_S`, `CAUSTICA_HEADER_TIMEOUT_S`, `CAUSTICA_MAX_CONNECTIONS`,
+    /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`,
     /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range
     /// value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
@@ -102,6 +106,9 @@ impl HttpConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_CONNECTIONS", 1.0, 1e6, true)? {
             self.max_connections = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT", 1024.0, 1e12, true)? {
+            self.max_body_bytes_in_flight = v as usize;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);
@@ -123,6 +130,8 @@ pub struct AppState {
     shutdown_tx: Arc<tokio::sync::watch::Sender<bool>>,
     /// Connections open, accepted, shed.
     pub conns: Arc<server::ConnStats>,
+    /// Request body bytes held ([`server::admit_body`]).
+    pub bodies: Arc<server::BodyBudget>,
 }
 
 impl AppState {
@@ -130,10 +139,11 @@ impl AppState {
         let (tx, rx) = tokio::sync::watch::channel(false);
         AppState {
             jobs,
-            cfg: Arc::new(cfg),
             shutdown: rx,
             shutdown_tx: Arc::new(tx),
             conns: Arc::default(),
+            bodies: Arc::new(server::BodyBudget::new(cfg.max_body_bytes_in_flight)),
+            cfg: Arc::new(cfg),
         }
     }
 
@@ -189,6 +199,10 @@ pub fn app(state: AppState) -> Router {
         .route("/openapi.json", get(openapi_json))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            server::admit_body,
+        ))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::authenticate,

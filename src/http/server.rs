@@ -80,6 +80,61 @@ pub async fn limit_head(req: Request, next: Next) -> Response {
     next.run(req).await
 }
 
+/// Bytes of request bodies being received or held at once, process-wide: each request with a
+/// body takes its declared length (or the body limit when it declares none) before it is read,
+/// and gives it back when answered; past [`HttpConfig::max_body_bytes_in_flight`], `503` with
+/// `Retry-After`.
+pub struct BodyBudget(Arc<Semaphore>);
+
+impl BodyBudget {
+    pub fn new(bytes: usize) -> BodyBudget {
+        BodyBudget(Arc::new(Semaphore::new(kib(bytes) as usize)))
+    }
+}
+
+fn kib(bytes: usize) -> u32 {
+    u32::try_from(bytes.div_ceil(1024)).unwrap_or(u32::MAX)
+}
+
+/// The middleware of [`BodyBudget`].
+pub async fn admit_body(
+    axum::extract::State(st): axum::extract::State<super::AppState>,
+    req: Request,
+    next: Next,
+) -> Response {
+    let declared = req
+        .headers()
+        .get(axum::http::header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<usize>().ok());
+    let chunked = req
+        .headers()
+        .contains_key(axum::http::header::TRANSFER_ENCODING);
+    let bytes = match declared {
+        Some(n) => n.min(st.cfg.max_body),
+        None if chunked => st.cfg.max_body,
+        None => 0,
+    };
+    if bytes == 0 {
+        return next.run(req).await;
+    }
+    let Ok(_held) = st.bodies.0.clone().try_acquire_many_owned(kib(bytes)) else {
+        return AppError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "busy",
+            "Busy",
+            format!(
+                "the server is receiving as many request bytes as it holds at once ({} MiB); \
+                 retry shortly",
+                st.cfg.max_body_bytes_in_flight >> 20
+            ),
+        )
+        .retry_after(1)
+        .into_response();
+    };
+    next.run(req).await
+}
+
 /// Serves `app` on `listener` until `shutdown` resolves, then stops accepting, asks every
 /// connection to close after its request in flight, and waits for them.
 pub async fn run(

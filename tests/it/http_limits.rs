@@ -206,3 +206,55 @@ async fn hostile_json_shapes_are_refused_before_they_are_built() {
     assert!(out.starts_with("HTTP/1.1 413"), "{out}");
     assert!(out.contains("limit of 8388608 bytes"), "{out}");
 }
+
+/// Request bodies held at once are bounded: while one client holds the budget (a body it is
+/// slow to send), another's upload gets 503 busy with Retry-After; once the first is answered
+/// (408), uploads go through again.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn request_bodies_in_flight_are_bounded() {
+    let srv = Server::start("limits-bodies", |_, h| {
+        h.max_body_bytes_in_flight = 1 << 20;
+        h.body_timeout = Duration::from_secs(2);
+    })
+    .await;
+    let mut hog = TcpStream::connect(addr(&srv)).await.unwrap();
+    hog.write_all(
+        b"POST /v1/scenes HTTP/1.1\r\nHost: x\r\nContent-Type: model/gltf-binary\r\n\
+          Content-Length: 1048576\r\n\r\nglTF",
+    )
+    .await
+    .unwrap();
+    let upload = || async {
+        srv.client
+            .post(srv.url("/v1/scenes"))
+            .header("content-type", "application/json")
+            .body(serde_json::to_vec(&scene_sized(8, 8)).unwrap())
+            .send()
+            .await
+            .unwrap()
+    };
+    let busy = poll(
+        "the hog to hold the budget",
+        Duration::from_secs(10),
+        || async {
+            let r = upload().await;
+            (r.status() == 503).then_some(r)
+        },
+    )
+    .await;
+    assert_eq!(busy.headers()["retry-after"], "1");
+    let p = problem(busy, 503).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("request bytes"),
+        "{p}"
+    );
+    let out = String::from_utf8_lossy(&read_to_close(&mut hog, Duration::from_secs(20)).await)
+        .into_owned();
+    assert!(out.starts_with("HTTP/1.1 408"), "{out}");
+    poll(
+        "uploads to go through again",
+        Duration::from_secs(10),
+        || async { (upload().await.status() == 201).then_some(()) },
+    )
+    .await;
+}
