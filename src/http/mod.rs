@@ -29,6 +29,7 @@ use tracing::Level;
 pub const ROUTES: &[(&str, &str)] = &[
     ("POST", "/v1/scenes"),
     ("GET", "/v1/scenes/{id}"),
+    ("DELETE", "/v1/scenes/{id}"),
     ("POST", "/v1/bakes"),
     ("GET", "/v1/bakes/{id}"),
     ("DELETE", "/v1/bakes/{id}"),
@@ -186,7 +187,7 @@ pub fn app(state: AppState) -> Router {
     use routes::*;
     Router::new()
         .route("/v1/scenes", axum::routing::post(post_scene))
-        .route("/v1/scenes/{id}", get(get_scene))
+        .route("/v1/scenes/{id}", get(get_scene).delete(delete_scene))
         .route("/v1/bakes", axum::routing::post(post_bake))
         .route("/v1/bakes/{id}", get(get_bake).delete(delete_bake))
         .route("/v1/bakes/{id}/artifact", get(get_bake_artifact))

@@ -17,6 +17,8 @@ pub struct JobConfig {
     pub max_queued_bakes: usize,
     /// What one render may ask for on this server.
     pub caps: RequestCaps,
+    /// How long results are kept.
+    pub retention: Retention,
     pub bake_timeout: Duration,
     pub render_timeout: Duration,
     /// Scene limits applied to uploads and renders.
@@ -35,6 +37,7 @@ impl JobConfig {
             max_queued: 256,
             max_queued_bakes: 64,
             caps: RequestCaps::default(),
+            retention: Retention::default(),
             bake_timeout: Duration::from_secs(3600),
             render_timeout: Duration::from_secs(300),
             // Image side capped below the library's 8192: a reference frame holds several
@@ -52,6 +55,7 @@ impl JobConfig {
     /// Overrides from the environment (`get` looks a variable up; `caustica serve` passes
     /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
     /// `CAUSTICA_MAX_QUEUED_BAKES`, `CAUSTICA_MAX_PHOTONS`, `CAUSTICA_MAX_SPP`,
+    /// `CAUSTICA_RENDER_TTL_S`, `CAUSTICA_BAKE_TTL_S`, `CAUSTICA_MAX_RENDER_BYTES` (0: keep),
     /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
     /// `CAUSTICA_MAX_TRIANGLES`. An unparsable or out-of-range value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
@@ -70,6 +74,15 @@ impl JobConfig {
         if let Some(v) = env_num(get, "CAUSTICA_MAX_SPP", 1.0, 1024.0, true)? {
             self.caps.max_spp = v as u32;
         }
+        if let Some(v) = env_num(get, "CAUSTICA_RENDER_TTL_S", 0.0, 1e10, false)? {
+            self.retention.render_ttl = (v > 0.0).then(|| Duration::from_secs_f64(v));
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_BAKE_TTL_S", 0.0, 1e10, false)? {
+            self.retention.bake_ttl = (v > 0.0).then(|| Duration::from_secs_f64(v));
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_RENDER_BYTES", 0.0, 1e15, true)? {
+            self.retention.max_render_bytes = (v > 0.0).then_some(v as u64);
+        }
         if let Some(v) = env_num(get, "CAUSTICA_BAKE_TIMEOUT_S", 1e-3, 1e7, false)? {
             self.bake_timeout = Duration::from_secs_f64(v);
         }
@@ -83,6 +96,31 @@ impl JobConfig {
             self.limits.max_triangles = v as usize;
         }
         Ok(())
+    }
+}
+
+/// How long finished jobs and their results are kept. A sweep every [`Retention::sweep_every`]
+/// deletes finished renders and bakes past their time to live, then the least recently served
+/// renders while their images take more than `max_render_bytes`. Deleted jobs answer 404.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Retention {
+    /// Finished renders are deleted this long after they end (None: kept).
+    pub render_ttl: Option<Duration>,
+    /// Finished bake jobs likewise (None: kept; their bakes in `DATA_DIR/bakes` stay).
+    pub bake_ttl: Option<Duration>,
+    /// Most bytes of render images kept (None: no cap).
+    pub max_render_bytes: Option<u64>,
+    pub sweep_every: Duration,
+}
+
+impl Default for Retention {
+    fn default() -> Self {
+        Retention {
+            render_ttl: Some(Duration::from_secs(7 * 24 * 3600)),
+            bake_ttl: None,
+            max_render_bytes: Some(10 << 30),
+            sweep_every: Duration::from_secs(60),
+        }
     }
 }
 

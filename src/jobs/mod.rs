@@ -23,7 +23,7 @@ pub mod store;
 pub mod worker;
 
 pub use crate::methods::Lane;
-pub use config::{JobConfig, RequestCaps, env_num};
+pub use config::{JobConfig, RequestCaps, Retention, env_num};
 pub use job::{
     Artifact, ErrorCode, Job, JobError, JobKind, JobSpec, JobState, Priority, build_job,
 };
@@ -221,6 +221,13 @@ impl JobSystem {
                     .expect("spawn worker"),
             );
         }
+        let s = sys.clone();
+        threads.push(
+            std::thread::Builder::new()
+                .name("caustica-janitor".into())
+                .spawn(move || s.janitor())
+                .expect("spawn janitor"),
+        );
         let s = sys.clone();
         threads.push(
             std::thread::Builder::new()
@@ -433,7 +440,12 @@ impl JobSystem {
         };
         let expect = r.artifact_len.zip(r.artifact_sha256.as_deref());
         match self.store.read_artifact(path, expect) {
-            Ok(b) => Ok(b),
+            Ok(b) => {
+                if let Err(e) = self.store.touch(&r.id) {
+                    tracing::warn!(job = %r.id, error = %e, "last use not recorded");
+                }
+                Ok(b)
+            }
             Err(StoreError::Integrity(why)) => {
                 tracing::error!(job = %r.id, %why, "artifact failed its check; re-running the job");
                 self.store.finish(
@@ -456,6 +468,65 @@ impl JobSystem {
             }
             Err(e) => Err(e.into()),
         }
+    }
+
+    /// Runs [`Self::sweep`] every `retention.sweep_every` until the queues close.
+    fn janitor(&self) {
+        let every = self.cfg.retention.sweep_every;
+        let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let (q, _) = self
+                .wake
+                .wait_timeout_while(qs, every, |q| !q.closed)
+                .unwrap_or_else(|e| e.into_inner());
+            if q.closed {
+                return;
+            }
+            drop(q);
+            match self.sweep() {
+                Ok(n) if n > 0 => tracing::info!(deleted = n, "retention sweep"),
+                Ok(_) => {}
+                Err(e) => tracing::warn!(error = %e, "retention sweep failed"),
+            }
+            qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        }
+    }
+
+    /// Deletes finished jobs past their time to live, then the least recently served renders
+    /// while render images take more than the cap ([`Retention`]). Returns how many went.
+    pub fn sweep(&self) -> Result<usize, StoreError> {
+        let r = &self.cfg.retention;
+        let now = store::now_ms();
+        let mut deleted = 0;
+        for (kind, ttl) in [(JobKind::Render, r.render_ttl), (JobKind::Bake, r.bake_ttl)] {
+            let Some(ttl) = ttl else { continue };
+            for id in self
+                .store
+                .finished_before(kind, now - ttl.as_millis() as i64)?
+            {
+                deleted += usize::from(self.store.delete_job(&id)?);
+            }
+        }
+        for id in self.store.unheld_scenes(now - 600_000)? {
+            if self.store.delete_scene(&id)? {
+                self.scenes.forget(&id);
+                deleted += 1;
+            }
+        }
+        if let Some(cap) = r.max_render_bytes {
+            let renders = self.store.renders_by_last_use()?;
+            let mut total: u64 = renders.iter().map(|(_, n)| n).sum();
+            for (id, n) in renders {
+                if total <= cap {
+                    break;
+                }
+                if self.store.delete_job(&id)? {
+                    total -= n;
+                    deleted += 1;
+                }
+            }
+        }
+        Ok(deleted)
     }
 
     /// Adds a thread for [`Self::shutdown`] to wait for (tests: a job that never stops).

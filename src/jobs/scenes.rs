@@ -215,6 +215,14 @@ impl Scenes {
         contained("scene", || resolve(desc, &src, &self.limits))
     }
 
+    /// Drops a deleted scene's resolved world from the cache.
+    pub fn forget(&self, id: &str) {
+        self.cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(id);
+    }
+
     fn remember(&self, id: &str, world: Arc<World>) {
         let mut c = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         if c.len() >= CACHE_SIZE

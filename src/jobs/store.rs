@@ -85,6 +85,11 @@ const MIGRATIONS: &[&str] = &[
     INSERT INTO holds (kind, id, owner) SELECT 'scene', id, '' FROM scenes;
     INSERT INTO holds (kind, id, owner) SELECT 'job', id, '' FROM jobs;
 "#,
+    // 4: when each result was last served, for evicting the least recently used renders.
+    r#"
+    ALTER TABLE jobs ADD COLUMN accessed_at INTEGER;
+    CREATE INDEX jobs_kind_state ON jobs(kind, state);
+"#,
 ];
 
 /// What a hold is on: a scene or a job.
@@ -497,6 +502,29 @@ impl Store {
             .is_some())
     }
 
+    /// Drops every hold on `id`.
+    pub fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "DELETE FROM holds WHERE kind = ?1 AND id = ?2",
+            params![what.as_str(), id],
+        )?;
+        Ok(())
+    }
+
+    /// Scenes stored before `before_ms` that nobody holds (left over when a job used one past
+    /// its last hold; the age leaves an upload the moment between storing and holding it).
+    pub fn unheld_scenes(&self, before_ms: i64) -> Result<Vec<String>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT id FROM scenes WHERE created_at < ?1
+                 AND id NOT IN (SELECT id FROM holds WHERE kind = 'scene')",
+        )?;
+        let ids = st
+            .query_map([before_ms], |r| r.get(0))?
+            .collect::<Result<Vec<String>, _>>()?;
+        Ok(ids)
+    }
+
     /// Drops `owner`'s hold on `id`; how many holds remain.
     pub fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError> {
         let c = self.conn();
@@ -510,6 +538,109 @@ impl Store {
             |r| r.get(0),
         )?;
         Ok(n as usize)
+    }
+
+    /// Notes that job `id`'s result was just served (for [`Self::evict_renders`]).
+    pub fn touch(&self, id: &str) -> Result<(), StoreError> {
+        self.conn().execute(
+            "UPDATE jobs SET accessed_at = ?2 WHERE id = ?1",
+            params![id, now_ms()],
+        )?;
+        Ok(())
+    }
+
+    /// Deletes a finished job: its artifact file, its record, its holds and the idempotency
+    /// keys that name it. False when it is not finished (or not there).
+    pub fn delete_job(&self, id: &str) -> Result<bool, StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction()?;
+        let path: Option<Option<String>> = tx
+            .query_row(
+                "SELECT artifact_path FROM jobs
+                 WHERE id = ?1 AND state IN ('succeeded', 'failed', 'canceled')",
+                [id],
+                |r| r.get(0),
+            )
+            .optional()?;
+        let Some(path) = path else {
+            return Ok(false);
+        };
+        tx.execute("DELETE FROM jobs WHERE id = ?1", [id])?;
+        tx.execute("DELETE FROM holds WHERE kind = 'job' AND id = ?1", [id])?;
+        tx.execute("DELETE FROM idempotency WHERE job_id = ?1", [id])?;
+        tx.commit()?;
+        drop(c);
+        // After the record is gone: a crash in between leaves a file without a record, which
+        // the next start reports, never a record without its file.
+        if let Some(p) = path.filter(|p| !p.contains('/') && !p.contains(".."))
+            && let Err(e) = std::fs::remove_file(self.artifacts.join(&p))
+            && e.kind() != std::io::ErrorKind::NotFound
+        {
+            tracing::warn!(file = %p, error = %e, "artifact not removed");
+        }
+        Ok(true)
+    }
+
+    /// Finished jobs of `kind` that ended before `before_ms` (for the time to live).
+    pub fn finished_before(
+        &self,
+        kind: JobKind,
+        before_ms: i64,
+    ) -> Result<Vec<String>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT id FROM jobs WHERE kind = ?1 AND state IN ('succeeded', 'failed', 'canceled')
+                 AND COALESCE(finished_at, created_at) < ?2",
+        )?;
+        let ids = st
+            .query_map(params![kind.as_str(), before_ms], |r| r.get(0))?
+            .collect::<Result<Vec<String>, _>>()?;
+        Ok(ids)
+    }
+
+    /// Succeeded renders, least recently served (or made) first, with their artifact bytes.
+    pub fn renders_by_last_use(&self) -> Result<Vec<(String, u64)>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT id, COALESCE(artifact_len, 0) FROM jobs
+             WHERE kind = 'render' AND state = 'succeeded'
+             ORDER BY COALESCE(accessed_at, finished_at, created_at), seq",
+        )?;
+        let rows = st
+            .query_map([], |r| Ok((r.get(0)?, r.get::<_, i64>(1)? as u64)))?
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(rows)
+    }
+
+    /// Deletes a scene and its files once nobody holds it and no queued or running job uses
+    /// it; false (and nothing deleted) when one does.
+    pub fn delete_scene(&self, id: &str) -> Result<bool, StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction()?;
+        let busy: i64 = tx.query_row(
+            "SELECT (SELECT COUNT(*) FROM holds WHERE kind = 'scene' AND id = ?1)
+                  + (SELECT COUNT(*) FROM jobs WHERE scene_id = ?1
+                         AND state IN ('queued', 'running'))",
+            [id],
+            |r| r.get(0),
+        )?;
+        if busy > 0 {
+            return Ok(false);
+        }
+        tx.execute("DELETE FROM scene_files WHERE scene_id = ?1", [id])?;
+        tx.execute("DELETE FROM scenes WHERE id = ?1", [id])?;
+        tx.commit()?;
+        Ok(true)
+    }
+
+    /// Whether a queued or running job uses scene `id`.
+    pub fn scene_in_use(&self, id: &str) -> Result<bool, StoreError> {
+        let n: i64 = self.conn().query_row(
+            "SELECT COUNT(*) FROM jobs WHERE scene_id = ?1 AND state IN ('queued', 'running')",
+            [id],
+            |r| r.get(0),
+        )?;
+        Ok(n > 0)
     }
 
     /// The job an idempotency key was first used for, with the hash of that request.

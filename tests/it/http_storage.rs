@@ -234,3 +234,106 @@ async fn an_emptied_database_is_reported_by_readyz() {
     }
     srv.stop().await;
 }
+
+/// Retention: renders past their time to live are deleted by the sweep.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn renders_past_their_time_to_live_are_deleted() {
+    let srv = Server::start("storage-ttl", |j, _| {
+        j.retention.render_ttl = Some(Duration::from_secs(1));
+        j.retention.sweep_every = Duration::from_millis(100);
+    })
+    .await;
+    let r = srv.post_json("/v1/renders", &small_render()).await;
+    assert_eq!(r.status(), 200);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let file = artifact_file(&srv.dir, &loc);
+    assert!(file.exists());
+    poll("the render to expire", Duration::from_secs(30), || async {
+        (srv.get_json(&loc).await.0 == 404).then_some(())
+    })
+    .await;
+    assert!(!file.exists());
+    srv.stop().await;
+}
+
+/// Retention: past the size cap the least recently served renders go first.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn past_the_size_cap_the_least_recently_served_renders_go() {
+    let srv = Server::start("storage-lru", |j, _| j.retention.max_render_bytes = None).await;
+    let mut locs = Vec::new();
+    let mut size = 0;
+    for _ in 0..3 {
+        // The same request three times: three renders of the same size.
+        let r = srv.post_json("/v1/renders", &small_render()).await;
+        assert_eq!(r.status(), 200);
+        locs.push(r.headers()["location"].to_str().unwrap().to_string());
+        size = r.bytes().await.unwrap().len() as u64;
+    }
+    // The first one served again: now the second is the least recently used.
+    let again = srv.client.get(srv.url(&format!("{}/image", locs[0])));
+    assert_eq!(again.send().await.unwrap().status(), 200);
+    let dir = srv.dir.clone();
+    let cleanup = srv.stop().await;
+    let srv = Server::start_in(dir, |j, _| {
+        j.retention.max_render_bytes = Some(2 * size + size / 2);
+        j.retention.sweep_every = Duration::from_millis(100);
+    })
+    .await;
+    poll(
+        "the cap to be enforced",
+        Duration::from_secs(30),
+        || async { (srv.get_json(&locs[1]).await.0 == 404).then_some(()) },
+    )
+    .await;
+    for kept in [&locs[0], &locs[2]] {
+        let (s, v) = srv.get_json(kept).await;
+        assert_eq!((s, &v["state"]), (200, &"succeeded".into()), "{kept}");
+    }
+    srv.stop().await;
+    drop(cleanup);
+}
+
+/// `DELETE /v1/scenes/{id}`: refused while a job uses the scene, then the scene is gone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_can_be_deleted_once_no_job_uses_it() {
+    let srv = Server::start("storage-scene-delete", |_, h| {
+        h.render_wait = Duration::ZERO;
+    })
+    .await;
+    let r = srv
+        .client
+        .post(srv.url("/v1/scenes"))
+        .json(&scene_sized(16, 16))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    let v: serde_json::Value = r.json().await.unwrap();
+    let id = v["id"].as_str().unwrap().to_string();
+    let at = format!("/v1/scenes/{id}");
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": id, "method": "reference", "photons": 100_000_000u64}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let render = r.headers()["location"].to_str().unwrap().to_string();
+    let del = || async { srv.client.delete(srv.url(&at)).send().await.unwrap() };
+    let p = problem(del().await, 409).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("cancel it first"),
+        "{p}"
+    );
+    srv.client.delete(srv.url(&render)).send().await.unwrap();
+    assert_eq!(del().await.status(), 204);
+    assert_eq!(srv.get_json(&at).await.0, 404);
+    let body = serde_json::json!({"scene": id, "method": "reference", "photons": 2000});
+    let p = problem(srv.post_json("/v1/renders", &body).await, 422).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("no stored scene"),
+        "{p}"
+    );
+    problem(del().await, 404).await;
+    srv.stop().await;
+}

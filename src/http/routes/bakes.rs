@@ -116,7 +116,7 @@ pub async fn delete_bake(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
     Path(id): Path<String>,
-) -> Result<Json<JobView>, AppError> {
+) -> Result<Response, AppError> {
     cancel_job(&st, &id, JobKind::Bake, &p).await
 }
 

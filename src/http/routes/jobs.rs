@@ -115,33 +115,35 @@ pub(super) fn job_view(
 
 /// Waits until the job ends, `wait` passes or shutdown begins. True when it ended.
 /// `DELETE` of a bake or a render: a queued job is dropped, a running one stops at its next
-/// progress check (waited for, up to 30 s, so that the answer tells the final state); 409 when
-/// it already succeeded, 404 when there is no such job. A user other than an admin drops only
-/// their own hold: the job is canceled once nobody holds it, and until then the answer shows
+/// progress check (waited for, up to 30 s, so that the answer tells the final state); a
+/// finished render is deleted, its record and image (204); 409 for a bake that already
+/// succeeded, 404 when there is no such job. A user other than an admin drops only their own
+/// hold: the job is canceled (or deleted) once nobody holds it, and until then the answer shows
 /// it going on.
 pub(super) async fn cancel_job(
     st: &AppState,
     id: &str,
     kind: JobKind,
     p: &Principal,
-) -> Result<axum::Json<JobView>, AppError> {
+) -> Result<Response, AppError> {
     let r = load_job(st, id, kind, p)?;
-    if r.state == JobState::Succeeded {
+    if r.state == JobState::Succeeded && kind == JobKind::Bake {
         return Err(AppError::new(
             StatusCode::CONFLICT,
             "already-finished",
             "Already finished",
-            format!(
-                "{} {id} already succeeded; there is nothing to cancel",
-                kind.as_str()
-            ),
+            format!("bake {id} already succeeded; there is nothing to cancel"),
         ));
     }
     if !p.admin {
         let view = job_view(st, id, kind, p)?;
         if st.jobs.store.release(Held::Job, id, &p.owner)? > 0 {
-            return Ok(axum::Json(view));
+            return Ok(axum::Json(view).into_response());
         }
+    }
+    if kind == JobKind::Render && r.state.is_terminal() {
+        st.jobs.store.delete_job(id)?;
+        return Ok(StatusCode::NO_CONTENT.into_response());
     }
     if let Some(h) = st.jobs.handle(id) {
         st.jobs.cancel(id)?;
@@ -153,7 +155,7 @@ pub(super) async fn cancel_job(
         .get_job(id)?
         .ok_or_else(|| AppError::not_found(kind.as_str(), id))?;
     let h = st.jobs.handle(id);
-    Ok(axum::Json(view(r, h.as_deref())))
+    Ok(axum::Json(view(r, h.as_deref())).into_response())
 }
 
 pub(super) async fn wait_terminal(st: &AppState, h: &Arc<JobHandle>, wait: Duration) -> bool {

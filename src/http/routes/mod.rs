@@ -12,7 +12,7 @@ pub use bakes::{delete_bake, get_bake, get_bake_artifact, post_bake};
 pub use jobs::{JobView, Timing, server_timing};
 pub use ops::{healthz, method_not_allowed, metrics, not_found, openapi_json, readyz};
 pub use renders::{delete_render, get_render, get_render_image, post_render};
-pub use scenes::{get_scene, post_scene};
+pub use scenes::{delete_scene, get_scene, post_scene};
 
 use super::auth::Principal;
 use super::{AppError, AppState};

@@ -123,7 +123,7 @@ pub async fn delete_render(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
     Path(id): Path<String>,
-) -> Result<Json<JobView>, AppError> {
+) -> Result<Response, AppError> {
     cancel_job(&st, &id, JobKind::Render, &p).await
 }
 

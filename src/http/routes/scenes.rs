@@ -148,6 +148,38 @@ pub async fn get_scene(
         .ok_or_else(|| AppError::not_found("scene", &id))
 }
 
+/// `DELETE /v1/scenes/{id}`: drops the caller's hold on the scene (an admin's: every hold);
+/// once nobody holds it, the scene and its files are deleted. 409 while a queued or running
+/// job uses it; 204 otherwise.
+pub async fn delete_scene(
+    State(st): State<AppState>,
+    Extension(p): Extension<Principal>,
+    Path(id): Path<String>,
+) -> Result<Response, AppError> {
+    let store = &st.jobs.store;
+    let visible = valid_scene_id(&id) && (p.admin || store.holds(Held::Scene, &id, &p.owner)?);
+    if !visible || store.get_scene(&id)?.is_none() {
+        return Err(AppError::not_found("scene", &id));
+    }
+    if store.scene_in_use(&id)? {
+        return Err(AppError::new(
+            StatusCode::CONFLICT,
+            "scene-in-use",
+            "Scene in use",
+            format!("scene {id} is used by a queued or running job; cancel it first"),
+        ));
+    }
+    if p.admin {
+        store.release_all(Held::Scene, &id)?;
+    } else {
+        store.release(Held::Scene, &id, &p.owner)?;
+    }
+    if store.delete_scene(&id)? {
+        st.jobs.scenes.forget(&id);
+    }
+    Ok(StatusCode::NO_CONTENT.into_response())
+}
+
 /// A scene given inline (object) or by id (string): the stored id. `p` must hold a scene given
 /// by id (an unknown one and another client's answer alike); an inline one becomes theirs.
 pub(super) async fn scene_ref(
