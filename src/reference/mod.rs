@@ -40,6 +40,7 @@ use crate::trace::{Accel, Hit};
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 /// Reference render settings.
@@ -350,15 +351,27 @@ pub fn render(
 
     // --- Camera pass -----------------------------------------------------------------------
     let t2 = Instant::now();
+    // Checked after every row (reporting 0.8..1.0), so that a large frame stops soon after it
+    // is canceled; rows after the stop are left empty and the result is discarded.
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let rows_done = std::sync::atomic::AtomicU32::new(0);
     let rows: Vec<Vec<(Vec3, Vec3)>> = (0..h)
         .into_par_iter()
         .map(|y| {
-            (0..w)
+            if stop.load(Ordering::Relaxed) {
+                return Vec::new();
+            }
+            let row = (0..w)
                 .map(|x| camera_pixel(world, accel, params, env, &pmap, x, y))
-                .collect()
+                .collect();
+            let n = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+            if !progress(0.8 + 0.2 * n as f32 / h as f32) {
+                stop.store(true, Ordering::Relaxed);
+            }
+            row
         })
         .collect();
-    if !progress(1.0) {
+    if stop.load(Ordering::Relaxed) || !progress(1.0) {
         return Err(ReferenceError::Canceled);
     }
     stats.camera_samples = u64::from(w) * u64::from(h) * u64::from(params.spp);

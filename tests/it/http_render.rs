@@ -300,6 +300,32 @@ async fn a_render_can_be_canceled() {
     srv.stop().await;
 }
 
+/// A reference render canceled in its camera pass (a large frame, many samples a pixel) stops
+/// soon after, not at the end of the pass.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_reference_render_stops_in_its_camera_pass() {
+    let srv = Server::start("render-cancel-camera", |_, h| {
+        h.render_wait = Duration::ZERO
+    })
+    .await;
+    let body = serde_json::json!({"scene": scene_sized(2048, 2048), "method": "reference",
+                                  "photons": 2000, "spp": 64});
+    let r = srv.post_json("/v1/renders", &body).await;
+    assert_eq!(r.status(), 202);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    poll("the camera pass", Duration::from_secs(60), || async {
+        let (_, v) = srv.get_json(&loc).await;
+        (v["stage"] == "camera").then_some(())
+    })
+    .await;
+    let t = std::time::Instant::now();
+    let r = srv.client.delete(srv.url(&loc)).send().await.unwrap();
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(v["state"], "canceled", "{v}");
+    eprintln!("camera pass stopped {:?} after the cancel", t.elapsed());
+    srv.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_render_past_its_job_time_limit_is_a_504_problem() {
     let srv = Server::start("render-timeout", |j, _| {

@@ -147,7 +147,8 @@ fn volumes_conserve_flux_on_a_plane() {
     let world = sphere_scene("glass-sphere-directional", 16, |s| s);
     let table = bake(&world, 8, 16);
     let sources = volumes::sources(&world.lights, 16);
-    let (vols, stats) = volumes::build_volumes(&world, "glass", &table, &sources, None).unwrap();
+    let (vols, stats) =
+        volumes::build_volumes(&world, "glass", &table, &sources, None, &|| true).unwrap();
     assert!(stats.volumes > 50, "{stats:?}");
     let half = 4.0f32;
     let mut expect = 0.0f64;
@@ -196,7 +197,8 @@ fn volumes_conserve_flux_on_a_plane() {
 fn reflection_volumes_carry_the_fresnel_reflected_flux() {
     let world = sphere_scene("glass-sphere-directional", 96, |s| s);
     let sources = volumes::sources(&world.lights, 16);
-    let (vols, stats) = volumes::build_reflection_volumes(&world, "glass", &sources, None).unwrap();
+    let (vols, stats) =
+        volumes::build_reflection_volumes(&world, "glass", &sources, None, &|| true).unwrap();
     let n = 20_000;
     let mean_r: f64 = (0..n)
         .map(|k| {
@@ -345,7 +347,7 @@ fn moving_and_turning_the_object_reuses_the_table() {
     );
     // Another mesh: refused with a message.
     let other = sphere_scene("glass-sphere-directional", 40, |s| s);
-    let err = volumes::build_volumes(&other, "glass", &table, &[], None).unwrap_err();
+    let err = volumes::build_volumes(&other, "glass", &table, &[], None, &|| true).unwrap_err();
     assert!(err.to_string().contains("does not fit object"), "{err}");
 }
 

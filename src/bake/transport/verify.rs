@@ -94,7 +94,7 @@ fn verify_direction(
         direction: light,
         irradiance: Vec3::ONE,
     };
-    let (volumes, stats) = build_volumes(local, name, table, &[source], None).ok()?;
+    let (volumes, stats) = build_volumes(local, name, table, &[source], None, &|| true).ok()?;
     let plane = FitPlane::new(light, centre, radius, CELLS);
     let m = CELLS;
     let at = |i: f32, j: f32| plane.at(i, j);

@@ -99,10 +99,16 @@ impl TransportLayer {
         for &(oi, table) in tables {
             go()?;
             let name = &world.objects[oi].name;
-            let (v, s) = volumes::build_volumes(world, name, table, &sources, Some(&blockers))?;
+            let (v, s) =
+                volumes::build_volumes(world, name, table, &sources, Some(&blockers), keep_going)?;
             go()?;
-            let (r, rs) =
-                volumes::build_reflection_volumes(world, name, &sources, Some(&blockers))?;
+            let (r, rs) = volumes::build_reflection_volumes(
+                world,
+                name,
+                &sources,
+                Some(&blockers),
+                keep_going,
+            )?;
             layer.volumes.extend(v);
             layer.volumes.extend(r);
             layer.stats.vertices += s.vertices;

@@ -1031,13 +1031,15 @@ fn emit(
 
 /// The illumination volumes of object `object_name` (with its `table`) for `sources`, in world
 /// space. `blockers` holds what may shadow the object's vertices from the light (the scene
-/// without its caustic objects: other glass is taken as clear); `None` shadows nothing.
+/// without its caustic objects: other glass is taken as clear); `None` shadows nothing. Stops
+/// with [`EvalError::Canceled`] when `keep_going` (asked before each source) says so.
 pub fn build_volumes(
     world: &World,
     object_name: &str,
     table: &TransportTable,
     sources: &[Source],
     blockers: Option<&Accel>,
+    keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<(Vec<Volume>, VolumeStats), EvalError> {
     let object = world
         .object(object_name)
@@ -1068,6 +1070,9 @@ pub fn build_volumes(
     let mut volumes = Vec::new();
     let own: std::sync::OnceLock<(Accel, Vec<u32>)> = std::sync::OnceLock::new();
     for src in sources {
+        if !keep_going() {
+            return Err(EvalError::Canceled);
+        }
         // Per vertex and path it leaves on: the exit (world space), the light's travel
         // direction (rigid frame) and its irradiance.
         let lit: Vec<Vec<(u16, LitVertex)>> = {
@@ -1162,11 +1167,13 @@ pub fn build_volumes(
 /// (the tables' self-occlusion flag, here traced) nor `blockers` (the scene without its caustic
 /// objects) lies between it and the light; a mirror ray that meets the object again (light
 /// reflected into another part of it) is not followed, and its triangles sweep no volume.
+/// `keep_going` as for [`build_volumes`].
 pub fn build_reflection_volumes(
     world: &World,
     object_name: &str,
     sources: &[Source],
     blockers: Option<&Accel>,
+    keep_going: &(dyn Fn() -> bool + Sync),
 ) -> Result<(Vec<Volume>, VolumeStats), EvalError> {
     let oi = world
         .objects
@@ -1184,6 +1191,9 @@ pub fn build_reflection_volumes(
     let inv_rot = glass.rot.inverse();
     let mut volumes = Vec::new();
     for src in sources {
+        if !keep_going() {
+            return Err(EvalError::Canceled);
+        }
         let lit: Vec<Vec<(u16, LitVertex)>> = {
             use rayon::prelude::*;
             (0..glass.vertices.len())

@@ -249,7 +249,8 @@ pub fn bake_dynamic(
                 object_name,
                 dir,
                 &params.csl,
-                &|_| !cancel.load(Ordering::Relaxed),
+                // Asks the caller while a direction bakes, not only between directions.
+                &|_| check("directions", done.load(Ordering::Relaxed), nv as u32),
                 false,
                 Some(&accel),
             )?;
@@ -274,27 +275,44 @@ pub fn bake_dynamic(
         .par_iter()
         .map(|s| s.csls.iter().map(image_band).collect())
         .collect();
-    let along: Vec<Option<StepRays>> = sets
-        .par_iter()
-        .map(|s| StepRays::trace(&accel, s.light_dir, bounds, params, &cancel))
-        .collect();
-    let Some(along) = along.into_iter().collect::<Option<Vec<_>>>() else {
-        return Err(BakeError::Canceled);
-    };
-    let end = |i: u32| End {
-        set: &sets[i as usize],
-        bands: &bands[i as usize],
-        rays: &along[i as usize],
-    };
-    let matches: Vec<Option<EdgeMatch>> = edges
-        .par_iter()
-        .map(|&[i, j]| {
-            let m = match_edge(&accel, [end(i), end(j)], params, &cancel)?;
-            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            check("tracking", d, edges.len() as u32).then_some(m)
-        })
-        .collect();
-    if cancel.load(Ordering::Relaxed) || matches.iter().any(Option::is_none) {
+    // The tracing polls `cancel`; a watcher asks the caller every 100 ms and sets it, so that a
+    // long edge stops soon after the caller says so (not only between edges).
+    let tracked = AtomicBool::new(false);
+    let (along, matches) = std::thread::scope(|sc| {
+        sc.spawn(|| {
+            while !tracked.load(Ordering::Relaxed)
+                && check("tracking", done.load(Ordering::Relaxed), edges.len() as u32)
+            {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+            }
+        });
+        let along: Vec<Option<StepRays>> = sets
+            .par_iter()
+            .map(|s| StepRays::trace(&accel, s.light_dir, bounds, params, &cancel))
+            .collect();
+        let along = along.into_iter().collect::<Option<Vec<_>>>();
+        let matches: Vec<Option<EdgeMatch>> = match &along {
+            None => vec![],
+            Some(along) => {
+                let end = |i: u32| End {
+                    set: &sets[i as usize],
+                    bands: &bands[i as usize],
+                    rays: &along[i as usize],
+                };
+                edges
+                    .par_iter()
+                    .map(|&[i, j]| {
+                        let m = match_edge(&accel, [end(i), end(j)], params, &cancel)?;
+                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        check("tracking", d, edges.len() as u32).then_some(m)
+                    })
+                    .collect()
+            }
+        };
+        tracked.store(true, Ordering::Relaxed);
+        (along, matches)
+    });
+    if along.is_none() || cancel.load(Ordering::Relaxed) || matches.iter().any(Option::is_none) {
         return Err(BakeError::Canceled);
     }
     let time_tracking = t0.elapsed();
