@@ -225,7 +225,8 @@ enum Cmd {
         /// CAUSTICA_BAKE_TIMEOUT_S, CAUSTICA_RENDER_TIMEOUT_S, CAUSTICA_MAX_IMAGE_SIDE,
         /// CAUSTICA_MAX_TRIANGLES, CAUSTICA_MAX_BODY, CAUSTICA_MAX_JSON_BODY,
         /// CAUSTICA_BODY_TIMEOUT_S, CAUSTICA_HEADER_TIMEOUT_S, CAUSTICA_MAX_CONNECTIONS,
-        /// CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
+        /// CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT, CAUSTICA_RENDER_TTL_S, CAUSTICA_BAKE_TTL_S,
+        /// CAUSTICA_MAX_RENDER_BYTES, CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
         #[arg(long)]
         log_json: bool,
     },
@@ -880,6 +881,7 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathB
         jc.apply_env(&get).map_err(anyhow::Error::msg)?;
         let mut hc = HttpConfig::default();
         hc.apply_env(&get).map_err(anyhow::Error::msg)?;
+        hc.max_connections = caustica::http::server::fit_file_limit(hc.max_connections);
         hc.keys = caustica::http::auth::Keys::from_env(api_keys.as_deref(), &env)
             .map_err(anyhow::Error::msg)?;
         let listener = tokio::net::TcpListener::bind(&addr)

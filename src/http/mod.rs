@@ -111,6 +111,13 @@ impl HttpConfig {
         if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT", 1024.0, 1e12, true)? {
             self.max_body_bytes_in_flight = v as usize;
         }
+        if self.max_body_bytes_in_flight < self.max_body {
+            return Err(format!(
+                "CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT ({}) must be at least CAUSTICA_MAX_BODY ({}): \
+                 a body of the largest size could never be admitted",
+                self.max_body_bytes_in_flight, self.max_body
+            ));
+        }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);
         }

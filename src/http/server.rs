@@ -6,8 +6,8 @@
 //!   sockets held open and silent);
 //! - a **connection cap** ([`HttpConfig::max_connections`]): past it a connection is shed: it
 //!   gets `503` problem+json with `Retry-After` at once, except `GET /healthz`, which is still
-//!   answered, so a flood of idle sockets cannot make the process look dead; past a second,
-//!   smaller cap on connections being shed, new ones are closed unanswered;
+//!   answered, so a flood of idle sockets cannot make the process look dead; past a second
+//!   cap on connections being shed, new ones are closed unanswered;
 //! - request heads larger than hyper's own limits are refused by [`limit_head`] first, as
 //!   problem+json (`414` for a long URI, `431` for too many or too large headers).
 //!
@@ -36,9 +36,42 @@ pub const MAX_HEADERS: usize = 100;
 /// Most bytes of header names and values together (431 past it).
 pub const MAX_HEADER_BYTES: usize = 32 << 10;
 /// Connections being shed at once; past it, new ones are closed without an answer.
-const MAX_SHEDDING: usize = 256;
-/// How long a shed connection gets to send its request line.
-const SHED_READ: Duration = Duration::from_secs(2);
+const MAX_SHEDDING: usize = 1024;
+/// How long a shed connection gets to send its request line, and to take its answer.
+const SHED_READ: Duration = Duration::from_millis(500);
+
+/// Raises the open-file limit to its hard limit and returns the connection cap that fits in
+/// it: `wanted`, or less when the limit leaves no room for that many connections besides those
+/// being shed, the database, artifacts and the GPU driver (then logged).
+pub fn fit_file_limit(wanted: usize) -> usize {
+    let mut lim = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit/setrlimit read and write the one struct passed.
+    if unsafe { libc::getrlimit(libc::RLIMIT_NOFILE, &mut lim) } != 0 {
+        return wanted;
+    }
+    if lim.rlim_cur < lim.rlim_max {
+        let raised = libc::rlimit {
+            rlim_cur: lim.rlim_max,
+            rlim_max: lim.rlim_max,
+        };
+        if unsafe { libc::setrlimit(libc::RLIMIT_NOFILE, &raised) } == 0 {
+            lim = raised;
+        }
+    }
+    let room = (lim.rlim_cur as usize).saturating_sub(MAX_SHEDDING + 256);
+    if room < wanted {
+        tracing::warn!(
+            wanted,
+            open_files = lim.rlim_cur,
+            cap = room.max(1),
+            "the open-file limit leaves room for fewer connections than asked; capping"
+        );
+    }
+    wanted.min(room).max(1)
+}
 
 /// Connection counters, for `/metrics`.
 #[derive(Default, Debug)]
@@ -110,9 +143,17 @@ pub async fn admit_body(
     let chunked = req
         .headers()
         .contains_key(axum::http::header::TRANSFER_ENCODING);
+    // A body of undeclared length is counted at the most it may grow to: a JSON body's limit
+    // for JSON, the body limit otherwise.
+    let json = super::routes::media_type(req.headers()) == "application/json";
+    let most = if json {
+        st.cfg.max_json_body.min(st.cfg.max_body)
+    } else {
+        st.cfg.max_body
+    };
     let bytes = match declared {
-        Some(n) => n.min(st.cfg.max_body),
-        None if chunked => st.cfg.max_body,
+        Some(n) => n.min(most),
+        None if chunked => most,
         None => 0,
     };
     if bytes == 0 {
@@ -214,7 +255,14 @@ pub async fn run(
     drop(listener);
     stop_tx.send_replace(true);
     drop(done_rx);
-    done_tx.closed().await;
+    // Requests in flight get the shutdown grace; a client that stops reading its answer does
+    // not hold the process past it.
+    if tokio::time::timeout(cfg.shutdown_grace, done_tx.closed())
+        .await
+        .is_err()
+    {
+        tracing::warn!("connections still open after the grace; closing them");
+    }
 }
 
 /// Answers a connection past the cap: `/healthz` as usual, anything else `503` with
@@ -273,4 +321,18 @@ async fn shed(mut stream: TcpStream) {
         stream.shutdown().await
     };
     let _ = tokio::time::timeout(SHED_READ, write).await;
+    // A lingering close: read what the client still sends (the rest of its head, a body) for
+    // a moment, so that closing with unread data does not reset the connection and lose the
+    // answer on its way.
+    let drain = async {
+        let mut sink = [0u8; 4096];
+        let mut left = 64 << 10;
+        while left > 0 {
+            match stream.read(&mut sink).await {
+                Ok(0) | Err(_) => break,
+                Ok(k) => left -= k.min(left),
+            }
+        }
+    };
+    let _ = tokio::time::timeout(SHED_READ, drain).await;
 }

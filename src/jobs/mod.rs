@@ -448,15 +448,16 @@ impl JobSystem {
             }
             Err(StoreError::Integrity(why)) => {
                 tracing::error!(job = %r.id, %why, "artifact failed its check; re-running the job");
-                self.store.finish(
-                    &r.id,
-                    JobState::Failed,
-                    0.0,
-                    &[],
-                    &serde_json::json!({ "error_code": ErrorCode::Store }),
-                    Some(&format!("the stored artifact failed its check: {why}")),
-                    None,
-                )?;
+                let error = format!("the stored artifact failed its check: {why}");
+                // Only the reader that marks it failed runs it again (not a second reader, nor
+                // after the job was deleted).
+                if !self
+                    .store
+                    .fail_lost(&r.id, r.artifact_sha256.as_deref(), &error)?
+                {
+                    let requeued = self.handle(&r.id).is_some();
+                    return Err(ArtifactError::Lost { why, requeued });
+                }
                 let requeued = match self.submit(&r.id, &r.spec()) {
                     Ok((_, started)) => started,
                     Err(e) => {

@@ -186,7 +186,8 @@ impl Scenes {
 
     /// Validates, stores and caches an upload. Blocking (it imports meshes): call it from a
     /// blocking thread. Panics in parsers are contained and reported as errors.
-    pub fn ingest(&self, input: SceneInput) -> Result<SceneInfo, IngestError> {
+    /// Stores a scene (held by `owner`, the API key's name) and resolves it.
+    pub fn ingest(&self, input: SceneInput, owner: &str) -> Result<SceneInfo, IngestError> {
         let (desc, files, mut warnings) = match input {
             SceneInput::Json { scene, files } => (parse_scene(&scene)?, files, vec![]),
             SceneInput::Gltf { bytes, binary } => {
@@ -199,7 +200,7 @@ impl Scenes {
         let id = scene_id(&canonical, &files);
         let world = self.resolve_desc(&desc, &files)?;
         warnings.extend(world.warnings.iter().cloned());
-        self.store.put_scene(&id, &canonical, &files)?;
+        self.store.put_scene(&id, &canonical, &files, owner)?;
         let world = Arc::new(world);
         let info = info_of(&id, &desc, &files, &world, warnings);
         self.remember(&id, world);

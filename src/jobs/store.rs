@@ -290,14 +290,21 @@ impl Store {
     }
 
     /// Stores a scene unless one with this id exists (ids are content hashes).
+    /// `owner` holds the scene from the same transaction on, so that no sweep of unheld scenes
+    /// can take it in between.
     pub fn put_scene(
         &self,
         id: &str,
         scene_json: &[u8],
         files: &[(String, Vec<u8>)],
+        owner: &str,
     ) -> Result<(), StoreError> {
         let mut c = self.conn();
         let tx = c.transaction()?;
+        tx.execute(
+            "INSERT OR IGNORE INTO holds (kind, id, owner) VALUES ('scene', ?1, ?2)",
+            params![id, owner],
+        )?;
         let n = tx.execute(
             "INSERT OR IGNORE INTO scenes (id, scene_json, created_at) VALUES (?1, ?2, ?3)",
             params![id, scene_json, now_ms()],
@@ -500,6 +507,35 @@ impl Store {
             )
             .optional()?
             .is_some())
+    }
+
+    /// Marks succeeded job `id` failed with `error`, only if it is still the succeeded job
+    /// whose artifact had `sha256`; whether it was (so that two readers of one lost artifact,
+    /// or a reader and a deletion, do not both act on it).
+    pub fn fail_lost(
+        &self,
+        id: &str,
+        sha256: Option<&str>,
+        error: &str,
+    ) -> Result<bool, StoreError> {
+        let info = serde_json::json!({ "error_code": ErrorCode::Store }).to_string();
+        let n = self.conn().execute(
+            "UPDATE jobs SET state = 'failed', stage = 'failed', error = ?3, info = ?4,
+                 finished_at = ?5, artifact_type = NULL, artifact_path = NULL
+             WHERE id = ?1 AND state = 'succeeded' AND artifact_sha256 IS ?2",
+            params![id, sha256, error, info, now_ms()],
+        )?;
+        Ok(n == 1)
+    }
+
+    /// How many hold `id`.
+    pub fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
+        let n: i64 = self.conn().query_row(
+            "SELECT COUNT(*) FROM holds WHERE kind = ?1 AND id = ?2",
+            params![what.as_str(), id],
+            |r| r.get(0),
+        )?;
+        Ok(n as usize)
     }
 
     /// Drops every hold on `id`.

@@ -4,8 +4,7 @@
 //! 503 busy), `/healthz` answers throughout, and the process is alive at the end.
 
 use crate::support::server::*;
-use crate::support::{Cleanup, caustica_command, temp_dir};
-use std::process::Stdio;
+use crate::support::{Cleanup, temp_dir};
 use std::time::{Duration, Instant};
 
 /// A PNG of `side`² RGBA pixels of one colour, written row by row (never held whole).
@@ -94,22 +93,10 @@ async fn hostile_texture_uploads_in_parallel_do_not_kill_a_memory_limited_server
     assert!(glb.len() < 4 << 20, "{} bytes", glb.len());
     let dir = temp_dir("memory");
     let _cleanup = Cleanup(dir.clone());
-    let exe = caustica_command().get_program().to_owned();
     // 3 GiB of address space: the idle server maps ~1.4 GiB (threads, the GPU driver); the
     // images of one of these uploads alone would take ~1.2 GiB more, eight at once ~10 GiB.
-    let mut child = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(r#"ulimit -v 3145728 && exec "$0" "$@""#)
-        .arg(exe)
-        .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
-        .arg(&dir)
-        .env("CAUSTICA_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let base = listening_on(&mut child);
-    let pid = child.id();
+    let (child, base) = serve_under("ulimit -v 3145728", &dir);
+    let pid = child.0.id();
     let c = client();
     let mut uploads = Vec::new();
     for _ in 0..8 {
@@ -145,11 +132,12 @@ async fn hostile_texture_uploads_in_parallel_do_not_kill_a_memory_limited_server
             s => panic!("{s}: {v}"),
         }
     }
-    assert!(child.try_wait().unwrap().is_none(), "the server died");
+    let mut child = child;
+    assert!(child.0.try_wait().unwrap().is_none(), "the server died");
     eprintln!(
         "8 hostile uploads: peak resident {} MiB, worst /healthz {worst:?}",
         vm_hwm_mib(pid).unwrap_or(0)
     );
-    sigterm(&child);
-    child.wait().unwrap();
+    sigterm(&child.0);
+    assert!(child.0.wait().unwrap().success());
 }

@@ -5,9 +5,8 @@
 
 use crate::support::scenes::scene_sized;
 use crate::support::server::*;
-use crate::support::{Cleanup, caustica_command, temp_dir};
+use crate::support::{Cleanup, temp_dir};
 use std::path::Path;
-use std::process::Stdio;
 use std::time::Duration;
 
 fn small_render() -> serde_json::Value {
@@ -100,20 +99,7 @@ async fn a_damaged_artifact_is_not_served_and_its_job_runs_again() {
 async fn a_failed_artifact_write_fails_the_job_and_leaves_no_temp_file() {
     let dir = temp_dir("storage-full");
     let _cleanup = Cleanup(dir.clone());
-    let exe = caustica_command().get_program().to_owned();
-    let mut child = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(r#"ulimit -f 1024 && trap "" XFSZ && exec "$0" "$@""#)
-        .arg(exe)
-        .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
-        .arg(&dir)
-        .env("CAUSTICA_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let base = listening_on(&mut child);
-    let child = KillOnDrop(child);
+    let (child, base) = serve_under(r#"ulimit -f 1024 && trap "" XFSZ"#, &dir);
     let c = client();
     // Fits: a small PNG.
     let r = c
@@ -161,16 +147,6 @@ async fn a_failed_artifact_write_fails_the_job_and_leaves_no_temp_file() {
         .unwrap();
     assert_eq!(r.status(), 200, "the server still renders");
     sigterm(&child.0);
-}
-
-/// Kills the child when the test ends, passed or not.
-struct KillOnDrop(std::process::Child);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -94,8 +94,14 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     }
     let jobs = st.jobs.clone();
     let (id2, spec2) = (id.clone(), spec.clone());
-    blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    // Held before it is submitted: a holder's DELETE in between cannot cancel it under us.
+    let held_before = st.jobs.store.holds(Held::Job, &id, &p.owner)?;
     st.jobs.store.hold(Held::Job, &id, &p.owner)?;
+    let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
+    if submitted.is_err() && !held_before {
+        let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
+    }
+    submitted?;
     if let Some(k) = &key {
         st.jobs.store.put_idempotency(k, &hash, &id)?;
     }

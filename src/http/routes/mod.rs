@@ -23,7 +23,7 @@ use axum::http::{HeaderMap, header};
 use serde::de::DeserializeOwned;
 
 /// The media type of the request, lowercased, without parameters.
-pub(super) fn media_type(headers: &HeaderMap) -> String {
+pub(crate) fn media_type(headers: &HeaderMap) -> String {
     headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())

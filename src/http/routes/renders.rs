@@ -75,8 +75,12 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     let id = render_id();
     let jobs = st.jobs.clone();
     let (id2, spec2) = (id.clone(), spec.clone());
-    let (h, _) = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await?;
+    // Held before it exists, so that it is never a job nobody holds.
     st.jobs.store.hold(Held::Job, &id, &p.owner)?;
+    let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
+    let (h, _) = submitted.inspect_err(|_| {
+        let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
+    })?;
     let loc = format!("/v1/renders/{id}");
     let done = match (&h, wait) {
         (Some(h), true) => wait_terminal(&st, h, st.cfg.render_wait).await,

@@ -87,9 +87,10 @@ async fn read_multipart(st: &AppState, req: Request) -> Result<SceneInput, AppEr
     Ok(SceneInput::Json { scene, files })
 }
 
-async fn ingest(st: &AppState, input: SceneInput) -> Result<SceneInfo, AppError> {
+async fn ingest(st: &AppState, input: SceneInput, p: &Principal) -> Result<SceneInfo, AppError> {
     let jobs = st.jobs.clone();
-    blocking(move || Ok(jobs.scenes.ingest(input)?)).await
+    let owner = p.owner.clone();
+    blocking(move || Ok(jobs.scenes.ingest(input, &owner)?)).await
 }
 
 pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
@@ -127,8 +128,7 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
             )));
         }
     };
-    let info = ingest(&st, input).await?;
-    st.jobs.store.hold(Held::Scene, &info.id, &p.owner)?;
+    let info = ingest(&st, input, &p).await?;
     let loc = format!("/v1/scenes/{}", info.id);
     Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())
 }
@@ -149,8 +149,9 @@ pub async fn get_scene(
 }
 
 /// `DELETE /v1/scenes/{id}`: drops the caller's hold on the scene (an admin's: every hold);
-/// once nobody holds it, the scene and its files are deleted. 409 while a queued or running
-/// job uses it; 204 otherwise.
+/// once nobody holds it and no queued or running job uses it, the scene and its files are
+/// deleted (a scene a job still uses goes with the retention sweep after the job). 409 when the
+/// caller is the last holder, or an admin, and a queued or running job uses it; 204 otherwise.
 pub async fn delete_scene(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
@@ -161,7 +162,8 @@ pub async fn delete_scene(
     if !visible || store.get_scene(&id)?.is_none() {
         return Err(AppError::not_found("scene", &id));
     }
-    if store.scene_in_use(&id)? {
+    let last = p.admin || store.holders(Held::Scene, &id)? <= 1;
+    if last && store.scene_in_use(&id)? {
         return Err(AppError::new(
             StatusCode::CONFLICT,
             "scene-in-use",
@@ -208,6 +210,7 @@ pub(super) async fn scene_ref(
                     scene: bytes,
                     files: vec![],
                 },
+                p,
             )
             .await
             .map_err(|mut e| {
@@ -218,7 +221,6 @@ pub(super) async fn scene_ref(
                 }
                 e
             })?;
-            st.jobs.store.hold(Held::Scene, &info.id, &p.owner)?;
             Ok(info.id)
         }
         _ => Err(AppError::invalid(

@@ -193,3 +193,32 @@ pub fn sigterm(child: &Child) {
         .status()
         .unwrap();
 }
+
+/// A child process killed (and reaped) when dropped, whether the test passed or not.
+pub struct ChildGuard(pub Child);
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// `caustica serve` on 127.0.0.1:0 over `dir`, started as `sh -c "LIMITS && exec caustica
+/// serve ..."` so that `limits` (e.g. `ulimit -v 3145728`) bound it; and its base URL.
+pub fn serve_under(limits: &str, dir: &std::path::Path) -> (ChildGuard, String) {
+    let exe = super::caustica_command().get_program().to_owned();
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg(format!(r#"{limits} && exec "$0" "$@""#))
+        .arg(exe)
+        .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
+        .arg(dir)
+        .env("CAUSTICA_LOG", "warn")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::inherit())
+        .spawn()
+        .expect("starts");
+    let base = listening_on(&mut child);
+    (ChildGuard(child), base)
+}

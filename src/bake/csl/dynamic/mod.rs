@@ -278,7 +278,15 @@ pub fn bake_dynamic(
     // The tracing polls `cancel`; a watcher asks the caller every 100 ms and sets it, so that a
     // long edge stops soon after the caller says so (not only between edges).
     let tracked = AtomicBool::new(false);
+    // Set when the tracking ends, by a panic too, so that the watcher always stops.
+    struct Done<'a>(&'a AtomicBool);
+    impl Drop for Done<'_> {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::Relaxed);
+        }
+    }
     let (along, matches) = std::thread::scope(|sc| {
+        let _done = Done(&tracked);
         sc.spawn(|| {
             while !tracked.load(Ordering::Relaxed)
                 && check("tracking", done.load(Ordering::Relaxed), edges.len() as u32)
@@ -309,7 +317,6 @@ pub fn bake_dynamic(
                     .collect()
             }
         };
-        tracked.store(true, Ordering::Relaxed);
         (along, matches)
     });
     if along.is_none() || cancel.load(Ordering::Relaxed) || matches.iter().any(Option::is_none) {
