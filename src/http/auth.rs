@@ -36,6 +36,31 @@ impl Principal {
     }
 }
 
+/// Refuses a new job for `p` past [`super::HttpConfig::max_jobs_per_key`] queued or running
+/// jobs of theirs (users only: admins and the anonymous client of a keyless server have no
+/// quota), so that one client cannot fill the queues the others share.
+pub fn check_quota(st: &AppState, p: &Principal) -> Result<(), AppError> {
+    if p.admin || p.owner.is_empty() {
+        return Ok(());
+    }
+    let n = st.jobs.store.active_jobs_of(&p.owner)?;
+    let cap = st.cfg.max_jobs_per_key;
+    if n >= cap {
+        return Err(AppError::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "quota",
+            "Quota reached",
+            format!(
+                "key '{}' has {n} queued or running jobs, the most one key may have; retry \
+                 when some have finished",
+                p.owner
+            ),
+        )
+        .retry_after(5));
+    }
+    Ok(())
+}
+
 /// The configured keys, by the SHA-256 of the key.
 #[derive(Clone, Debug, Default)]
 pub struct Keys {

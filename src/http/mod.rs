@@ -67,6 +67,9 @@ pub struct HttpConfig {
     pub shutdown_grace: Duration,
     /// API keys ([`auth`]); none: every client is the anonymous admin (loopback only).
     pub keys: auth::Keys,
+    /// Most queued or running jobs one user key may hold (admin keys and a server without
+    /// keys: no quota); past it `429`.
+    pub max_jobs_per_key: usize,
 }
 
 impl Default for HttpConfig {
@@ -81,6 +84,7 @@ impl Default for HttpConfig {
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),
             keys: auth::Keys::default(),
+            max_jobs_per_key: 32,
         }
     }
 }
@@ -88,7 +92,7 @@ impl Default for HttpConfig {
 impl HttpConfig {
     /// Overrides from the environment: `CAUSTICA_MAX_BODY`, `CAUSTICA_MAX_JSON_BODY` (bytes),
     /// `CAUSTICA_BODY_TIMEOUT_S`, `CAUSTICA_HEADER_TIMEOUT_S`, `CAUSTICA_MAX_CONNECTIONS`,
-    /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`,
+    /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`, `CAUSTICA_MAX_JOBS_PER_KEY`,
     /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range
     /// value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
@@ -117,6 +121,9 @@ impl HttpConfig {
                  a body of the largest size could never be admitted",
                 self.max_body_bytes_in_flight, self.max_body
             ));
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_JOBS_PER_KEY", 1.0, 1e6, true)? {
+            self.max_jobs_per_key = v as usize;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);

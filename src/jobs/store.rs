@@ -528,6 +528,17 @@ impl Store {
         Ok(n == 1)
     }
 
+    /// Queued or running jobs `owner` holds.
+    pub fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
+        let n: i64 = self.conn().query_row(
+            "SELECT COUNT(*) FROM holds h JOIN jobs j ON j.id = h.id
+             WHERE h.kind = 'job' AND h.owner = ?1 AND j.state IN ('queued', 'running')",
+            [owner],
+            |r| r.get(0),
+        )?;
+        Ok(n as usize)
+    }
+
     /// How many hold `id`.
     pub fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
         let n: i64 = self.conn().query_row(

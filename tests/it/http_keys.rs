@@ -201,3 +201,45 @@ fn serve_refuses_a_public_address_without_keys() {
     sigterm(&child);
     assert!(child.wait().unwrap().success());
 }
+
+/// One user key cannot hold more than its quota of queued or running jobs; an admin can.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_key_past_its_quota_gets_429() {
+    let srv = Server::start("keys-quota", |j, h| {
+        h.keys = keys();
+        h.max_jobs_per_key = 2;
+        j.cpu_workers = 1;
+    })
+    .await;
+    let (alice, bob, root) = (As(&srv, ALICE), As(&srv, BOB), As(&srv, ROOT));
+    let mut mine = Vec::new();
+    for seed in 10..12 {
+        let r = alice.post("/v1/bakes", &long_bake(seed)).await;
+        assert_eq!(r.status(), 202);
+        mine.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    let r = alice.post("/v1/bakes", &long_bake(12)).await;
+    assert_eq!(r.headers()["retry-after"], "5");
+    let p = problem(r, 429).await;
+    assert!(
+        p["detail"].as_str().unwrap().contains("key 'alice' has 2"),
+        "{p}"
+    );
+    // Asking again for a bake she holds is no new job; other keys have their own quota.
+    assert_eq!(alice.post("/v1/bakes", &long_bake(10)).await.status(), 202);
+    let r = bob.post("/v1/bakes", &long_bake(13)).await;
+    assert_eq!(r.status(), 202);
+    let theirs = r.headers()["location"].to_str().unwrap().to_string();
+    let r = root.post("/v1/bakes", &long_bake(14)).await;
+    assert_eq!(r.status(), 202);
+    let admins = r.headers()["location"].to_str().unwrap().to_string();
+    // A finished job frees its place.
+    alice.delete(&mine[1]).await;
+    assert_eq!(alice.post("/v1/bakes", &long_bake(12)).await.status(), 202);
+    for (who, loc) in [(&alice, &mine[0]), (&bob, &theirs), (&root, &admins)] {
+        who.delete(loc).await;
+    }
+    let r = alice.post("/v1/bakes", &long_bake(12)).await;
+    root.delete(r.headers()["location"].to_str().unwrap()).await;
+    srv.stop().await;
+}
