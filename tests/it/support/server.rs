@@ -215,6 +215,9 @@ pub fn serve_under(limits: &str, dir: &std::path::Path) -> (ChildGuard, String) 
         .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
         .arg(dir)
         .env("CAUSTICA_LOG", "warn")
+        // glibc reserves 64 MiB of address space per malloc arena, up to 8 a core: without
+        // this, an address-space limit would mean something else on a machine of many cores.
+        .env("MALLOC_ARENA_MAX", "2")
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::inherit())
         .spawn()
