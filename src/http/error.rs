@@ -317,6 +317,19 @@ impl From<SubmitError> for AppError {
                 ),
             )
             .retry_after(5),
+            e @ SubmitError::NoMemory { .. } => AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "no-memory",
+                "Job memory full",
+                format!("{e}; retry later"),
+            )
+            .retry_after(5),
+            e @ SubmitError::TooBig { .. } => AppError::new(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "too-big",
+                "Job too big",
+                format!("{e} (a smaller image or scene fits)"),
+            ),
             SubmitError::ShuttingDown => AppError::new(
                 StatusCode::SERVICE_UNAVAILABLE,
                 "shutting-down",

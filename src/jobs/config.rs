@@ -19,6 +19,10 @@ pub struct JobConfig {
     pub caps: RequestCaps,
     /// How long results are kept.
     pub retention: Retention,
+    /// Memory that queued and running jobs may hold together, by their estimates
+    /// ([`super::Job::memory`]); past it a submission is refused (503), and a job that alone
+    /// needs more is refused outright (422).
+    pub job_memory: u64,
     pub bake_timeout: Duration,
     pub render_timeout: Duration,
     /// Scene limits applied to uploads and renders.
@@ -38,6 +42,7 @@ impl JobConfig {
             max_queued_bakes: 64,
             caps: RequestCaps::default(),
             retention: Retention::default(),
+            job_memory: default_job_memory(),
             bake_timeout: Duration::from_secs(3600),
             render_timeout: Duration::from_secs(300),
             // Image side capped below the library's 8192: a reference frame holds several
@@ -56,6 +61,7 @@ impl JobConfig {
     /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
     /// `CAUSTICA_MAX_QUEUED_BAKES`, `CAUSTICA_MAX_PHOTONS`, `CAUSTICA_MAX_SPP`,
     /// `CAUSTICA_RENDER_TTL_S`, `CAUSTICA_BAKE_TTL_S`, `CAUSTICA_MAX_RENDER_BYTES` (0: keep),
+    /// `CAUSTICA_JOB_MEMORY` (bytes),
     /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
     /// `CAUSTICA_MAX_TRIANGLES`. An unparsable or out-of-range value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
@@ -73,6 +79,9 @@ impl JobConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_SPP", 1.0, 1024.0, true)? {
             self.caps.max_spp = v as u32;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_JOB_MEMORY", 1e6, 1e15, true)? {
+            self.job_memory = v as u64;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_TTL_S", 0.0, 1e10, false)? {
             self.retention.render_ttl = (v > 0.0).then(|| Duration::from_secs_f64(v));
@@ -97,6 +106,16 @@ impl JobConfig {
         }
         Ok(())
     }
+}
+
+/// Half the machine's memory (`MemTotal` of `/proc/meminfo`), at least 1 GiB; 4 GiB when it
+/// cannot be read.
+fn default_job_memory() -> u64 {
+    let total = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
+        let line = m.lines().find(|l| l.starts_with("MemTotal:"))?;
+        line.split_whitespace().nth(1)?.parse::<u64>().ok()
+    });
+    total.map_or(4 << 30, |kb| (kb * 1024 / 2).max(1 << 30))
 }
 
 /// How long finished jobs and their results are kept. A sweep every [`Retention::sweep_every`]

@@ -206,6 +206,11 @@ pub trait Job: Send + Sync {
     fn small(&self) -> bool {
         false
     }
+    /// A generous estimate of the memory it holds while it runs, bytes (for the job memory
+    /// budget, [`super::JobConfig::job_memory`]).
+    fn memory(&self) -> u64 {
+        256 << 20
+    }
     fn priority(&self) -> Priority {
         match self.kind() {
             JobKind::Bake => Priority::Bake,

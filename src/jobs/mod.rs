@@ -103,12 +103,34 @@ pub enum Readiness {
 pub enum SubmitError {
     #[error("the {kind} queue is full ({1} waiting)", kind = .0.as_str())]
     QueueFull(JobKind, usize),
+    /// The jobs queued and running hold the job memory budget (`need`, `free`, `total` MiB).
+    #[error(
+        "the jobs queued and running hold the server's job memory: this one needs {need} MiB, \
+         {free} MiB of {total} MiB are free"
+    )]
+    NoMemory { need: u64, free: u64, total: u64 },
+    /// This job alone needs more than the whole budget.
+    #[error("this job needs about {need} MiB, more than the {total} MiB this server gives jobs")]
+    TooBig { need: u64, total: u64 },
     #[error("the server is shutting down")]
     ShuttingDown,
     #[error(transparent)]
     Job(#[from] JobError),
     #[error(transparent)]
     Store(#[from] StoreError),
+}
+
+/// A job's share of [`JobConfig::job_memory`], given back when dropped.
+pub struct MemoryHold {
+    bytes: u64,
+    pool: Arc<Mutex<u64>>,
+}
+
+impl Drop for MemoryHold {
+    fn drop(&mut self) {
+        let mut used = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        *used = used.saturating_sub(self.bytes);
+    }
 }
 
 /// Why a succeeded job's artifact cannot be served.
@@ -141,6 +163,8 @@ pub struct JobSystem {
     /// render: bake on the CPU pool, then one frame) borrows it through the same lock, so the
     /// device is never used by two threads at once and a long bake never holds it.
     gpu: Arc<Mutex<GpuSlot>>,
+    /// Bytes of [`JobConfig::job_memory`] that queued and running jobs hold.
+    memory: Arc<Mutex<u64>>,
 }
 
 impl JobSystem {
@@ -167,6 +191,7 @@ impl JobSystem {
             }),
             threads: Mutex::new(Vec::new()),
             gpu: Arc::new(Mutex::new(GpuSlot::default())),
+            memory: Arc::new(Mutex::new(0)),
             cfg,
         });
         for rec in sys.store.unfinished_jobs()? {
@@ -179,7 +204,9 @@ impl JobSystem {
             match r {
                 Ok(job) => {
                     sys.store.set_queued(&rec.id)?;
-                    sys.enqueue(rec.id.clone(), job);
+                    // Accepted before the restart: taken back whatever the budget says.
+                    let hold = sys.hold_memory(job.memory(), true)?;
+                    sys.enqueue(rec.id.clone(), job, hold);
                 }
                 Err(e) => {
                     sys.store.finish(
@@ -311,16 +338,42 @@ impl JobSystem {
         if spec.kind == JobKind::Render {
             self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
         }
+        let hold = self.hold_memory(job.memory(), false)?;
         if existing.is_some() {
             self.store.requeue(id)?;
         } else {
             self.store.insert_job(&JobRecord::new(id, spec))?;
         }
-        let h = self.enqueue(id.to_string(), job);
+        let h = self.enqueue(id.to_string(), job, hold);
         Ok((Some(h), true))
     }
 
-    fn enqueue(&self, id: String, job: Box<dyn Job>) -> Arc<JobHandle> {
+    /// Takes `bytes` of the job memory budget (with `force`, even past it).
+    fn hold_memory(&self, bytes: u64, force: bool) -> Result<MemoryHold, SubmitError> {
+        let total = self.cfg.job_memory;
+        let mib = |b: u64| b >> 20;
+        if bytes > total && !force {
+            return Err(SubmitError::TooBig {
+                need: mib(bytes),
+                total: mib(total),
+            });
+        }
+        let mut used = self.memory.lock().unwrap_or_else(|e| e.into_inner());
+        if *used + bytes > total && !force {
+            return Err(SubmitError::NoMemory {
+                need: mib(bytes),
+                free: mib(total.saturating_sub(*used)),
+                total: mib(total),
+            });
+        }
+        *used += bytes;
+        Ok(MemoryHold {
+            bytes,
+            pool: self.memory.clone(),
+        })
+    }
+
+    fn enqueue(&self, id: String, job: Box<dyn Job>, memory: MemoryHold) -> Arc<JobHandle> {
         let handle = JobHandle::new(id.clone());
         self.live
             .lock()
@@ -331,6 +384,7 @@ impl JobSystem {
             seq: self.seq.fetch_add(1, Ordering::SeqCst),
             handle: handle.clone(),
             job,
+            memory,
         };
         self.queues
             .lock()

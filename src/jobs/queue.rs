@@ -16,6 +16,8 @@ pub(crate) struct Queued {
     pub seq: u64,
     pub job: Box<dyn Job>,
     pub handle: Arc<JobHandle>,
+    /// Its share of the job memory budget, given back when the job is dropped (run or not).
+    pub memory: super::MemoryHold,
 }
 
 impl PartialEq for Queued {

@@ -312,6 +312,20 @@ impl Job for RenderJob {
         self.plan.method().info().lane
     }
 
+    /// The frame's layers, per pixel over all frames (a `reference` frame keeps about a dozen
+    /// float layers and its splat buffers: ~128 bytes a pixel; a GPU frame and its readback
+    /// fewer), the world's meshes and a fixed part for the acceleration structures.
+    fn memory(&self) -> u64 {
+        let c = &self.world.camera;
+        let frames = self.times.as_ref().map_or(1, |t| t.len() as u64);
+        let per_pixel = match self.plan.method() {
+            Method::Reference => 128,
+            _ => 64,
+        };
+        let triangles = self.world.triangle_count() as u64;
+        (64 << 20) + c.width as u64 * c.height as u64 * frames * per_pixel + triangles * 256
+    }
+
     /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most
     /// [`SMALL_PHOTONS`] photons and [`SMALL_PIXELS`] camera samples; a GPU method's frame. The
     /// baked methods are not small: their frame may have to bake first.

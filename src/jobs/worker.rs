@@ -203,7 +203,11 @@ impl JobSystem {
             method = q.job.method().name()
         );
         let _g = span.enter();
-        tracing::info!(queue_ms = queue_wait.as_secs_f64() * 1e3, "job started");
+        tracing::info!(
+            queue_ms = queue_wait.as_secs_f64() * 1e3,
+            memory_mib = q.memory.bytes >> 20,
+            "job started"
+        );
         let t = Instant::now();
         let result = ctx.check().and_then(|()| {
             catch_unwind(AssertUnwindSafe(|| q.job.run(&ctx)))

@@ -133,3 +133,45 @@ async fn a_render_cannot_ask_past_the_servers_caps() {
     }
     srv.stop().await;
 }
+
+/// Queued and running jobs hold their memory estimates against the job memory budget: a job
+/// that alone needs more is 422, one that does not fit beside the others 503 until they end.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jobs_past_the_memory_budget_are_refused() {
+    let srv = Server::start("fair-memory", |j, h| {
+        j.job_memory = 200 << 20;
+        j.cpu_workers = 1;
+        h.render_wait = Duration::ZERO;
+    })
+    .await;
+    let render = |side: u32| {
+        serde_json::json!({"scene": scene_sized(side, side), "method": "reference",
+                           "photons": 100_000_000u64, "spp": 1})
+    };
+    // 2048² at ~128 bytes a pixel: ~0.5 GiB, more than the whole budget.
+    let p = problem(srv.post_json("/v1/renders", &render(2048)).await, 422).await;
+    assert!(
+        p["detail"]
+            .as_str()
+            .unwrap()
+            .contains("more than the 200 MiB"),
+        "{p}"
+    );
+    // 700² (~124 MiB with the fixed part) fits once, not twice.
+    let r = srv.post_json("/v1/renders", &render(700)).await;
+    assert_eq!(r.status(), 202);
+    let first = r.headers()["location"].to_str().unwrap().to_string();
+    let r = srv.post_json("/v1/renders", &render(700)).await;
+    assert_eq!(r.headers()["retry-after"], "5");
+    let p = problem(r, 503).await;
+    assert!(p["detail"].as_str().unwrap().contains("job memory"), "{p}");
+    // Once the first has ended, the second fits.
+    srv.client.delete(srv.url(&first)).send().await.unwrap();
+    let second = poll("room for the second", Duration::from_secs(30), || async {
+        let r = srv.post_json("/v1/renders", &render(700)).await;
+        (r.status() == 202).then(|| r.headers()["location"].to_str().unwrap().to_string())
+    })
+    .await;
+    srv.client.delete(srv.url(&second)).send().await.unwrap();
+    srv.stop().await;
+}
