@@ -209,7 +209,7 @@ pub trait Job: Send + Sync {
     /// A generous estimate of the memory it holds while it runs, bytes (for the job memory
     /// budget, [`super::JobConfig::job_memory`]).
     fn memory(&self) -> u64 {
-        256 << 20
+        128 << 20
     }
     fn priority(&self) -> Priority {
         match self.kind() {

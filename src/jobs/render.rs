@@ -323,7 +323,7 @@ impl Job for RenderJob {
             _ => 64,
         };
         let triangles = self.world.triangle_count() as u64;
-        (64 << 20) + c.width as u64 * c.height as u64 * frames * per_pixel + triangles * 256
+        (16 << 20) + c.width as u64 * c.height as u64 * frames * per_pixel + triangles * 256
     }
 
     /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most

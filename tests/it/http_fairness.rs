@@ -139,7 +139,7 @@ async fn a_render_cannot_ask_past_the_servers_caps() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn jobs_past_the_memory_budget_are_refused() {
     let srv = Server::start("fair-memory", |j, h| {
-        j.job_memory = 200 << 20;
+        j.job_memory = 150 << 20;
         j.cpu_workers = 1;
         h.render_wait = Duration::ZERO;
     })
@@ -154,10 +154,10 @@ async fn jobs_past_the_memory_budget_are_refused() {
         p["detail"]
             .as_str()
             .unwrap()
-            .contains("more than the 200 MiB"),
+            .contains("more than the 150 MiB"),
         "{p}"
     );
-    // 700² (~124 MiB with the fixed part) fits once, not twice.
+    // 700² (~79 MiB with the fixed part) fits once, not twice.
     let r = srv.post_json("/v1/renders", &render(700)).await;
     assert_eq!(r.status(), 202);
     let first = r.headers()["location"].to_str().unwrap().to_string();
