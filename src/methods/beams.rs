@@ -161,7 +161,8 @@ impl RenderPlan for Plan {
         let mut timings = Vec::new();
         (env.progress)(0.0, "beams");
         let t = Instant::now();
-        let layer = BeamsLayer::build(world, &self.params);
+        let layer = BeamsLayer::build_with(world, &self.params, env.keep_going)
+            .ok_or(MethodError::Canceled)?;
         timings.push(("beams".into(), t.elapsed()));
         env.check()?;
         (env.progress)(0.3, "render");

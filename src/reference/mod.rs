@@ -346,7 +346,8 @@ pub fn render(
         .fold(0.0f32, f32::max)
         * 0.25
         * (caustic_photons.max(1) as f32).powf(-1.0 / 6.0);
-    let pmap = PhotonMap::new(photons, radius.max(1e-5));
+    let pmap = PhotonMap::new(photons, radius.max(1e-5), &|| progress(0.8))
+        .ok_or(ReferenceError::Canceled)?;
     stats.stages.push(("photon map".into(), t1.elapsed()));
 
     // --- Camera pass -----------------------------------------------------------------------
@@ -1022,20 +1023,24 @@ struct PhotonMap {
 }
 
 impl PhotonMap {
-    fn new(photons: Vec<Photon>, radius: f32) -> PhotonMap {
+    /// The map of `photons`; None when `keep_going` (asked every million photons) says stop.
+    fn new(photons: Vec<Photon>, radius: f32, keep_going: &dyn Fn() -> bool) -> Option<PhotonMap> {
         let mut cells: std::collections::HashMap<(i32, i32, i32), Vec<u32>> =
             std::collections::HashMap::new();
         for (i, p) in photons.iter().enumerate() {
+            if i % (1 << 20) == (1 << 20) - 1 && !keep_going() {
+                return None;
+            }
             cells
                 .entry(Self::cell(p.pos, radius))
                 .or_default()
                 .push(i as u32);
         }
-        PhotonMap {
+        Some(PhotonMap {
             photons,
             radius,
             cells,
-        }
+        })
     }
 
     fn cell(p: Vec3, r: f32) -> (i32, i32, i32) {

@@ -727,6 +727,15 @@ fn beam(p: [&Photon; 3], bounds: Bounds) -> Result<(GpuBeam, [Vec3; 3]), Drop> {
 impl BeamsLayer {
     /// The beams of `world` (see the module documentation).
     pub fn build(world: &World, params: &BeamsParams) -> BeamsLayer {
+        Self::build_with(world, params, &|| true).expect("never asked to stop")
+    }
+
+    /// [`Self::build`] that asks `keep_going` before each light; None once it says stop.
+    pub fn build_with(
+        world: &World,
+        params: &BeamsParams,
+        keep_going: &dyn Fn() -> bool,
+    ) -> Option<BeamsLayer> {
         let t = Instant::now();
         let generators = crate::methods::caustic_objects(world);
         let mut points = Vec::new();
@@ -762,6 +771,9 @@ impl BeamsLayer {
         let mut beams = Vec::new();
         let mut entries = Vec::new();
         for light in &world.lights {
+            if !keep_going() {
+                return None;
+            }
             let view = if points.is_empty() {
                 None
             } else {
@@ -851,14 +863,14 @@ impl BeamsLayer {
         }
         stats.beams = beams.len() as u32;
         stats.time_build = t.elapsed();
-        BeamsLayer {
+        Some(BeamsLayer {
             beams,
             medium: gpu_medium(world),
             params: *params,
             stats,
             entries,
             generators,
-        }
+        })
     }
 }
 
