@@ -146,8 +146,9 @@ impl std::ops::DerefMut for AppError {
     }
 }
 
-impl IntoResponse for AppError {
-    fn into_response(self) -> Response {
+impl AppError {
+    /// The problem+json body.
+    pub fn body(&self) -> serde_json::Value {
         let mut body = serde_json::json!({
             "type": format!("{TYPE_BASE}{}", self.kind),
             "title": self.title,
@@ -160,7 +161,13 @@ impl IntoResponse for AppError {
         if let Some(i) = &self.instance {
             body["instance"] = i.clone().into();
         }
-        let mut r = (self.status, body.to_string()).into_response();
+        body
+    }
+}
+
+impl IntoResponse for AppError {
+    fn into_response(self) -> Response {
+        let mut r = (self.status, self.body().to_string()).into_response();
         r.headers_mut().insert(
             header::CONTENT_TYPE,
             HeaderValue::from_static("application/problem+json"),

@@ -297,16 +297,10 @@ async fn shed(mut stream: TcpStream) {
             "Too many connections",
             "the server has as many connections open as it accepts; retry shortly",
         );
-        let body = serde_json::json!({
-            "type": format!("{}{}", super::error::TYPE_BASE, p.kind),
-            "title": p.title,
-            "status": 503,
-            "detail": p.detail,
-        });
         (
             "503 Service Unavailable",
             "application/problem+json",
-            body.to_string(),
+            p.body().to_string(),
             "retry-after: 1\r\n",
         )
     };

@@ -20,13 +20,13 @@ fn artifact_file(dir: &Path, loc: &str) -> std::path::PathBuf {
     dir.join("artifacts").join(format!("{id}.png"))
 }
 
+async fn get_image(srv: &Server, loc: &str) -> reqwest::Response {
+    let url = srv.url(&format!("{loc}/image"));
+    srv.client.get(url).send().await.unwrap()
+}
+
 async fn image_problem(srv: &Server, loc: &str, want: &str) {
-    let r = srv
-        .client
-        .get(srv.url(&format!("{loc}/image")))
-        .send()
-        .await
-        .unwrap();
+    let r = get_image(srv, loc).await;
     assert_eq!(r.headers().get("retry-after").unwrap(), "5");
     let p = problem(r, 500).await;
     assert!(
@@ -48,12 +48,7 @@ async fn image_served(srv: &Server, loc: &str) {
         },
     )
     .await;
-    let r = srv
-        .client
-        .get(srv.url(&format!("{loc}/image")))
-        .send()
-        .await
-        .unwrap();
+    let r = get_image(srv, loc).await;
     assert_eq!(r.status(), 200);
     let img = image::load_from_memory(&r.bytes().await.unwrap()).unwrap();
     assert_eq!((img.width(), img.height()), (8, 8));
@@ -246,8 +241,7 @@ async fn past_the_size_cap_the_least_recently_served_renders_go() {
         size = r.bytes().await.unwrap().len() as u64;
     }
     // The first one served again: now the second is the least recently used.
-    let again = srv.client.get(srv.url(&format!("{}/image", locs[0])));
-    assert_eq!(again.send().await.unwrap().status(), 200);
+    assert_eq!(get_image(&srv, &locs[0]).await.status(), 200);
     let dir = srv.dir.clone();
     let cleanup = srv.stop().await;
     let srv = Server::start_in(dir, |j, _| {
