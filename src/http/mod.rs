@@ -9,6 +9,7 @@ pub mod auth;
 pub mod error;
 pub mod routes;
 pub mod server;
+pub mod wire;
 
 pub use error::AppError;
 

@@ -8,8 +8,10 @@
 //!   gets `503` problem+json with `Retry-After` at once, except `GET /healthz`, which is still
 //!   answered, so a flood of idle sockets cannot make the process look dead; past a second
 //!   cap on connections being shed, new ones are closed unanswered;
-//! - request heads larger than hyper's own limits are refused by [`limit_head`] first, as
-//!   problem+json (`414` for a long URI, `431` for too many or too large headers).
+//! - request heads larger than our limits are refused by [`limit_head`] as problem+json
+//!   (`414` for a long URI, `431` for too many or too large headers); heads hyper cannot
+//!   parse or buffer at all get hyper's own `400`/`414`/`431`, which [`super::wire`] gives
+//!   a problem+json body.
 //!
 //! Body-read deadlines are applied where bodies are read (`routes::body_bytes`).
 
@@ -220,7 +222,8 @@ pub async fn run(
                         .header_read_timeout(cfg.header_timeout)
                         .max_headers(2 * MAX_HEADERS)
                         .keep_alive(true);
-                    let conn = b.serve_connection(TokioIo::new(stream), svc);
+                    let io = TokioIo::new(super::wire::ProblemIo::new(stream));
+                    let conn = b.serve_connection(io, svc);
                     let mut conn = std::pin::pin!(conn);
                     let r = tokio::select! {
                         r = conn.as_mut() => r,

@@ -172,6 +172,50 @@ async fn oversized_heads_get_problems() {
     assert!(p["detail"].as_str().unwrap().contains("100 fields"), "{p}");
 }
 
+/// What hyper refuses before any handler runs (a request line or header it cannot parse, more
+/// header fields than it reads) is answered with hyper's status
+/// and a problem+json body, and the server goes on serving.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heads_hyper_cannot_parse_get_problems() {
+    let srv = Server::start("limits-parse", |_, _| {}).await;
+    let many: String = (0..300).map(|i| format!("x-h{i}: v\r\n")).collect();
+    for (request, status, kind) in [
+        (
+            "NOT HTTP AT ALL\r\n\r\n".to_string(),
+            400,
+            "malformed-request",
+        ),
+        (
+            "GET /healthz HTTP/1.1\r\nHost: x\r\nbad header\r\n\r\n".into(),
+            400,
+            "malformed-request",
+        ),
+        (
+            format!("GET /healthz HTTP/1.1\r\nHost: x\r\n{many}\r\n"),
+            431,
+            "headers-too-large",
+        ),
+    ] {
+        let out = raw(&srv, &request).await;
+        let what = &request[..request.len().min(40)];
+        assert!(
+            out.starts_with(&format!("HTTP/1.1 {status} ")),
+            "{what:?}: {out}"
+        );
+        let (head, body) = out.split_once("\r\n\r\n").expect("a head and a body");
+        assert!(
+            head.contains("content-type: application/problem+json"),
+            "{head}"
+        );
+        let p: serde_json::Value = serde_json::from_str(body).expect("a JSON problem");
+        assert_eq!(p["status"], status, "{p}");
+        assert!(p["type"].as_str().unwrap().ends_with(kind), "{p}");
+        assert!(!p["detail"].as_str().unwrap().is_empty(), "{p}");
+    }
+    let (status, v) = srv.get_json("/healthz").await;
+    assert_eq!((status, &v["status"]), (200, &"ok".into()));
+}
+
 /// A JSON body of a hostile shape (the million lights, scaled to fit the JSON body
 /// limit) is refused at the first item past the limit, naming it; a body over the JSON limit
 /// is refused unread.
