@@ -91,7 +91,7 @@ impl std::fmt::Display for JobState {
 }
 
 /// Lower runs first: small renders, then other renders, then bakes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Priority {
     /// A render small enough to be interactive ([`Job::small`]): besides the other workers,
     /// a worker of its own takes only these, so they flow while big renders and bakes run.

@@ -374,6 +374,13 @@ impl JobSystem {
     }
 
     fn enqueue(&self, id: String, job: Box<dyn Job>, memory: MemoryHold) -> Arc<JobHandle> {
+        // Fair queueing runs it for the key that asked for it first.
+        let owner = self
+            .store
+            .first_holder(store::Held::Job, &id)
+            .ok()
+            .flatten()
+            .unwrap_or_default();
         let handle = JobHandle::new(id.clone());
         self.live
             .lock()
@@ -381,6 +388,8 @@ impl JobSystem {
             .insert(id, handle.clone());
         let q = Queued {
             priority: job.priority(),
+            owner,
+            tag: 0,
             seq: self.seq.fetch_add(1, Ordering::SeqCst),
             handle: handle.clone(),
             job,

@@ -1,17 +1,28 @@
 //! The bounded priority queues, one per [`Lane`]: small renders, then other renders, then
-//! bakes; oldest first within each. Renders and bakes are bounded separately, so a flood of
-//! bakes never makes renders wait for room.
+//! bakes. Renders and bakes are bounded separately, so a flood of bakes never makes renders
+//! wait for room.
+//!
+//! Within a priority, keys share the workers fairly (start-time fair queueing, every job
+//! weighing the same; Goyal, Vin, Cheng 1996): a job is tagged when queued with one more than
+//! the later of its class's virtual time (the tag of the job last started) and its key's last
+//! tag in that class, and the lowest tag runs first (oldest first among equal tags). So a key
+//! that queues a hundred renders gets every other start, not the next hundred, once a second
+//! key queues one; a key alone is served oldest first as before.
 //! The [`super::JobSystem`] holds them behind a mutex and wakes workers with a condvar.
 
 use super::JobHandle;
 use super::job::{Job, JobKind, Priority};
 use crate::methods::Lane;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap};
 use std::sync::Arc;
 
 /// A queued job waiting for a worker.
 pub(crate) struct Queued {
     pub priority: Priority,
+    /// The key it runs for (the first to ask for it; '' anonymous).
+    pub owner: String,
+    /// Its fair-queueing tag, set by [`Queues::push`].
+    pub tag: u64,
     /// Submission order.
     pub seq: u64,
     pub job: Box<dyn Job>,
@@ -22,7 +33,7 @@ pub(crate) struct Queued {
 
 impl PartialEq for Queued {
     fn eq(&self, o: &Self) -> bool {
-        (self.priority, self.seq) == (o.priority, o.seq)
+        (self.priority, self.tag, self.seq) == (o.priority, o.tag, o.seq)
     }
 }
 impl Eq for Queued {}
@@ -32,9 +43,9 @@ impl PartialOrd for Queued {
     }
 }
 impl Ord for Queued {
-    /// BinaryHeap pops the greatest: invert so the lowest (priority, seq) comes first.
+    /// BinaryHeap pops the greatest: invert so the lowest (priority, tag, seq) comes first.
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        (o.priority, o.seq).cmp(&(self.priority, self.seq))
+        (o.priority, o.tag, o.seq).cmp(&(self.priority, self.tag, self.seq))
     }
 }
 
@@ -42,6 +53,10 @@ impl Ord for Queued {
 pub(crate) struct Queues {
     cpu: BinaryHeap<Queued>,
     gpu: BinaryHeap<Queued>,
+    /// Per (lane, priority): the tag of the job last started there.
+    vtime: HashMap<(Lane, Priority), u64>,
+    /// Per (key, lane, priority): the tag of the key's last job queued there.
+    last: HashMap<(String, Lane, Priority), u64>,
     /// No more jobs are taken; workers exit when they see it.
     pub closed: bool,
 }
@@ -73,16 +88,35 @@ impl Queues {
         }
     }
 
-    pub fn push(&mut self, q: Queued) {
-        self.lane(q.job.lane()).push(q);
+    /// Queues `q`, tagged after its key's jobs already queued in its class.
+    pub fn push(&mut self, mut q: Queued) {
+        let lane = q.job.lane();
+        let v = self.vtime.get(&(lane, q.priority)).copied().unwrap_or(0);
+        let last = self
+            .last
+            .entry((q.owner.clone(), lane, q.priority))
+            .or_insert(0);
+        q.tag = (*last).max(v) + 1;
+        *last = q.tag;
+        self.lane(lane).push(q);
     }
 
-    /// The next job of `lane` (highest priority, then oldest) whose priority is at most
-    /// `up_to` (`Priority::Bake`: any job).
+    /// The next job of `lane` (highest priority, then lowest tag, then oldest) whose priority
+    /// is at most `up_to` (`Priority::Bake`: any job).
     pub fn pop(&mut self, lane: Lane, up_to: Priority) -> Option<Queued> {
         let heap = self.lane(lane);
         let take = heap.peek().is_some_and(|q| q.priority <= up_to);
-        if take { heap.pop() } else { None }
+        let q = if take { heap.pop()? } else { return None };
+        let v = self.vtime.entry((lane, q.priority)).or_insert(0);
+        *v = (*v).max(q.tag);
+        // Keys whose last tag the class has passed start afresh there: forget them, so that
+        // the map holds only keys with jobs at or ahead of the class's time.
+        let (vt, p) = (*v, q.priority);
+        if self.last.len() > 64 {
+            self.last
+                .retain(|(_, l, pr), t| (*l, *pr) != (lane, p) || *t > vt);
+        }
+        Some(q)
     }
 
     /// Drops the job `id`; whether it was queued.
@@ -91,5 +125,98 @@ impl Queues {
         self.cpu.retain(|q| q.handle.id != id);
         self.gpu.retain(|q| q.handle.id != id);
         before != self.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::jobs::job::{Artifact, JobError};
+    use crate::jobs::worker::JobCtx;
+    use crate::jobs::{JobHandle, MemoryHold};
+    use crate::methods::Method;
+    use std::sync::Mutex;
+
+    struct Stub(Lane, Priority);
+    impl Job for Stub {
+        fn kind(&self) -> JobKind {
+            match self.1 {
+                Priority::Bake => JobKind::Bake,
+                _ => JobKind::Render,
+            }
+        }
+        fn method(&self) -> Method {
+            Method::Direct
+        }
+        fn lane(&self) -> Lane {
+            self.0
+        }
+        fn priority(&self) -> Priority {
+            self.1
+        }
+        fn run(&self, _: &JobCtx<'_>) -> Result<Artifact, JobError> {
+            unreachable!("queue tests do not run jobs")
+        }
+    }
+
+    fn job(owner: &str, id: &str, priority: Priority, seq: u64) -> Queued {
+        Queued {
+            priority,
+            owner: owner.into(),
+            tag: 0,
+            seq,
+            job: Box::new(Stub(Lane::Cpu, priority)),
+            handle: JobHandle::new(id.into()),
+            memory: MemoryHold {
+                bytes: 0,
+                pool: Arc::new(Mutex::new(0)),
+            },
+        }
+    }
+
+    fn drain(q: &mut Queues) -> Vec<String> {
+        std::iter::from_fn(|| q.pop(Lane::Cpu, Priority::Bake))
+            .map(|j| j.handle.id.clone())
+            .collect()
+    }
+
+    #[test]
+    fn keys_take_turns_within_a_priority() {
+        let mut q = Queues::default();
+        let mut seq = 0..;
+        for i in 0..4 {
+            q.push(job(
+                "a",
+                &format!("a{i}"),
+                Priority::Render,
+                seq.next().unwrap(),
+            ));
+        }
+        // a0 starts; then b queues two and c one, after all of a's.
+        assert_eq!(q.pop(Lane::Cpu, Priority::Bake).unwrap().handle.id, "a0");
+        for (o, i) in [("b", "b0"), ("b", "b1"), ("c", "c0")] {
+            q.push(job(o, i, Priority::Render, seq.next().unwrap()));
+        }
+        // A small render still goes first, and a bake last, whoever queued it.
+        q.push(job("a", "bake", Priority::Bake, seq.next().unwrap()));
+        q.push(job("a", "small", Priority::Small, seq.next().unwrap()));
+        assert_eq!(
+            drain(&mut q),
+            ["small", "a1", "b0", "c0", "a2", "b1", "a3", "bake"]
+        );
+        // A key alone is served oldest first, and a key that comes back after the others
+        // ran gets no credit for the time it was away.
+        for i in 0..3 {
+            q.push(job(
+                "a",
+                &format!("x{i}"),
+                Priority::Render,
+                seq.next().unwrap(),
+            ));
+        }
+        assert_eq!(q.pop(Lane::Cpu, Priority::Bake).unwrap().handle.id, "x0");
+        q.push(job("d", "d0", Priority::Render, seq.next().unwrap()));
+        q.push(job("d", "d1", Priority::Render, seq.next().unwrap()));
+        assert_eq!(drain(&mut q), ["x1", "d0", "x2", "d1"]);
     }
 }

@@ -528,6 +528,18 @@ impl Store {
         Ok(n == 1)
     }
 
+    /// The first key that held `id` (the one that asked for it first), if any holds it.
+    pub fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError> {
+        Ok(self
+            .conn()
+            .query_row(
+                "SELECT owner FROM holds WHERE kind = ?1 AND id = ?2 ORDER BY rowid LIMIT 1",
+                params![what.as_str(), id],
+                |r| r.get(0),
+            )
+            .optional()?)
+    }
+
     /// Queued or running jobs `owner` holds.
     pub fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
         let n: i64 = self.conn().query_row(

@@ -142,7 +142,7 @@ fn names(keep: impl Fn(&MethodInfo) -> bool) -> String {
 }
 
 /// Where a job's work runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Lane {
     /// The CPU pool (bakes, reference renders, a baked method's preparation before it borrows
     /// the GPU for its frame).

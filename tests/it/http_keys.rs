@@ -243,3 +243,65 @@ async fn a_key_past_its_quota_gets_429() {
     root.delete(r.headers()["location"].to_str().unwrap()).await;
     srv.stop().await;
 }
+
+/// Keys take turns within a priority (fair queueing), instead of one key's backlog running
+/// first: with one worker busy on alice's first bake and three more of hers queued, bob's
+/// bake, queued after all of them, runs once her second has, not after her fourth.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn keys_take_turns_for_the_workers() {
+    let srv = Server::start("keys-fair", |j, h| {
+        h.keys = keys();
+        j.cpu_workers = 1;
+    })
+    .await;
+    let (alice, bob) = (As(&srv, ALICE), As(&srv, BOB));
+    let state = |who: &'static str, loc: String| {
+        let srv = &srv;
+        async move {
+            let key = if who == "alice" { ALICE } else { BOB };
+            let v: serde_json::Value = As(srv, key).get(&loc).await.json().await.unwrap();
+            v["state"].as_str().unwrap_or_default().to_string()
+        }
+    };
+    let mut hers = Vec::new();
+    for seed in 20..24 {
+        let r = alice.post("/v1/bakes", &long_bake(seed)).await;
+        assert_eq!(r.status(), 202);
+        hers.push(r.headers()["location"].to_str().unwrap().to_string());
+        if seed == 20 {
+            // Her first holds the one worker before the rest are queued.
+            poll(
+                "alice's first bake to run",
+                Duration::from_secs(60),
+                || async { (state("alice", hers[0].clone()).await == "running").then_some(()) },
+            )
+            .await;
+        }
+    }
+    let r = bob.post("/v1/bakes", &long_bake(30)).await;
+    assert_eq!(r.status(), 202);
+    let his = r.headers()["location"].to_str().unwrap().to_string();
+    let runs = |who: &'static str, loc: String| {
+        let state = &state;
+        async move {
+            poll(
+                &format!("{loc} to run"),
+                Duration::from_secs(60),
+                || async { (state(who, loc.clone()).await == "running").then_some(()) },
+            )
+            .await
+        }
+    };
+    // FIFO would run hers[1], hers[2], hers[3], then his.
+    alice.delete(&hers[0]).await;
+    runs("alice", hers[1].clone()).await;
+    alice.delete(&hers[1]).await;
+    runs("bob", his.clone()).await;
+    assert_eq!(state("alice", hers[2].clone()).await, "queued");
+    bob.delete(&his).await;
+    runs("alice", hers[2].clone()).await;
+    for loc in &hers[2..] {
+        alice.delete(loc).await;
+    }
+    srv.stop().await;
+}
