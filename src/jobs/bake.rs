@@ -47,6 +47,10 @@ impl Job for BakeJob {
         Lane::Cpu
     }
 
+    fn memory(&self) -> u64 {
+        self.plan.memory()
+    }
+
     fn run(&self, ctx: &JobCtx<'_>) -> Result<Artifact, JobError> {
         let b = ctx
             .with_env(|env| self.plan.run(env))

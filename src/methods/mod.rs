@@ -476,6 +476,11 @@ pub struct BakeRequest<'a> {
 pub trait BakePlan: Send + Sync {
     /// The object baked.
     fn object(&self) -> &str;
+    /// A generous estimate of the memory the bake holds while it runs, bytes (for the job
+    /// memory budget).
+    fn memory(&self) -> u64 {
+        128 << 20
+    }
     fn run(&self, env: &Env) -> Result<Baked, MethodError>;
 }
 

@@ -72,6 +72,20 @@ impl MethodImpl for Reference {
     }
 }
 
+/// A generous estimate of a reference run's memory, bytes, for the job memory budget: ~256
+/// bytes a pixel over all frames (its layers in f64 and splat buffers; measured 217–229 on the
+/// glass sphere at 640×480 and 1280×960), 40 bytes a photon when the scene has glass, mirrors
+/// or water (the stored caustic photons and their map; measured 31 at 4 M photons), 256 bytes
+/// a triangle (the BVH) and 16 MiB.
+pub fn memory_estimate(world: &World, photons: u64, pixels: u64) -> u64 {
+    let specular = !world.objects_with(|m| m.is_specular()).is_empty() || !world.water.is_empty();
+    let stored = if specular { photons } else { 0 };
+    (16 << 20)
+        + pixels.saturating_mul(256)
+        + stored.saturating_mul(40)
+        + world.triangle_count() as u64 * 256
+}
+
 /// The reference's run: every component of the frame.
 fn run(
     world: &World,
@@ -181,6 +195,15 @@ struct Bake {
 impl BakePlan for Bake {
     fn object(&self) -> &str {
         &self.object
+    }
+
+    fn memory(&self) -> u64 {
+        let c = &self.world.camera;
+        memory_estimate(
+            &self.world,
+            self.params.photons,
+            c.width as u64 * c.height as u64,
+        )
     }
 
     fn run(&self, env: &Env) -> Result<Baked, MethodError> {

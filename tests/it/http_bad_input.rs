@@ -3,7 +3,7 @@
 //! bogus content type 415, a scene with a bad field 422 naming it; hostile uploads beyond
 //! the corpus (external URIs, huge declared sizes, deep JSON, bad multipart) too.
 
-use crate::support::scenes::{SCENE, scene_sized};
+use crate::support::scenes::{SCENE, long_bake, scene_sized};
 use crate::support::server::*;
 use crate::support::{files_under, repo_path};
 use std::time::{Duration, Instant};
@@ -460,12 +460,8 @@ async fn a_full_queue_answers_429_with_retry_after() {
         j.cpu_workers = 1;
     })
     .await;
-    let long = |seed: u64| {
-        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
-                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
-    };
     // One running, one queued, the third refused.
-    let a = srv.post_json("/v1/bakes", &long(1)).await;
+    let a = srv.post_json("/v1/bakes", &long_bake(1)).await;
     assert_eq!(a.status(), 202);
     let a = a.headers()["location"].to_str().unwrap().to_string();
     poll("the first bake to run", Duration::from_secs(60), || async {
@@ -473,10 +469,10 @@ async fn a_full_queue_answers_429_with_retry_after() {
         (v["state"] == "running").then_some(())
     })
     .await;
-    let b = srv.post_json("/v1/bakes", &long(2)).await;
+    let b = srv.post_json("/v1/bakes", &long_bake(2)).await;
     assert_eq!(b.status(), 202);
     let b = b.headers()["location"].to_str().unwrap().to_string();
-    let r = srv.post_json("/v1/bakes", &long(3)).await;
+    let r = srv.post_json("/v1/bakes", &long_bake(3)).await;
     assert_eq!(r.headers()["retry-after"], "5");
     problem(r, 429).await;
     // Cancel a queued job: dropped at once.

@@ -2,7 +2,7 @@
 //! DELETE (the worker really stops); idempotency by content and by `Idempotency-Key`; a small
 //! bake succeeds and its artifact is a multi-layer EXR.
 
-use crate::support::scenes::{self, scene_sized};
+use crate::support::scenes::{self, long_bake, scene_sized};
 use crate::support::server::*;
 use std::time::Duration;
 
@@ -208,11 +208,7 @@ async fn bakes_are_idempotent_and_their_artifact_is_a_layered_exr() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn renders_run_before_queued_bakes_and_a_canceled_bake_can_run_again() {
     let srv = Server::start("bake-priority", |j, _| j.cpu_workers = 1).await;
-    let long = |seed: u64| {
-        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
-                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
-    };
-    let a = srv.post_json("/v1/bakes", &long(1)).await;
+    let a = srv.post_json("/v1/bakes", &long_bake(1)).await;
     let a = a.headers()["location"].to_str().unwrap().to_string();
     poll("bake A to run", Duration::from_secs(60), || async {
         let (_, v) = srv.get_json(&a).await;
@@ -251,7 +247,7 @@ async fn renders_run_before_queued_bakes_and_a_canceled_bake_can_run_again() {
         "render {rv} / bake {bv}"
     );
     // Asking for the canceled bake again runs it again, under the same id.
-    let again = srv.post_json("/v1/bakes", &long(1)).await;
+    let again = srv.post_json("/v1/bakes", &long_bake(1)).await;
     assert_eq!(again.headers()["location"].to_str().unwrap(), a);
     let v: serde_json::Value = again.json().await.unwrap();
     assert!(
@@ -300,13 +296,9 @@ async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn long_bakes_do_not_block_renders() {
     let srv = Server::start("bake-busy", |j, _| j.cpu_workers = 2).await;
-    let long = |seed: u64| {
-        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
-                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
-    };
     let mut locs = Vec::new();
     for seed in [1, 2] {
-        let r = srv.post_json("/v1/bakes", &long(seed)).await;
+        let r = srv.post_json("/v1/bakes", &long_bake(seed)).await;
         locs.push(r.headers()["location"].to_str().unwrap().to_string());
     }
     poll("a bake to run", Duration::from_secs(60), || async {

@@ -2,7 +2,7 @@
 //! CPU worker, a flood of bakes leaves renders room in the queue, and one render cannot ask
 //! for more than the server's caps.
 
-use crate::support::scenes::scene_sized;
+use crate::support::scenes::{long_bake, scene_sized};
 use crate::support::server::*;
 use std::time::{Duration, Instant};
 
@@ -76,14 +76,10 @@ async fn a_flood_of_bakes_leaves_renders_room() {
         j.max_queued = 3;
     })
     .await;
-    let bake = |seed: u64| {
-        serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
-                           "params": {"photons": 1_000_000_000u64, "seed": seed}})
-    };
     let mut accepted = Vec::new();
     let mut refused = 0;
     for seed in 0..8 {
-        let r = srv.post_json("/v1/bakes", &bake(seed)).await;
+        let r = srv.post_json("/v1/bakes", &long_bake(seed)).await;
         match r.status().as_u16() {
             202 => accepted.push(r.headers()["location"].to_str().unwrap().to_string()),
             429 => {
@@ -144,11 +140,22 @@ async fn jobs_past_the_memory_budget_are_refused() {
         h.render_wait = Duration::ZERO;
     })
     .await;
+    // 10⁸ photons through the glass: ~4 GiB of stored photons, refused whatever the size.
+    let r = serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                               "photons": 100_000_000u64, "spp": 1});
+    let p = problem(srv.post_json("/v1/renders", &r).await, 422).await;
+    let need: u64 = p["detail"].as_str().unwrap()["this job needs about ".len()..]
+        .split(' ')
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{p}"));
+    assert!((3815..4200).contains(&need), "{p}");
+    // Few photons and many camera samples: the estimate is the pixels', the run long.
     let render = |side: u32| {
         serde_json::json!({"scene": scene_sized(side, side), "method": "reference",
-                           "photons": 100_000_000u64, "spp": 1})
+                           "photons": 10_000, "spp": 64})
     };
-    // 2048² at ~128 bytes a pixel: ~0.5 GiB, more than the whole budget.
+    // 2048² at ~256 bytes a pixel: ~1 GiB, more than the whole budget.
     let p = problem(srv.post_json("/v1/renders", &render(2048)).await, 422).await;
     assert!(
         p["detail"]
@@ -157,18 +164,18 @@ async fn jobs_past_the_memory_budget_are_refused() {
             .contains("more than the 150 MiB"),
         "{p}"
     );
-    // 700² (~79 MiB with the fixed part) fits once, not twice.
-    let r = srv.post_json("/v1/renders", &render(700)).await;
+    // 640² (~132 MiB with the sphere and the fixed part) fits once, not twice.
+    let r = srv.post_json("/v1/renders", &render(640)).await;
     assert_eq!(r.status(), 202);
     let first = r.headers()["location"].to_str().unwrap().to_string();
-    let r = srv.post_json("/v1/renders", &render(700)).await;
+    let r = srv.post_json("/v1/renders", &render(640)).await;
     assert_eq!(r.headers()["retry-after"], "5");
     let p = problem(r, 503).await;
     assert!(p["detail"].as_str().unwrap().contains("job memory"), "{p}");
     // Once the first has ended, the second fits.
     srv.client.delete(srv.url(&first)).send().await.unwrap();
     let second = poll("room for the second", Duration::from_secs(30), || async {
-        let r = srv.post_json("/v1/renders", &render(700)).await;
+        let r = srv.post_json("/v1/renders", &render(640)).await;
         (r.status() == 202).then(|| r.headers()["location"].to_str().unwrap().to_string())
     })
     .await;

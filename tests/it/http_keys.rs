@@ -3,7 +3,7 @@
 //! one client's `DELETE` drops only its own hold; an admin key sees and cancels everything;
 //! `serve` refuses a public address without keys.
 
-use crate::support::scenes::scene_sized;
+use crate::support::scenes::{long_bake, scene_sized};
 use crate::support::server::*;
 use crate::support::{Cleanup, caustica, caustica_command, temp_dir};
 use caustica::http::auth::{Keys, hash_key};
@@ -62,11 +62,6 @@ impl As<'_> {
         let v: serde_json::Value = self.get(path).await.json().await.unwrap();
         v["state"].as_str().unwrap_or("?").to_string()
     }
-}
-
-fn long_bake(seed: u64) -> serde_json::Value {
-    serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
-                       "params": {"photons": 1_000_000_000u64, "seed": seed}})
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

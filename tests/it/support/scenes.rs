@@ -89,3 +89,12 @@ pub fn fog_slab() -> (World, impl Fn(Vec3) -> Vec3) {
     };
     (world, closed_form)
 }
+
+/// A reference bake of `scene_sized(8, 8)`'s glass that runs for minutes (10⁹ camera samples
+/// over a 1024² image) and holds little memory (its estimate ~0.27 GiB: few photons), for
+/// tests that need a bake to hold a worker until they cancel it.
+pub fn long_bake(seed: u64) -> serde_json::Value {
+    serde_json::json!({"scene": scene_sized(8, 8), "object": "glass", "method": "reference",
+                       "params": {"photons": 1000, "spp": 1024, "width": 1024, "height": 1024,
+                                  "seed": seed}})
+}
