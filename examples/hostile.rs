@@ -149,21 +149,23 @@ async fn main() {
 
     // 3. A bake flood, then small renders.
     let mut flood = Vec::new();
-    let mut refused = 0;
+    let mut refused = std::collections::BTreeMap::<u16, usize>::new();
     for seed in 0..bakes {
         let r = c
             .post(format!("{base}/v1/bakes"))
             .json(
                 &serde_json::json!({"scene": scene, "object": "glass", "method": "reference",
-                "params": {"photons": 200_000_000u64, "seed": 1000 + seed, "width": 64,
-                           "height": 48}}),
+                // Long on camera samples, light on memory (few stored photons), so that the
+                // flood fills the bake queue rather than the job memory budget.
+                "params": {"photons": 10_000, "spp": 1024, "seed": 1000 + seed, "width": 256,
+                           "height": 256}}),
             )
             .send()
             .await
             .unwrap();
         match r.status().as_u16() {
             202 => flood.push(r.headers()["location"].to_str().unwrap().to_string()),
-            _ => refused += 1,
+            s => *refused.entry(s).or_default() += 1,
         }
     }
     let mut lat = Vec::new();
@@ -183,8 +185,8 @@ async fn main() {
         lat.push(t.elapsed());
     }
     println!(
-        "{renders} small reference renders (64×48, 20k photons) under {} queued bakes ({refused} \
-         refused 429): {}",
+        "{renders} small reference renders (64×48, 20k photons) under {} queued bakes (refused, \
+         by status: {refused:?}): {}",
         flood.len(),
         percentiles(lat)
     );
