@@ -132,15 +132,22 @@ impl Gpu for JobCtx<'_> {
 
 impl JobSystem {
     /// Takes jobs of `lane` of priority at most `up_to` until the queues close.
-    /// The small-render worker runs its jobs in a thread pool of its own, so that their
-    /// parallel loops do not queue behind a big job's in the global one.
+    /// Each CPU worker runs its jobs in a thread pool of its own (as many threads as cores),
+    /// so that jobs on different workers share the cores through the operating system's
+    /// scheduler: in one shared pool, a render's parallel loop waits until a bake's loop has
+    /// left a thread idle, which for a bake's camera pass (one loop over the whole image) is
+    /// the whole pass (a 64×48 render waited 25 s behind a 256² × 1024-sample bake).
     pub(super) fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, up_to: Priority) {
-        let own_pool = (up_to == Priority::Small)
+        let name = std::thread::current()
+            .name()
+            .unwrap_or("caustica-cpu")
+            .to_string();
+        let own_pool = (lane == Lane::Cpu)
             .then(|| {
                 rayon::ThreadPoolBuilder::new()
-                    .thread_name(|i| format!("caustica-small-{i}"))
+                    .thread_name(move |i| format!("{name}-{i}"))
                     .build()
-                    .map_err(|e| tracing::warn!(error = %e, "no pool for small renders"))
+                    .map_err(|e| tracing::warn!(error = %e, "no pool of its own for a worker"))
                     .ok()
             })
             .flatten();
