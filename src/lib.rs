@@ -12,6 +12,7 @@
 //!   methods are judged by; `compare`.
 //! - [`bake`]: deterministic CPU precomputation per method (CSL sets, transport tables) and the
 //!   artifact store that keeps them by content hash. Nothing here runs per frame.
+//! - [`cancel`]: how long CPU loops ask a job's keep-going predicate and stop ([`cancel::Stop`]).
 //! - [`gpu`]: headless wgpu device, adapter choice, error scopes, device-loss recovery, readback.
 //! - [`render`]: the GPU renderer: a frame plan, one module per pass (shadow, direct, csl,
 //!   transport) with its shader, and beside each pass the per-frame CPU work of its method.
@@ -47,6 +48,7 @@
 //! ```
 
 pub mod bake;
+pub mod cancel;
 pub mod encode;
 pub mod frame;
 pub mod gpu;

@@ -403,18 +403,18 @@ impl RenderPlan for Plan {
         let fits: Vec<Option<f64>> = sets
             .iter()
             .map(|s| {
-                (!s.cached && (self.params.dynamic || s.set.stats.energy_traced > 0.0))
-                    .then(|| {
-                        crate::bake::csl::verify(
-                            world,
-                            &world.objects[s.object].name,
-                            &s.set,
-                            &self.params.csl_params(),
-                        )
-                    })
-                    .flatten()
+                if s.cached || !(self.params.dynamic || s.set.stats.energy_traced > 0.0) {
+                    return Ok(None);
+                }
+                crate::bake::csl::verify_with(
+                    world,
+                    &world.objects[s.object].name,
+                    &s.set,
+                    &self.params.csl_params(),
+                    env.keep_going,
+                )
             })
-            .collect();
+            .collect::<Result<_, _>>()?;
         timings.push(("verify".into(), t.elapsed()));
         let mut notes = Vec::new();
         for (s, fit) in sets.iter().zip(&fits) {
@@ -510,8 +510,13 @@ impl Bake {
         env.store.save(ArtifactKind::Csl, set.source_hash, &bytes);
         let s = &set.stats;
         let t = Instant::now();
-        let fit =
-            crate::bake::csl::verify(&self.world, &self.object, &set, &self.params.csl_params());
+        let fit = crate::bake::csl::verify_with(
+            &self.world,
+            &self.object,
+            &set,
+            &self.params.csl_params(),
+            env.keep_going,
+        )?;
         let mut notes = vec![bake_note(&self.object, &set)];
         if let Some(e) = fit {
             notes.push(format!(
@@ -579,22 +584,23 @@ impl Bake {
         let fits: Vec<f64> = {
             let ico = set.icosphere();
             let n = ico.faces.len();
-            [0, n / 3, 2 * n / 3]
-                .into_iter()
-                .filter_map(|fi| {
-                    let d = ico.faces[fi]
-                        .iter()
-                        .map(|&v| ico.vertices[v as usize])
-                        .sum::<glam::Vec3>()
-                        .normalize();
-                    crate::bake::csl::verify(
-                        &self.world,
-                        &self.object,
-                        &set.interpolate(d),
-                        &params.csl,
-                    )
-                })
-                .collect()
+            let mut fits = Vec::new();
+            for fi in [0, n / 3, 2 * n / 3] {
+                env.check()?;
+                let d = ico.faces[fi]
+                    .iter()
+                    .map(|&v| ico.vertices[v as usize])
+                    .sum::<glam::Vec3>()
+                    .normalize();
+                fits.extend(crate::bake::csl::verify_with(
+                    &self.world,
+                    &self.object,
+                    &set.interpolate(d),
+                    &params.csl,
+                    env.keep_going,
+                )?);
+            }
+            fits
         };
         let fit = fits.iter().copied().reduce(f64::max);
         let time_verify = t.elapsed();

@@ -131,7 +131,7 @@ impl RenderPlan for Plan {
         let mut timings = Vec::new();
         (env.progress)(0.0, "sampling");
         let t = Instant::now();
-        let layer = PinholeLayer::build(world, &self.params)
+        let layer = PinholeLayer::build_with(world, &self.params, env.keep_going)?
             .map_err(|e| ParamError::new("scene.lights", e))?;
         timings.push(("sampling".into(), t.elapsed()));
         env.check()?;

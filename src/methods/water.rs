@@ -12,7 +12,7 @@ use crate::render::RenderOptions;
 use crate::render::water::gpu::{MapSource, WaterGpuLayer};
 use crate::render::water::{
     MAX_GRID, MAX_MAP, MAX_PIXEL_SAMPLES, MAX_POINTS, MAX_SUN_SAMPLES, Mode, Receivers, Variant,
-    WaterParams, WaterStats, render_layer, suns,
+    WaterParams, WaterStats, render_layer_with, suns,
 };
 use crate::scene::World;
 use serde::{Deserialize, Serialize};
@@ -293,13 +293,15 @@ impl RenderPlan for Plan {
         let mut timings = Vec::new();
         (env.progress)(0.0, "receivers");
         let t = Instant::now();
+        // The receivers' BVH build cannot be interrupted: asked right before and after it.
+        env.check()?;
         let (recv, reused) = self.receivers(world);
         timings.push(("receivers".into(), t.elapsed()));
         env.check()?;
         (env.progress)(0.1, "caustics");
         let mut stats = WaterStats::default();
         let t = Instant::now();
-        let layer = render_layer(world, &recv, &self.params, &mut stats);
+        let layer = render_layer_with(world, &recv, &self.params, &mut stats, env.keep_going)?;
         timings.push(("caustics".into(), t.elapsed()));
         env.check()?;
         (env.progress)(0.8, "render");

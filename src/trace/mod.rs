@@ -257,7 +257,20 @@ impl Accel {
     /// solid's size): a connected closed surface that is convex at every edge bounds a convex
     /// solid. Degenerate triangles make it None.
     pub fn convex_orientation(&self) -> Option<f32> {
-        *self.convex.get_or_init(|| convex_orientation(self))
+        *self
+            .convex
+            .get_or_init(|| convex_orientation(self, &|| true).expect("never asked to stop"))
+    }
+
+    /// [`Self::convex_orientation`] that asks `keep_going` every [`CONVEX_CHUNK`] triangles
+    /// of each pass over them (there may be millions) while it is worked out; None once it
+    /// says stop (and nothing is kept: a later call works it out again).
+    pub fn convex_orientation_with(&self, keep_going: &dyn Fn() -> bool) -> Option<Option<f32>> {
+        if let Some(c) = self.convex.get() {
+            return Some(*c);
+        }
+        let c = convex_orientation(self, keep_going).ok()?;
+        Some(*self.convex.get_or_init(|| c))
     }
 
     /// The hit at distance `t` on triangle `id`.
@@ -343,12 +356,28 @@ impl std::hash::Hasher for FastHasher {
 
 type HashMap<K, V> = std::collections::HashMap<K, V, std::hash::BuildHasherDefault<FastHasher>>;
 
-/// [`Accel::convex_orientation`], worked out.
-fn convex_orientation(accel: &Accel) -> Option<f32> {
+/// Triangles [`Accel::convex_orientation_with`] handles between two questions to its
+/// `keep_going` (a few milliseconds).
+pub const CONVEX_CHUNK: usize = 1 << 15;
+
+/// [`Accel::convex_orientation`], worked out; Err(Canceled) once `keep_going` (asked every
+/// [`CONVEX_CHUNK`] triangles of each pass) says stop.
+fn convex_orientation(
+    accel: &Accel,
+    keep_going: &dyn Fn() -> bool,
+) -> Result<Option<f32>, crate::cancel::Canceled> {
+    let check = |k: usize| {
+        if k.is_multiple_of(CONVEX_CHUNK) && !keep_going() {
+            Err(crate::cancel::Canceled)
+        } else {
+            Ok(())
+        }
+    };
     let count = accel.triangle_count();
     if count < 4 {
-        return None;
+        return Ok(None);
     }
+    check(0)?;
     let corners: Vec<[Vec3; 3]> = (0..count).map(|p| accel.triangle_vertices(p)).collect();
     let (lo, hi) = corners.iter().flatten().fold(
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
@@ -356,7 +385,7 @@ fn convex_orientation(accel: &Accel) -> Option<f32> {
     );
     let size = (hi - lo).length();
     if !(size > 0.0 && size.is_finite()) {
-        return None;
+        return Ok(None);
     }
     // Weld vertices closer than 10⁻⁶ of the size (a generated sphere's seam and poles repeat
     // vertices up to rounding), in order, through a hash of cells of that size.
@@ -386,13 +415,16 @@ fn convex_orientation(accel: &Accel) -> Option<f32> {
         i
     };
     // Triangles that welding folds to a line or a point are slivers on the surface: left out.
-    let tris: Vec<[u32; 3]> = corners
-        .iter()
-        .map(|t| t.map(&mut id_of))
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
-        .collect();
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(count);
+    for (k, t) in corners.iter().enumerate() {
+        check(k)?;
+        let t = t.map(&mut id_of);
+        if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
+            tris.push(t);
+        }
+    }
     if tris.len() < 4 {
-        return None;
+        return Ok(None);
     }
     let tol = 1e-6 * size;
     let normal = |t: &[u32; 3]| {
@@ -404,35 +436,43 @@ fn convex_orientation(accel: &Accel) -> Option<f32> {
     edges.reserve(3 * count);
     let mut volume = 0.0f64;
     for (k, t) in tris.iter().enumerate() {
+        check(k)?;
         if normal(t).length_squared() <= 0.0 {
-            return None;
+            return Ok(None);
         }
         let [a, b, c] = t.map(|i| points[i as usize].as_dvec3());
         volume += a.dot(b.cross(c));
         for e in 0..3 {
             if edges.insert((t[e], t[(e + 1) % 3]), k as u32).is_some() {
-                return None;
+                return Ok(None);
             }
         }
     }
     if volume == 0.0 {
-        return None;
+        return Ok(None);
     }
     let sign = if volume > 0.0 { 1.0f32 } else { -1.0 };
     let mut seen = vec![false; tris.len()];
     let mut todo = vec![0usize];
     seen[0] = true;
+    let mut visited = 0usize;
     while let Some(k) = todo.pop() {
+        visited += 1;
+        check(visited)?;
         let t = &tris[k];
         let n = normal(t) * sign;
         let base = points[t[0] as usize];
         for e in 0..3 {
-            let &other = edges.get(&(t[(e + 1) % 3], t[e]))?;
+            let Some(&other) = edges.get(&(t[(e + 1) % 3], t[e])) else {
+                return Ok(None);
+            };
             let u = &tris[other as usize];
             // The vertex of the neighbour off the shared edge, behind this triangle's plane.
-            let far = u.iter().find(|&&v| v != t[e] && v != t[(e + 1) % 3])?;
+            let Some(far) = u.iter().find(|&&v| v != t[e] && v != t[(e + 1) % 3]) else {
+                return Ok(None);
+            };
             if (points[*far as usize] - base).dot(n) > tol * n.length() {
-                return None;
+                return Ok(None);
             }
             if !seen[other as usize] {
                 seen[other as usize] = true;
@@ -440,7 +480,7 @@ fn convex_orientation(accel: &Accel) -> Option<f32> {
             }
         }
     }
-    seen.iter().all(|&s| s).then_some(sign)
+    Ok(seen.iter().all(|&s| s).then_some(sign))
 }
 
 /// Ray-triangle distance (∞ on a miss): Möller-Trumbore in Embree's arrangement, which tests
@@ -484,6 +524,44 @@ fn normal_xform(nm: Mat4, n: Vec3) -> Vec3A {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The convexity test asks to go on every [`CONVEX_CHUNK`] triangles of each pass; told
+    /// to stop it gives up and keeps nothing, so that a later call works it out.
+    #[test]
+    fn the_convexity_test_stops_when_asked_and_keeps_nothing() {
+        let json = r#"{
+            "camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+            "materials": {"d": {"type": "diffuse", "albedo": 0.5}},
+            "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                         "segments": 320}, "material": "d"}]}"#;
+        let world = resolve(
+            &parse_scene(json.as_bytes()).unwrap(),
+            &MapSource::default(),
+            &Default::default(),
+        )
+        .unwrap();
+        let accel = Accel::build_with(&world, |_| true, BvhBuildParams::fast_build());
+        assert!(accel.triangle_count() > 2 * CONVEX_CHUNK);
+        let asked = crate::cancel::assert_cancels(
+            5,
+            |k| {
+                // Not kept once worked out: a fresh BVH each time would cost more.
+                let c = convex_orientation(&accel, k)?;
+                assert_eq!(c, Some(1.0));
+                Ok::<_, crate::cancel::Canceled>(c)
+            },
+            |_| true,
+        );
+        eprintln!("asked {asked} times");
+        let c = crate::cancel::CountDown::new(2);
+        assert_eq!(accel.convex_orientation_with(&|| c.ask()), None);
+        assert!(accel.convex.get().is_none(), "a stopped test is not kept");
+        assert_eq!(accel.convex_orientation_with(&|| true), Some(Some(1.0)));
+        assert_eq!(accel.convex_orientation(), Some(1.0));
+        // Once known, it is not asked again.
+        let c = crate::cancel::CountDown::new(0);
+        assert_eq!(accel.convex_orientation_with(&|| c.ask()), Some(Some(1.0)));
+    }
     use crate::scene::{MapSource, parse_scene, resolve};
 
     /// A random unit vector (a point of the unit ball's shell, normalised).

@@ -702,9 +702,28 @@ const VERIFY_GRID: u32 = 509;
 /// 3 × 3 blur of both, Σ|model − photons| / Σ photons. 0 is a perfect fit; the uncovered energy
 /// counts too.
 pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams) -> Option<f64> {
-    let object = world.object(object_name)?;
+    verify_with(world, object_name, set, params, &|| true).expect("never asked to stop")
+}
+
+/// [`verify`] that asks `keep_going` as it goes: right before and after the BVH build, while
+/// the object's convexity and first triangles are worked out, every 16 rows of the photon
+/// grid, every 64k photons as they are binned and per row of the plane's cells as the model
+/// is evaluated; Err(Canceled) once it says stop.
+pub fn verify_with(
+    world: &World,
+    object_name: &str,
+    set: &CslSet,
+    params: &CslParams,
+    keep_going: &(dyn Fn() -> bool + Sync),
+) -> Result<Option<f64>, BakeError> {
+    let stop = crate::cancel::Stop::new(keep_going);
+    let Some(object) = world.object(object_name) else {
+        return Ok(None);
+    };
     let local = rigid_frame_world(world, object);
+    stop.check()?;
     let accel = bake_accel(&local);
+    stop.check()?;
     let light = set.light_dir;
     let (u, v) = light.any_orthonormal_pair();
     let grid = trace::RayGrid {
@@ -715,13 +734,19 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
         radius: set.radius,
         n: VERIFY_GRID,
     };
-    let (rays, _) = trace::trace_grid(&accel, &grid, params, &|_| true)?;
+    let Some((rays, _)) = trace::trace_grid(&accel, &grid, params, &|_| stop.go()) else {
+        // The trace stops only when asked to.
+        return Err(BakeError::Canceled);
+    };
     let plane = crate::bake::plane::FitPlane::new(light, set.centre, set.radius, VERIFY_CELLS);
     let m = VERIFY_CELLS;
     // Photons: each grid ray carries its energy over spacing² of the light's plane.
     let flux = f64::from(grid.spacing()).powi(2);
     let mut photons = vec![0f64; m * m];
-    for ray in &rays {
+    for (r, ray) in rays.iter().enumerate() {
+        if r.is_multiple_of(1 << 16) {
+            stop.check()?;
+        }
         if let Some(k) = plane.cell_of(ray.origin, ray.dir) {
             photons[k] += f64::from(ray.weight()) * flux;
         }
@@ -729,8 +754,12 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
     let area = plane.cell_area();
     photons.iter_mut().for_each(|e| *e /= area);
     let n = -light;
-    let model: Vec<f64> = (0..m * m)
-        .map(|k| {
+    let mut model = Vec::with_capacity(m * m);
+    for k in 0..m * m {
+        if k.is_multiple_of(m) {
+            stop.check()?;
+        }
+        model.push({
             let (i, j) = (k % m, k / m);
             let mut e = 0f64;
             for (di, dj) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
@@ -742,14 +771,46 @@ pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams
                     .sum::<f64>();
             }
             e / 4.0
-        })
-        .collect();
-    crate::bake::plane::relative_l1(&model, &photons, m)
+        });
+    }
+    Ok(crate::bake::plane::relative_l1(&model, &photons, m))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fit check asks to go on around its BVH build, while its grid is traced (the first
+    /// triangles, the convexity, every 16 rows), as its photons are binned and per row of the
+    /// model's cells, and ends canceled whenever told to stop.
+    #[test]
+    fn the_fit_check_stops_inside_its_loops_when_asked() {
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+                 "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                              "segments": 32}, "material": "glass"}]}"#,
+        )
+        .expect("scene resolves");
+        let p = CslParams {
+            grid: 64,
+            ..CslParams::fast()
+        };
+        let light = Vec3::new(0.3, -1.0, 0.2);
+        let set = bake_csl(&world, "ball", light, &p, &|_| true).unwrap();
+        let fit = verify(&world, "ball", &set, &p);
+        assert!(fit.is_some());
+        let asked = crate::cancel::assert_cancels(
+            (VERIFY_GRID / 16 + VERIFY_CELLS as u32) as usize,
+            |k| {
+                let f = verify_with(&world, "ball", &set, &p, k)?;
+                assert_eq!(f, fit);
+                Ok::<_, BakeError>(f)
+            },
+            |e| matches!(e, BakeError::Canceled),
+        );
+        eprintln!("verify: asked {asked} times");
+    }
 
     /// The verification against fresh photons tells a set that fits (the sphere) from one that
     /// does not (a glass cylinder's sides fit the radially symmetric CSL badly).

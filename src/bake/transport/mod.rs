@@ -470,14 +470,21 @@ pub fn bake_transport(
     }
     check_table_size(vertices.len(), params)?;
     let local = super::csl::rigid_frame_world(world, object);
+    // The BVH build cannot be interrupted: asked right before and after it.
+    let start = || {
+        progress(Progress {
+            stage: "trace",
+            fraction: 0.0,
+        })
+    };
+    if !start() {
+        return Err(BakeError::Canceled);
+    }
     let accel = Accel::build_with(&local, |_| true, obvhs::BvhBuildParams::fast_build());
     let patches = smooth_patches(&local.objects[0]);
     let (lo, hi) = local.bounds();
     let dirs = params.directions();
-    if !progress(Progress {
-        stage: "trace",
-        fraction: 0.0,
-    }) {
+    if !start() {
         return Err(BakeError::Canceled);
     }
 
@@ -533,30 +540,31 @@ pub fn bake_transport(
     let time_trace = t0.elapsed();
 
     let t0 = Instant::now();
-    progress(Progress {
-        stage: "quantise",
-        fraction: 0.95,
-    });
     let absorbing = vertices.iter().any(|v| v.absorption != Vec3::ZERO);
-    let mut table = TransportTable::quantise(
+    let mut table = TransportTable::quantise_with(
         source_hash(world, object, params),
         *params,
         (lo, hi),
         vertices.len() as u32,
         absorbing,
         &samples,
-    );
+        &|| {
+            progress(Progress {
+                stage: "quantise",
+                fraction: 0.95,
+            })
+        },
+    )?;
     table.stats.rays = rays;
     table.stats.time_trace = time_trace;
     table.stats.time_quantise = t0.elapsed();
-    if !progress(Progress {
-        stage: "verify",
-        fraction: 0.97,
-    }) {
-        return Err(BakeError::Canceled);
-    }
     let t0 = Instant::now();
-    table.fit = verify::verify(world, object_name, &table);
+    table.fit = verify::verify_with(world, object_name, &table, &|| {
+        progress(Progress {
+            stage: "verify",
+            fraction: 0.97,
+        })
+    })?;
     table.stats.time_verify = t0.elapsed();
     table.stats.time_total = t_start.elapsed();
     progress(Progress {
@@ -603,6 +611,107 @@ pub fn source_hash(world: &World, object: &Object, params: &TransportParams) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::cancel::{Canceled, CountDown, assert_cancels};
+
+    fn glass_ball() -> World {
+        crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 2, 2], "target": [0, 0, 0]},
+                "materials": {"g": {"type": "dielectric", "ior": 1.5}},
+                "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                             "segments": 16}, "material": "g"}]}"#,
+        )
+        .unwrap()
+    }
+
+    /// The fit check asks to go on around its BVH build, per direction, within the volumes'
+    /// construction, per chunk of volumes and per row of photons, and ends canceled whenever
+    /// told to stop; a bake told to stop there ends canceled too.
+    #[test]
+    fn the_fit_check_stops_inside_its_loops_when_asked() {
+        let world = glass_ball();
+        let params = TransportParams {
+            rings: 4,
+            azimuths: 8,
+            max_depth: 8,
+        };
+        let table = bake_transport(&world, "ball", &params, &|_| true).unwrap();
+        let fit = verify::verify(&world, "ball", &table);
+        assert!(fit.is_some());
+        let asked = assert_cancels(
+            3 * verify::GRID,
+            |k| {
+                let f = verify::verify_with(&world, "ball", &table, k)?;
+                assert_eq!(f, fit);
+                Ok::<_, BakeError>(f)
+            },
+            |e| matches!(e, BakeError::Canceled),
+        );
+        eprintln!("verify: asked {asked} times");
+        // The bake, told to stop while it checks its fit.
+        let c = CountDown::new(usize::MAX);
+        let stage = std::sync::Mutex::new(String::new());
+        let verifying = std::sync::atomic::AtomicUsize::new(0);
+        let r = bake_transport(&world, "ball", &params, &|p| {
+            if p.stage == "verify" {
+                *stage.lock().unwrap() = p.stage.into();
+                return verifying.fetch_add(1, std::sync::atomic::Ordering::Relaxed) < 100;
+            }
+            c.ask()
+        });
+        assert!(matches!(r, Err(BakeError::Canceled)), "{:?}", r.map(|_| ()));
+        assert!(verifying.into_inner() > 100);
+    }
+
+    /// Quantisation asks to go on every [`table::QUANTISE_CHUNK`] samples of each pass.
+    #[test]
+    fn quantisation_stops_when_asked() {
+        let n = 3 * table::QUANTISE_CHUNK + 5;
+        let samples: Vec<Sample> = (0..n)
+            .map(|k| {
+                let f = k as f32 / n as f32;
+                Sample {
+                    position: Vec3::new(f, 1.0 - f, 0.5),
+                    direction: Vec3::new(f, 1.0, -f).normalize(),
+                    transmittance: f,
+                    path_length: 2.0 * f,
+                    occluded: k % 7 == 0,
+                    trapped: k % 11 == 0,
+                    path: (k % 5) as u16,
+                }
+            })
+            .collect();
+        let q = |k: crate::cancel::KeepGoing| {
+            TransportTable::quantise_with(
+                1,
+                TransportParams::paper(),
+                (Vec3::ZERO, Vec3::ONE),
+                (n / 129) as u32,
+                true,
+                &samples,
+                k,
+            )
+        };
+        let whole = TransportTable::quantise(
+            1,
+            TransportParams::paper(),
+            (Vec3::ZERO, Vec3::ONE),
+            (n / 129) as u32,
+            true,
+            &samples,
+        )
+        .to_bytes();
+        let asked = assert_cancels(
+            9,
+            |k| {
+                let t = q(k)?;
+                assert_eq!(t.to_bytes(), whole);
+                Ok::<_, Canceled>(t)
+            },
+            |_| true,
+        );
+        eprintln!("quantise: asked {asked} times");
+    }
 
     #[test]
     fn smooth_patches_split_at_hard_edges_not_at_seams() {

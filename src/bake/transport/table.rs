@@ -24,6 +24,7 @@
 
 use super::{Sample, TransportParams, TransportStats};
 use crate::bake::Fnv64;
+use crate::cancel::Canceled;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 use thiserror::Error;
@@ -135,30 +136,64 @@ fn angles_dir([p, t]: [u16; 2]) -> Vec3 {
     Vec3::new(phi.sin() * theta.cos(), phi.sin() * theta.sin(), phi.cos())
 }
 
+/// Samples [`TransportTable::quantise_with`] handles between two questions to its
+/// `keep_going` (a few milliseconds of work).
+pub const QUANTISE_CHUNK: usize = 1 << 16;
+
 impl TransportTable {
     /// Quantise `samples` (vertex-major) into a table.
     pub fn quantise(
+        source_hash: u64,
+        params: TransportParams,
+        bounds: (Vec3, Vec3),
+        vertex_count: u32,
+        absorbing: bool,
+        samples: &[Sample],
+    ) -> TransportTable {
+        Self::quantise_with(
+            source_hash,
+            params,
+            bounds,
+            vertex_count,
+            absorbing,
+            samples,
+            &|| true,
+        )
+        .expect("never asked to stop")
+    }
+
+    /// [`Self::quantise`] that asks `keep_going` every [`QUANTISE_CHUNK`] samples of each
+    /// pass over them; Err(Canceled) once it says stop.
+    pub fn quantise_with(
         source_hash: u64,
         params: TransportParams,
         (lo, hi): (Vec3, Vec3),
         vertex_count: u32,
         absorbing: bool,
         samples: &[Sample],
-    ) -> TransportTable {
+        keep_going: &dyn Fn() -> bool,
+    ) -> Result<TransportTable, Canceled> {
+        let check = || if keep_going() { Ok(()) } else { Err(Canceled) };
         let max_path = if absorbing {
             // Trapped rays' paths (light that never leaves) do not set the scale.
-            samples
-                .iter()
-                .filter(|s| !s.trapped)
-                .map(|s| s.path_length)
-                .fold(0.0f32, f32::max)
+            let mut m = 0.0f32;
+            for chunk in samples.chunks(QUANTISE_CHUNK) {
+                check()?;
+                m = chunk
+                    .iter()
+                    .filter(|s| !s.trapped)
+                    .map(|s| s.path_length)
+                    .fold(m, f32::max);
+            }
+            m
         } else {
             0.0
         };
         let extent = (hi - lo).max(Vec3::splat(1e-12));
-        let records = samples
-            .iter()
-            .map(|s| {
+        let mut records = Vec::with_capacity(samples.len());
+        for chunk in samples.chunks(QUANTISE_CHUNK) {
+            check()?;
+            records.extend(chunk.iter().map(|s| {
                 let rel = (s.position - lo) / extent;
                 let t = (s.transmittance.clamp(0.0, 1.0) * T_MAX).round() as u16;
                 Record {
@@ -174,8 +209,8 @@ impl TransportTable {
                     },
                     signature: s.path,
                 }
-            })
-            .collect();
+            }));
+        }
         let mut table = TransportTable {
             source_hash,
             params,
@@ -192,6 +227,9 @@ impl TransportTable {
         let diag = (hi - lo).length().max(1e-12);
         let mut e = QuantErrors::default();
         for (k, s) in samples.iter().enumerate() {
+            if k.is_multiple_of(QUANTISE_CHUNK) {
+                check()?;
+            }
             let q = table.sample_at(k);
             e.position = e.position.max((q.position - s.position).length() / diag);
             e.direction = e
@@ -205,8 +243,9 @@ impl TransportTable {
             }
         }
         table.errors = e;
+        check()?;
         table.count_samples();
-        table
+        Ok(table)
     }
 
     /// Bytes per stored sample: 14, or 16 with path lengths.

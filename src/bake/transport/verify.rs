@@ -12,8 +12,10 @@
 //! light needs no table.
 
 use super::{TransportTable, smooth_patches, table::Fit, trace_sample};
+use crate::bake::BakeError;
 use crate::bake::plane::{FitPlane, relative_l1};
-use crate::render::transport::volumes::{Source, build_volumes};
+use crate::cancel::{Canceled, KeepGoing, Stop};
+use crate::render::transport::volumes::{EvalError, Source, build_volumes};
 use crate::scene::{Material, World};
 use crate::trace::Accel;
 use glam::Vec3;
@@ -36,9 +38,26 @@ pub const CELLS: usize = 32;
 /// The fit of `table`, baked for object `object_name` of `world` ([`TransportTable::fit`]);
 /// `None` when the object is missing, or when no photon leaves it (nothing to compare).
 pub fn verify(world: &World, object_name: &str, table: &TransportTable) -> Option<Fit> {
-    let object = world.object(object_name)?;
+    verify_with(world, object_name, table, &|| true).expect("never asked to stop")
+}
+
+/// [`verify`] that asks `keep_going` as it goes: right before and after the BVH build, before
+/// each direction, within the volumes' construction, per chunk of 64 volumes as they are laid
+/// on the plane and per row of the photon grid; Err(Canceled) once it says stop.
+pub fn verify_with(
+    world: &World,
+    object_name: &str,
+    table: &TransportTable,
+    keep_going: KeepGoing,
+) -> Result<Option<Fit>, BakeError> {
+    let stop = Stop::new(keep_going);
+    let Some(object) = world.object(object_name) else {
+        return Ok(None);
+    };
     let mut local = crate::bake::csl::rigid_frame_world(world, object);
+    stop.check()?;
     let accel = crate::bake::csl::bake_accel(&local);
+    stop.check()?;
     let patches = smooth_patches(&local.objects[0]);
     let (lo, hi) = local.bounds();
     // The volumes reach as far as the scene's bounds: a far triangle (never traced) takes
@@ -64,8 +83,11 @@ pub fn verify(world: &World, object_name: &str, table: &TransportTable) -> Optio
     let radius = ((hi - lo) * 0.5).length().max(1e-6);
     let mut worst: Option<Fit> = None;
     for dir in DIRECTIONS {
+        stop.check()?;
         let light = dir.normalize();
-        let Some(fit) = verify_direction(&local, table, &accel, &patches, light, centre, radius)
+        let Some(fit) = verify_direction(
+            &local, table, &accel, &patches, light, centre, radius, &stop,
+        )?
         else {
             continue;
         };
@@ -77,9 +99,11 @@ pub fn verify(world: &World, object_name: &str, table: &TransportTable) -> Optio
             },
         });
     }
-    worst
+    Ok(worst)
 }
 
+/// The fit for one light direction; Err(Canceled) once `stop` says so.
+#[allow(clippy::too_many_arguments)]
 fn verify_direction(
     local: &World,
     table: &TransportTable,
@@ -88,13 +112,19 @@ fn verify_direction(
     light: Vec3,
     centre: Vec3,
     radius: f32,
-) -> Option<Fit> {
+    stop: &Stop,
+) -> Result<Option<Fit>, Canceled> {
     let name = &local.objects[0].name;
     let source = Source::Directional {
         direction: light,
         irradiance: Vec3::ONE,
     };
-    let (volumes, stats) = build_volumes(local, name, table, &[source], None, &|| true).ok()?;
+    let (volumes, stats) = match build_volumes(local, name, table, &[source], None, &|| stop.go()) {
+        Ok(v) => v,
+        Err(EvalError::Canceled) => return Err(Canceled),
+        Err(_) => return Ok(None),
+    };
+    stop.check()?;
     let plane = FitPlane::new(light, centre, radius, CELLS);
     let m = CELLS;
     let at = |i: f32, j: f32| plane.at(i, j);
@@ -106,6 +136,9 @@ fn verify_direction(
     let model = sum_in_order(
         volumes.par_chunks(64).map(|chunk| {
             let mut acc = vec![0f64; m * m];
+            if !stop.go() {
+                return acc;
+            }
             for vol in chunk {
                 let Some(q) = vol.cross_section(plane.p0.as_dvec3(), n.as_dvec3()) else {
                     continue;
@@ -136,6 +169,7 @@ fn verify_direction(
         }),
         m,
     );
+    stop.checked()?;
     // The photons: a grid across the light over the object's bounding sphere, each carrying
     // the flux of its spacing², traced in by the bake's rules.
     let g = GRID;
@@ -144,6 +178,9 @@ fn verify_direction(
     let photons = sum_in_order(
         (0..g).into_par_iter().map(|row| {
             let mut acc = vec![0f64; m * m];
+            if !stop.go() {
+                return acc;
+            }
             for col in 0..g {
                 let (i, j) = (col as f32 + 0.5, row as f32 + 0.5);
                 let o =
@@ -180,18 +217,21 @@ fn verify_direction(
         }),
         m,
     );
+    stop.checked()?;
     let area = plane.cell_area();
     let photons: Vec<f64> = photons.iter().map(|e| e / area).collect();
-    let error = relative_l1(&model, &photons, m)?;
+    let Some(error) = relative_l1(&model, &photons, m) else {
+        return Ok(None);
+    };
     let entering = (stats.flux + stats.split_flux).element_sum();
-    Some(Fit {
+    Ok(Some(Fit {
         error: error as f32,
         split_loss: if entering > 0.0 {
             stats.split_flux.element_sum() / entering
         } else {
             0.0
         },
-    })
+    }))
 }
 
 /// The images of `parts` added in their order (deterministic whatever the threads).

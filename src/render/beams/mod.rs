@@ -730,12 +730,15 @@ impl BeamsLayer {
         Self::build_with(world, params, &|| true).expect("never asked to stop")
     }
 
-    /// [`Self::build`] that asks `keep_going` before each light; None once it says stop.
+    /// [`Self::build`] that asks `keep_going` before each light, right before and after the
+    /// BVH build, and per row of each light's grid as its photons are traced and its cells'
+    /// beams made; None once it says stop.
     pub fn build_with(
         world: &World,
         params: &BeamsParams,
-        keep_going: &dyn Fn() -> bool,
+        keep_going: &(dyn Fn() -> bool + Sync),
     ) -> Option<BeamsLayer> {
+        let stop = crate::cancel::Stop::new(keep_going);
         let t = Instant::now();
         let generators = crate::methods::caustic_objects(world);
         let mut points = Vec::new();
@@ -751,6 +754,9 @@ impl BeamsLayer {
                     );
                 }
             }
+        }
+        if !stop.go() {
+            return None;
         }
         let accel = Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
         let (lo, hi) = world.bounds_with_media();
@@ -771,7 +777,7 @@ impl BeamsLayer {
         let mut beams = Vec::new();
         let mut entries = Vec::new();
         for light in &world.lights {
-            if !keep_going() {
+            if !stop.go() {
                 return None;
             }
             let view = if points.is_empty() {
@@ -790,10 +796,16 @@ impl BeamsLayer {
             let grid: Vec<(Option<Hit>, [Photon; EFFECTS])> = (0..(n + 1) * (n + 1))
                 .into_par_iter()
                 .map(|i| {
+                    if !stop.go_at(i, n + 1) {
+                        return (None, [Photon::default(); EFFECTS]);
+                    }
                     let g = Vec2::new((i % (n + 1)) as f32, (i / (n + 1)) as f32) / n as f32;
                     ctx.photons(&view, g)
                 })
                 .collect();
+            if stop.stopped() {
+                return None;
+            }
             stats.vertices_on_generators += grid
                 .iter()
                 .filter(|(h, _)| {
@@ -806,6 +818,9 @@ impl BeamsLayer {
             let cells: Vec<Vec<Made>> = (0..n * n)
                 .into_par_iter()
                 .map(|c| {
+                    if !stop.go_at(c, n) {
+                        return Vec::new();
+                    }
                     let (i, j) = (c % n, c / n);
                     let corners = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
                     if m == 1 || !mixed(&corners) {
@@ -836,6 +851,9 @@ impl BeamsLayer {
                     out
                 })
                 .collect();
+            if stop.stopped() {
+                return None;
+            }
             for made in cells.into_iter().flatten() {
                 match made {
                     Made::Beam(k, bm, e) => {
@@ -899,6 +917,31 @@ fn gpu_medium(world: &World) -> GpuMedium {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The layer asks to go on per row of each light's grid (photons, then cells) and ends
+    /// with None whenever told to stop.
+    #[test]
+    fn the_layer_stops_inside_its_grids_when_asked() {
+        let world = crate::scene::load_scene_json(include_bytes!(
+            "../../../scenes/fog-glass-sphere-spot.json"
+        ))
+        .expect("scene resolves");
+        let params = BeamsParams {
+            grid: 32,
+            ..BeamsParams::default()
+        };
+        let whole = BeamsLayer::build(&world, &params).beams.len();
+        let asked = crate::cancel::assert_cancels(
+            2 * 32,
+            |k| {
+                let l = BeamsLayer::build_with(&world, &params, k).ok_or("canceled")?;
+                assert_eq!(l.beams.len(), whole);
+                Ok(l)
+            },
+            |e: &&str| *e == "canceled",
+        );
+        eprintln!("asked {asked} times");
+    }
 
     #[test]
     fn the_area_function_is_the_slice_area() {

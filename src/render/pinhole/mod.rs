@@ -24,6 +24,7 @@ use super::gbuffer::GBuffer;
 use super::scene::{BlockerBuffers, SceneBuffers};
 use super::shaders;
 use super::timestamps::Timestamps;
+use crate::cancel::Canceled;
 use crate::render::transport::volumes::{Source, sources};
 use crate::scene::curvature::{principal, vertex_shape_operators};
 use crate::scene::{EnvMap, Light, Material, World};
@@ -317,9 +318,27 @@ fn cluster_points(
     clusters
 }
 
+/// Sample points of [`PinholeLayer::build_with`]'s delta lights between two questions to its
+/// `keep_going` (each traces a shadow ray per delta source).
+pub const SAMPLES_PER_CHECK: usize = 256;
+
 impl PinholeLayer {
     /// The points of every reflector of `world` and what each receives, under `p`.
     pub fn build(world: &World, p: &PinholeParams) -> Result<PinholeLayer, String> {
+        Self::build_with(world, p, &|| true).expect("never asked to stop")
+    }
+
+    /// [`Self::build`] that asks `keep_going` as it goes: before each reflector part (as its
+    /// mesh is welded and measured, and as its pattern is made and evaluated), within the
+    /// making of a pattern, right before and after the BVH build, and every
+    /// [`SAMPLES_PER_CHECK`] points as their delta lights are shadowed. Err(Canceled) once it
+    /// says stop; Ok(Err(why)) where the scene's lights do not suit the method.
+    pub fn build_with(
+        world: &World,
+        p: &PinholeParams,
+        keep_going: &dyn Fn() -> bool,
+    ) -> Result<Result<PinholeLayer, String>, Canceled> {
+        let check = || if keep_going() { Ok(()) } else { Err(Canceled) };
         let t0 = Instant::now();
         let mut stats = PinholeStats::default();
         // Parts and their areas first: the points are split by area.
@@ -339,6 +358,7 @@ impl PinholeLayer {
                 let Some(mut refl) = reflector(&world.materials[part.material as usize]) else {
                     continue;
                 };
+                check()?;
                 let m = &part.mesh;
                 if p.transmit && refl[3] > 0.0 && is_open(&m.positions, &m.indices) {
                     refl[0] = 1.0;
@@ -374,12 +394,15 @@ impl PinholeLayer {
         let mut samples = Vec::new();
         let mut part_ranges = Vec::new();
         for r in &parts {
+            check()?;
             let first = samples.len();
             let o = &world.objects[r.object];
             let mesh = &o.parts[r.part].mesh;
             let rigid = o.rigid_transform();
             let n = ((p.samples as f64 * f64::from(r.area / total)).round() as usize).max(1);
-            let pattern = sampling::pattern(&r.q, &mesh.indices, n, p.strategy, p.seed);
+            let pattern =
+                sampling::pattern_with(&r.q, &mesh.indices, n, p.strategy, p.seed, keep_going)
+                    .ok_or(Canceled)?;
             if pattern.points.is_empty() {
                 continue;
             }
@@ -396,7 +419,9 @@ impl PinholeLayer {
                 .iter()
                 .map(|v| (nm * *v).normalize_or_zero())
                 .collect();
+            check()?;
             let shape_ops = vertex_shape_operators(&pw, &nw, &mesh.indices);
+            check()?;
             let area = pattern.area / pattern.points.len() as f32;
             // ε = r² of the disc of the point's area: a disc of radius r facing a receiver at distance
             // h on its axis subtends exactly the form factor r²/(h² + r²), so the point's
@@ -435,21 +460,26 @@ impl PinholeLayer {
         let t1 = Instant::now();
         let srcs: Vec<Source> = sources(&world.lights, p.line_points);
         if srcs.len() > MAX_DELTA_SOURCES {
-            return Err(format!(
+            return Ok(Err(format!(
                 "{} delta light sources (line lights count their points) over the pinhole \
                  method's {MAX_DELTA_SOURCES}",
                 srcs.len()
-            ));
+            )));
         }
         stats.delta_sources = srcs.len();
         let mut lights = Vec::with_capacity(samples.len() * srcs.len());
         if !srcs.is_empty() {
+            // The BVH build cannot be interrupted: asked right before and after it.
+            check()?;
             let accel = crate::trace::Accel::build_with(
                 world,
                 |_| true,
                 obvhs::BvhBuildParams::fast_build(),
             );
-            for s in &samples {
+            for (k, s) in samples.iter().enumerate() {
+                if k.is_multiple_of(SAMPLES_PER_CHECK) {
+                    check()?;
+                }
                 let pos = Vec3::from_slice(&s.position);
                 let n = Vec3::from_slice(&s.normal);
                 let lift = 1e-3 * s.normal[3].sqrt();
@@ -480,6 +510,7 @@ impl PinholeLayer {
                 stats.shadowed += usize::from(any_shadow);
             }
         }
+        check()?;
         stats.time_lights = t1.elapsed();
 
         let mut env_constant = Vec3::ZERO;
@@ -493,7 +524,7 @@ impl PinholeLayer {
                 }
             }
         }
-        Ok(PinholeLayer {
+        Ok(Ok(PinholeLayer {
             samples,
             clusters,
             cluster_size,
@@ -504,7 +535,7 @@ impl PinholeLayer {
             filter: p.filter,
             shadows: p.shadows,
             stats,
-        })
+        }))
     }
 
     /// The pipeline variant this layer needs.
@@ -933,6 +964,64 @@ pub fn encode(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The CPU layer asks to go on per part, within a pattern's making, around the BVH build
+    /// and every [`SAMPLES_PER_CHECK`] points as their lights are shadowed, and ends canceled
+    /// whenever told to stop.
+    #[test]
+    fn the_cpu_layer_stops_inside_its_loops_when_asked() {
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 2, 3], "target": [0, 0, 0]},
+                 "lights": [{"type": "directional", "direction": [0.3, -1, 0.2],
+                             "irradiance": 3.0},
+                            {"type": "point", "position": [0, 2, 0], "intensity": 10}],
+                 "materials": {"m": {"type": "mirror", "reflectance": 0.9},
+                               "d": {"type": "diffuse", "albedo": 0.5}},
+                 "objects": [
+                   {"name": "floor", "shape": {"type": "plane", "size": [4, 4]}, "material": "d"},
+                   {"name": "ring", "shape": {"type": "sphere", "radius": 0.4, "segments": 24},
+                    "material": "m", "transform": {"translation": [0, 0.5, 0]}}]}"#,
+        )
+        .expect("scene resolves");
+        for strategy in [Strategy::Random, Strategy::Neighbourhood] {
+            let p = PinholeParams {
+                samples: 4000,
+                strategy,
+                // Not the cache's pattern: each run makes its own.
+                seed: 77,
+                ..PinholeParams::default()
+            };
+            let whole = PinholeLayer::build(&world, &p).unwrap();
+            let asked = crate::cancel::assert_cancels(
+                (4000 / SAMPLES_PER_CHECK) + 4,
+                |k| {
+                    let l = PinholeLayer::build_with(&world, &p, k)?.unwrap();
+                    assert_eq!(
+                        bytemuck::cast_slice::<_, u8>(&l.lights),
+                        bytemuck::cast_slice::<_, u8>(&whole.lights)
+                    );
+                    Ok::<_, Canceled>(l)
+                },
+                |_| true,
+            );
+            eprintln!("{strategy:?}: asked {asked} times");
+        }
+        // Within the making of a pattern: before each thinning of its candidates.
+        let m = crate::scene::shapes::sphere(0.5, 24);
+        let c = crate::cancel::CountDown::new(3);
+        assert!(
+            sampling::make_pattern_with(
+                &m.positions,
+                &m.indices,
+                500,
+                Strategy::Neighbourhood,
+                5,
+                &|| c.ask()
+            )
+            .is_none()
+        );
+        assert_eq!(c.calls(), 4);
+    }
 
     #[test]
     fn open_surfaces_are_told_from_closed_solids() {

@@ -91,14 +91,30 @@ pub fn make_pattern(
     strategy: Strategy,
     seed: u64,
 ) -> Pattern {
+    make_pattern_with(q, indices, n, strategy, seed, &|| true).expect("never asked to stop")
+}
+
+/// [`make_pattern`] that asks `keep_going` before each thinning of the candidates (up to 22
+/// of up to 800k candidates each); None once it says stop.
+pub fn make_pattern_with(
+    q: &[Vec3],
+    indices: &[[u32; 3]],
+    n: usize,
+    strategy: Strategy,
+    seed: u64,
+    keep_going: &dyn Fn() -> bool,
+) -> Option<Pattern> {
     let cdf = area_cdf(q, indices);
     let area = cdf.last().copied().unwrap_or(0.0);
     if n == 0 || area <= 0.0 {
-        return Pattern {
+        return Some(Pattern {
             points: Vec::new(),
             area,
             spacing: 0.0,
-        };
+        });
+    }
+    if !keep_going() {
+        return None;
     }
     let mut rng = Pcg::new(seed, 0x5eed_0f91);
     let m = match strategy {
@@ -124,14 +140,14 @@ pub fn make_pattern(
         })
         .collect();
     let h0 = (area / n as f32).sqrt();
-    match strategy {
+    Some(match strategy {
         Strategy::Random => Pattern {
             points: cands.into_iter().map(|c| c.0).collect(),
             area,
             spacing: h0,
         },
         Strategy::Grid | Strategy::Quantized => {
-            let h = fit_scale(n, h0, |h| grid_thin(&cands, h).len());
+            let h = fit_scale(n, h0, |h| grid_thin(&cands, h).len(), keep_going)?;
             let mut points = grid_thin(&cands, h);
             if strategy == Strategy::Quantized {
                 for (sp, cell) in &mut points {
@@ -145,14 +161,14 @@ pub fn make_pattern(
             }
         }
         Strategy::Neighbourhood => {
-            let r = fit_scale(n, h0, |r| poisson_thin(&cands, r).len());
+            let r = fit_scale(n, h0, |r| poisson_thin(&cands, r).len(), keep_going)?;
             Pattern {
                 points: poisson_thin(&cands, r),
                 area,
                 spacing: r,
             }
         }
-    }
+    })
 }
 
 /// Cumulative areas of the triangles.
@@ -169,11 +185,20 @@ fn area_cdf(q: &[Vec3], indices: &[[u32; 3]]) -> Vec<f32> {
 }
 
 /// The scale (cell size or removal distance) at which `count` keeps about `n` points: count
-/// falls as the scale grows, so bisect in log scale around `h0` and keep the closest.
-fn fit_scale(n: usize, h0: f32, count: impl Fn(f32) -> usize) -> f32 {
+/// falls as the scale grows, so bisect in log scale around `h0` and keep the closest. None
+/// when `keep_going`, asked before each count, says stop.
+fn fit_scale(
+    n: usize,
+    h0: f32,
+    count: impl Fn(f32) -> usize,
+    keep_going: &dyn Fn() -> bool,
+) -> Option<f32> {
     let (mut lo, mut hi) = ((h0 / 16.0).ln(), (h0 * 4.0).ln());
     let mut best = (usize::MAX, h0);
     for _ in 0..22 {
+        if !keep_going() {
+            return None;
+        }
         let mid = 0.5 * (lo + hi);
         let c = count(mid.exp());
         let err = c.abs_diff(n);
@@ -189,7 +214,7 @@ fn fit_scale(n: usize, h0: f32, count: impl Fn(f32) -> usize) -> f32 {
             hi = mid;
         }
     }
-    best.1
+    Some(best.1)
 }
 
 fn cell(p: Vec3, h: f32) -> glam::IVec3 {
@@ -246,6 +271,19 @@ pub fn pattern(
     strategy: Strategy,
     seed: u64,
 ) -> Arc<Pattern> {
+    pattern_with(q, indices, n, strategy, seed, &|| true).expect("never asked to stop")
+}
+
+/// [`make_pattern_with`] through the cache (a pattern whose making stopped is not kept);
+/// None once `keep_going` says stop.
+pub fn pattern_with(
+    q: &[Vec3],
+    indices: &[[u32; 3]],
+    n: usize,
+    strategy: Strategy,
+    seed: u64,
+    keep_going: &dyn Fn() -> bool,
+) -> Option<Arc<Pattern>> {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for p in q {
         p.to_array().map(f32::to_bits).hash(&mut h);
@@ -258,15 +296,17 @@ pub fn pattern(
         .iter()
         .find(|(k, _)| *k == key)
     {
-        return p.clone();
+        return Some(p.clone());
     }
-    let p = Arc::new(make_pattern(q, indices, n, strategy, seed));
+    let p = Arc::new(make_pattern_with(
+        q, indices, n, strategy, seed, keep_going,
+    )?);
     let mut c = CACHE.lock().expect("pattern cache");
     if c.len() >= CACHE_ENTRIES {
         c.remove(0);
     }
     c.push((key, p.clone()));
-    p
+    Some(p)
 }
 
 #[cfg(test)]

@@ -52,6 +52,7 @@
 //! is its reference and the test oracle.
 
 use crate::bake::transport::{TransportTable, Vertex, local_angles, table_vertices, tangent_frame};
+use crate::cancel::Stop;
 use crate::scene::{Light, Material, World};
 use crate::trace::Accel;
 use crate::trace::optics::{fresnel_dielectric, reflect};
@@ -617,12 +618,17 @@ impl Glass {
         bounded: bool,
         bounds: (Vec3, Vec3),
         out: &mut Vec<Volume>,
-    ) -> (Vec3, Vec3) {
+        stop: &Stop,
+    ) -> Result<(Vec3, Vec3), EvalError> {
         use rayon::prelude::*;
         let per_tri: Vec<(Vec<Volume>, Vec3, Vec3)> = self
             .tris
             .par_iter()
-            .filter_map(|&[a, b, c]| {
+            .enumerate()
+            .filter_map(|(k, &[a, b, c])| {
+                if !stop.go_at(k, PER_CHECK) {
+                    return None;
+                }
                 let (la, lb, lc) = (&lit[a], &lit[b], &lit[c]);
                 if la.is_empty() || lb.is_empty() || lc.is_empty() {
                     return None;
@@ -654,13 +660,16 @@ impl Glass {
                 Some((vols, flux, lost))
             })
             .collect();
+        if stop.stopped() {
+            return Err(EvalError::Canceled);
+        }
         let (mut flux, mut lost) = (Vec3::ZERO, Vec3::ZERO);
         for (vols, f, l) in per_tri {
             out.extend(vols);
             flux += f;
             lost += l;
         }
-        (flux, lost)
+        Ok((flux, lost))
     }
 }
 
@@ -1029,10 +1038,15 @@ fn emit(
     (f[0] + f[1] + f[2]) / 3.0 * area
 }
 
+/// Vertices or triangles of [`build_volumes`] and [`build_reflection_volumes`] between two
+/// questions to their `keep_going`.
+pub const PER_CHECK: usize = 1024;
+
 /// The illumination volumes of object `object_name` (with its `table`) for `sources`, in world
 /// space. `blockers` holds what may shadow the object's vertices from the light (the scene
 /// without its caustic objects: other glass is taken as clear); `None` shadows nothing. Stops
-/// with [`EvalError::Canceled`] when `keep_going` (asked before each source) says so.
+/// with [`EvalError::Canceled`] when `keep_going` (asked before each source, every
+/// [`PER_CHECK`] vertices and triangles, and right before and after a BVH build) says so.
 pub fn build_volumes(
     world: &World,
     object_name: &str,
@@ -1069,10 +1083,16 @@ pub fn build_volumes(
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
     let mut volumes = Vec::new();
     let own: std::sync::OnceLock<(Accel, Vec<u32>)> = std::sync::OnceLock::new();
-    for src in sources {
-        if !keep_going() {
-            return Err(EvalError::Canceled);
+    let stop = Stop::new(keep_going);
+    let canceled = || {
+        if stop.go() {
+            Ok(())
+        } else {
+            Err(EvalError::Canceled)
         }
+    };
+    for src in sources {
+        canceled()?;
         // Per vertex and path it leaves on: the exit (world space), the light's travel
         // direction (rigid frame) and its irradiance.
         let lit: Vec<Vec<(u16, LitVertex)>> = {
@@ -1080,6 +1100,9 @@ pub fn build_volumes(
             (0..vertices.len())
                 .into_par_iter()
                 .map(|i| {
+                    if !stop.go_at(i, PER_CHECK) {
+                        return Vec::new();
+                    }
                     let pw = world_pos[i];
                     let Some((w_world, e)) = src.at(pw) else {
                         return Vec::new();
@@ -1116,6 +1139,7 @@ pub fn build_volumes(
                 })
                 .collect()
         };
+        canceled()?;
         stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
         // The object alone, to trace the triangles whose corners leave on different paths:
         // built once, when a frame first needs it.
@@ -1123,6 +1147,8 @@ pub fn build_volumes(
             let (la, lb, lc) = (&lit[a], &lit[b], &lit[c]);
             !(la.is_empty() || lb.is_empty() || lc.is_empty() || one_path([la, lb, lc]))
         });
+        // The BVH build cannot be interrupted: asked right before and after it.
+        canceled()?;
         let splitter = needs_split.then(|| {
             let (accel, patches) = own.get_or_init(|| {
                 let local = crate::bake::csl::rigid_frame_world(world, object);
@@ -1141,13 +1167,15 @@ pub fn build_volumes(
                 scale,
             }
         });
+        canceled()?;
         let (flux, split) = glass.sweep(
             &lit,
             splitter.as_ref(),
             blockers.is_some(),
             (lo, hi),
             &mut volumes,
-        );
+            &stop,
+        )?;
         stats.flux += flux;
         stats.split_flux += split;
         check_volume_count(volumes.len(), sources)?;
@@ -1181,6 +1209,16 @@ pub fn build_reflection_volumes(
         .position(|o| o.name == object_name)
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
     let glass = Glass::new(world, &world.objects[oi]);
+    let stop = Stop::new(keep_going);
+    let canceled = || {
+        if stop.go() {
+            Ok(())
+        } else {
+            Err(EvalError::Canceled)
+        }
+    };
+    // The BVH build cannot be interrupted: asked right before and after it.
+    canceled()?;
     let own = Accel::build_with(world, |i| i == oi, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = world.bounds();
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
@@ -1191,14 +1229,15 @@ pub fn build_reflection_volumes(
     let inv_rot = glass.rot.inverse();
     let mut volumes = Vec::new();
     for src in sources {
-        if !keep_going() {
-            return Err(EvalError::Canceled);
-        }
+        canceled()?;
         let lit: Vec<Vec<(u16, LitVertex)>> = {
             use rayon::prelude::*;
             (0..glass.vertices.len())
                 .into_par_iter()
                 .map(|i| {
+                    if !stop.go_at(i, PER_CHECK) {
+                        return None;
+                    }
                     let vertex = &glass.vertices[i];
                     let pw = glass.world_pos[i];
                     let (w, e) = src.at(pw)?;
@@ -1230,9 +1269,17 @@ pub fn build_reflection_volumes(
                 .map(|l: Option<LitVertex>| l.map_or_else(Vec::new, |x| vec![(0, x)]))
                 .collect()
         };
+        canceled()?;
         stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
         stats.reflected_flux += glass
-            .sweep(&lit, None, blockers.is_some(), (lo, hi), &mut volumes)
+            .sweep(
+                &lit,
+                None,
+                blockers.is_some(),
+                (lo, hi),
+                &mut volumes,
+                &stop,
+            )?
             .0;
         check_volume_count(volumes.len(), sources)?;
     }

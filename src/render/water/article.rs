@@ -12,6 +12,7 @@
 //! has no physical scale: it says so itself).
 
 use super::{Receivers, RecvPoint, Sun, WaterParams, WaterStats, refracted_sun};
+use crate::cancel::{Canceled, KeepGoing, Stop};
 use crate::scene::{WaterBody, WaterSurface};
 use crate::trace::optics::{fresnel_dielectric, refract};
 use glam::Vec3;
@@ -77,7 +78,12 @@ pub fn calibration(body: &WaterBody, sun: &Sun, width: f32, fd: Option<f32>) -> 
     if mean > 0.0 { (1.0 / mean) as f32 } else { 0.0 }
 }
 
-/// E at `points` from `sun` through `body`'s surface, the article's way.
+/// Points of [`irradiance`] between two questions to its `keep_going`.
+pub const POINTS_PER_CHECK: usize = 4096;
+
+/// E at `points` from `sun` through `body`'s surface, the article's way. `keep_going` is
+/// asked every [`POINTS_PER_CHECK`] points; Err(Canceled) once it says stop.
+#[allow(clippy::too_many_arguments)]
 pub fn irradiance(
     recv: &Receivers,
     body: &WaterBody,
@@ -86,19 +92,26 @@ pub fn irradiance(
     points: &[RecvPoint],
     fd: Option<f32>,
     stats: &mut WaterStats,
-) -> Vec<Vec3> {
+    keep_going: KeepGoing,
+) -> Result<Vec<Vec3>, Canceled> {
     let Some(t0) = refracted_sun(sun, body.ior) else {
-        return vec![Vec3::ZERO; points.len()];
+        return Ok(vec![Vec3::ZERO; points.len()]);
     };
+    let stop = Stop::new(keep_going);
+    stop.check()?;
     let u = -t0;
     let width = params.sun_map_width;
     let k = calibration(body, sun, width, fd);
     stats.calibration.push(k);
     let e_beam = flat_beam(sun, body.ior, t0);
     let s = &body.surface;
-    points
+    let e = points
         .par_iter()
-        .map(|p| {
+        .enumerate()
+        .map(|(i, p)| {
+            if !stop.go_at(i, POINTS_PER_CHECK) {
+                return Vec3::ZERO;
+            }
             let facing = p.normal.dot(u);
             if facing <= 0.0 {
                 return Vec3::ZERO;
@@ -112,5 +125,7 @@ pub fn irradiance(
             let b = brightness(s, hit, u, sun.dir, body.ior, width, fd);
             e_beam * (facing * b * k) * body.transmittance(p.pos, hit)
         })
-        .collect()
+        .collect();
+    stop.checked()?;
+    Ok(e)
 }

@@ -27,6 +27,7 @@ pub mod gpu;
 pub mod physical;
 pub mod view;
 
+use crate::cancel::{Canceled, KeepGoing, Stop};
 use crate::frame::Frame;
 use crate::scene::{Light, WaterBody, World};
 use crate::trace::Accel;
@@ -241,17 +242,55 @@ pub fn irradiance(
     finite_differences: Option<f32>,
     stats: &mut WaterStats,
 ) -> Vec<Vec3> {
+    irradiance_with(
+        world,
+        recv,
+        body,
+        params,
+        points,
+        finite_differences,
+        stats,
+        &|| true,
+    )
+    .expect("never asked to stop")
+}
+
+/// [`irradiance`] that asks `keep_going` before each sun and within its loops (per row of
+/// the sun grid, per few thousand points); Err(Canceled) once it says stop.
+#[allow(clippy::too_many_arguments)]
+pub fn irradiance_with(
+    world: &World,
+    recv: &Receivers,
+    body: &WaterBody,
+    params: &WaterParams,
+    points: &[RecvPoint],
+    finite_differences: Option<f32>,
+    stats: &mut WaterStats,
+    keep_going: KeepGoing,
+) -> Result<Vec<Vec3>, Canceled> {
     let mut e = vec![Vec3::ZERO; points.len()];
     for sun in suns(world) {
+        if !keep_going() {
+            return Err(Canceled);
+        }
         let add = match params.mode {
-            Mode::Physical => physical::irradiance(recv, body, &sun, params, points, stats),
-            Mode::Article => {
-                article::irradiance(recv, body, &sun, params, points, finite_differences, stats)
+            Mode::Physical => {
+                physical::irradiance(recv, body, &sun, params, points, stats, keep_going)?
             }
+            Mode::Article => article::irradiance(
+                recv,
+                body,
+                &sun,
+                params,
+                points,
+                finite_differences,
+                stats,
+                keep_going,
+            )?,
         };
         e.iter_mut().zip(add).for_each(|(a, b)| *a += b);
     }
-    e
+    Ok(e)
 }
 
 /// The sun's direction in the water under a flat surface (None when it is below the horizon).
@@ -271,10 +310,25 @@ pub fn render_layer(
     params: &WaterParams,
     stats: &mut WaterStats,
 ) -> Frame {
+    render_layer_with(world, recv, params, stats, &|| true).expect("never asked to stop")
+}
+
+/// [`render_layer`] that asks `keep_going` as it goes (per row of sub-pixels, per row of the
+/// light map and of each sun grid, per few thousand receiver points, before each water body
+/// and sun); Err(Canceled) once it says stop.
+pub fn render_layer_with(
+    world: &World,
+    recv: &Receivers,
+    params: &WaterParams,
+    stats: &mut WaterStats,
+    keep_going: KeepGoing,
+) -> Result<Frame, Canceled> {
+    let stop = Stop::new(keep_going);
+    let keep_going = &|| stop.go();
     let cam = &world.camera;
     let t = Instant::now();
     let k = params.pixel_samples.max(1);
-    let views = view::view_points(world, recv, k);
+    let views = view::view_points(world, recv, k, keep_going)?;
     let sub_width = cam.width * k;
     // The pixel of a sub-pixel.
     let pixel = |i: usize| {
@@ -285,6 +339,7 @@ pub fn render_layer(
     stats.stages.push(("view".into(), t.elapsed()));
     let mut frame = Frame::new(cam.width, cam.height);
     for (bi, body) in world.water.iter().enumerate() {
+        stop.check()?;
         let t = Instant::now();
         // The pixels that see a receiver under this water.
         let mine: Vec<usize> = (0..views.len())
@@ -299,7 +354,7 @@ pub fn render_layer(
             .collect();
         let e = match params.variant {
             Variant::Pixel | Variant::Shader => {
-                irradiance(world, recv, body, params, &pts, None, stats)
+                irradiance_with(world, recv, body, params, &pts, None, stats, keep_going)?
             }
             Variant::Texture | Variant::ShaderTexture | Variant::Vertex => {
                 let vertex = params.variant == Variant::Vertex;
@@ -308,14 +363,16 @@ pub fn render_layer(
                 } else {
                     params.map_resolution
                 };
-                let map = LightMap::build(world, recv, body, params, res, vertex, stats);
+                let map =
+                    LightMap::build(world, recv, body, params, res, vertex, stats, keep_going)?;
                 let mut out = map.lookup(&pts, &mine, &views, sub_width, k, !vertex);
                 // Points the map does not hold (not the receiver seen from above there).
                 let missing: Vec<usize> = (0..pts.len()).filter(|&k| out[k].is_none()).collect();
                 if !missing.is_empty() {
                     let sub: Vec<RecvPoint> = missing.iter().map(|&k| pts[k]).collect();
                     let fd = vertex.then_some(map.texel);
-                    let e = irradiance(world, recv, body, params, &sub, fd, stats);
+                    let e =
+                        irradiance_with(world, recv, body, params, &sub, fd, stats, keep_going)?;
                     for (k, v) in missing.into_iter().zip(e) {
                         out[k] = Some(v);
                     }
@@ -337,7 +394,8 @@ pub fn render_layer(
             .stages
             .push((format!("irradiance[{bi}]"), t.elapsed()));
     }
-    frame
+    stop.check()?;
+    Ok(frame)
 }
 
 /// E on a grid over a water's rectangle, at the receivers seen straight down from above the
@@ -358,6 +416,9 @@ pub struct LightMap {
 }
 
 impl LightMap {
+    /// The map of `body` at `res` texels (or vertices) a side; `keep_going` is asked per row
+    /// of its probes and within [`irradiance_with`].
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         world: &World,
         recv: &Receivers,
@@ -366,7 +427,9 @@ impl LightMap {
         res: u32,
         corners: bool,
         stats: &mut WaterStats,
-    ) -> LightMap {
+        keep_going: KeepGoing,
+    ) -> Result<LightMap, Canceled> {
+        let stop = Stop::new(keep_going);
         let s = &body.surface;
         let top = s.centre.y + s.amplitude_bound() + 1e-3;
         let at = |k: u32| -> f32 {
@@ -379,6 +442,10 @@ impl LightMap {
         let probes: Vec<Option<RecvPoint>> = (0..res * res)
             .into_par_iter()
             .map(|k| {
+                // Asked at the start of each row.
+                if !stop.go_at(k as usize, res as usize) {
+                    return None;
+                }
                 let (i, j) = (k % res, k / res);
                 let o = Vec3::new(
                     s.centre.x + at(i) * s.size.x,
@@ -393,6 +460,7 @@ impl LightMap {
                 })
             })
             .collect();
+        stop.checked()?;
         let live: Vec<usize> = (0..probes.len()).filter(|&k| probes[k].is_some()).collect();
         let pts: Vec<RecvPoint> = live.iter().map(|&k| probes[k].expect("live")).collect();
         // The spacing of the samples along x (of the vertices, or of the texels).
@@ -401,7 +469,7 @@ impl LightMap {
         } else {
             s.size.x / res.max(1) as f32
         };
-        let e = irradiance(
+        let e = irradiance_with(
             world,
             recv,
             body,
@@ -409,7 +477,8 @@ impl LightMap {
             &pts,
             corners.then_some(step),
             stats,
-        );
+            &|| stop.go(),
+        )?;
         let mut base = vec![Vec3::ZERO; (res * res) as usize];
         let mut heights = vec![f32::NAN; (res * res) as usize];
         for (&k, (v, p)) in live.iter().zip(e.into_iter().zip(&pts)) {
@@ -442,7 +511,7 @@ impl LightMap {
                 r = n;
             }
         }
-        LightMap {
+        Ok(LightMap {
             res,
             texel: step,
             origin: s.centre,
@@ -450,7 +519,7 @@ impl LightMap {
             levels,
             heights,
             corners,
-        }
+        })
     }
 
     /// Continuous texel coordinates of world (x, z) at level 0.
@@ -529,5 +598,62 @@ impl LightMap {
                 Some(at(l0) * (1.0 - f) + at(l1) * f)
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cancel::assert_cancels;
+
+    /// The CPU variants ask to go on inside their loops (rows of sub-pixels, of the light map
+    /// and of the sun grid, runs of points, suns) and end canceled whenever told to stop:
+    /// never a partial layer.
+    #[test]
+    fn the_cpu_variants_stop_inside_their_loops_when_asked() {
+        let world = crate::scene::load_scene_json(
+            br#"{"camera": {"eye": [0, 2.4, 2.9], "target": [0, -0.7, 0], "fov_y": 45,
+                            "width": 40, "height": 30},
+                 "lights": [{"type": "directional", "direction": [0.2, -1, 0.1],
+                             "irradiance": 3.0, "angular_radius": 0.265}],
+                 "objects": [{"name": "pool", "shape": {"type": "water", "size": [3, 3],
+                   "depth": 0.8, "floor": [0.55, 0.75, 0.8], "waves": {"preset": "article"},
+                   "time": 0, "resolution": 32}}]}"#,
+        )
+        .expect("scene resolves");
+        let recv = Receivers::build(&world);
+        // The least questions: 30 rows of pixels; the physical mode's 2 directions × (49 rows
+        // of rays + 48 of triangles), the light map's 48 rows of probes, the vertex grid's 17.
+        for (mode, variant, least) in [
+            (Mode::Physical, Variant::Pixel, 30 + 2 * 97),
+            (Mode::Physical, Variant::Texture, 30 + 48 + 2 * 97),
+            (Mode::Article, Variant::Pixel, 30),
+            (Mode::Article, Variant::Vertex, 30 + 17),
+        ] {
+            let params = WaterParams {
+                mode,
+                variant,
+                grid: 48,
+                sun_samples: 2,
+                map_resolution: 48,
+                mesh_resolution: 16,
+                pixel_samples: 1,
+                ..WaterParams::default()
+            };
+            let whole = render_layer(&world, &recv, &params, &mut WaterStats::default());
+            assert!(whole.pixels.iter().any(|p| p.max_element() > 0.0));
+            let asked = assert_cancels(
+                least,
+                |k| {
+                    let f =
+                        render_layer_with(&world, &recv, &params, &mut WaterStats::default(), k)?;
+                    // Asking changes nothing.
+                    assert_eq!(f.pixels, whole.pixels);
+                    Ok::<_, Canceled>(f)
+                },
+                |_| true,
+            );
+            eprintln!("{mode:?} {variant:?}: asked {asked} times");
+        }
     }
 }

@@ -10,6 +10,7 @@
 //! object's silhouette) or not at all are dropped; their flux is counted as lost.
 
 use super::{Receivers, RecvPoint, Sun, WaterParams, WaterStats};
+use crate::cancel::{Canceled, KeepGoing, Stop};
 use crate::sampling::frame;
 use crate::scene::WaterBody;
 use crate::trace::optics::{fresnel_dielectric, refract};
@@ -118,7 +119,9 @@ pub fn disc_directions(dir: Vec3, r: f32, k: u32) -> Vec<Vec3> {
         .collect()
 }
 
-/// E at `points` from `sun` through `body`'s surface.
+/// E at `points` from `sun` through `body`'s surface. `keep_going` is asked before each
+/// direction over the sun's disc and at each row of the grid, as its rays are traced and as
+/// their triangles are splatted; Err(Canceled) once it says stop.
 pub fn irradiance(
     recv: &Receivers,
     body: &WaterBody,
@@ -126,7 +129,9 @@ pub fn irradiance(
     params: &WaterParams,
     points: &[RecvPoint],
     stats: &mut WaterStats,
-) -> Vec<Vec3> {
+    keep_going: KeepGoing,
+) -> Result<Vec<Vec3>, Canceled> {
+    let stop = Stop::new(keep_going);
     let s = &body.surface;
     let g = params.grid.max(1);
     let cell = Vec2::new(s.size.x / g as f32, s.size.y / g as f32);
@@ -150,6 +155,7 @@ pub fn irradiance(
     let floor_radius = 0.25 * cell.min_element();
     let mut total = vec![Vec3::ZERO; points.len()];
     for l in dirs {
+        stop.check()?;
         if l.y >= 0.0 {
             continue;
         }
@@ -157,6 +163,10 @@ pub fn irradiance(
         let landings: Vec<Option<Landing>> = (0..(g + 1) * (g + 1))
             .into_par_iter()
             .map(|v| {
+                // Asked at the start of each row.
+                if !stop.go_at(v as usize, g as usize + 1) {
+                    return None;
+                }
                 let (i, j) = (v % (g + 1), v / (g + 1));
                 let x = s.centre.x + (i as f32 / g as f32 - 0.5) * s.size.x;
                 let z = s.centre.z + (j as f32 / g as f32 - 0.5) * s.size.y;
@@ -185,6 +195,7 @@ pub fn irradiance(
                 })
             })
             .collect();
+        stop.checked()?;
         stats.rays += landings.len() as u64;
         let dxdz = cell.x * cell.y * 0.5;
         let rows = g as usize;
@@ -199,6 +210,9 @@ pub fn irradiance(
             .fold(
                 || (vec![Vec3::ZERO; points.len()], 0.0f64, 0.0f64),
                 |(mut acc, mut sent, mut kept), j| {
+                    if !stop.go() {
+                        return (acc, sent, kept);
+                    }
                     let at = |i: usize, j: usize| landings[j * (rows + 1) + i];
                     for i in 0..rows {
                         let quad = [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)];
@@ -237,11 +251,12 @@ pub fn irradiance(
                     (a, s1 + s2, k1 + k2)
                 },
             );
+        stop.checked()?;
         total.iter_mut().zip(acc).for_each(|(t, a)| *t += a);
         stats.flux_transmitted += sent;
         stats.flux_splatted += kept;
     }
-    total
+    Ok(total)
 }
 
 /// Adds the irradiance `flux / area` of the landed triangle `q` (receiver normal `n`) to every

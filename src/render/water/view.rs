@@ -3,6 +3,7 @@
 //! the wave surface from above, with the transmittance of the way back to the camera.
 
 use super::{Receivers, RecvPoint};
+use crate::cancel::{Canceled, KeepGoing, Stop};
 use crate::scene::World;
 use crate::trace::optics::{fresnel_dielectric, refract};
 use glam::Vec3;
@@ -25,18 +26,30 @@ pub struct ViewPoint {
 
 /// On a grid of `k` × `k` sub-pixels per pixel (row-major over the image `k` times the
 /// camera's size), the receiver under water each sees through its centre, if any.
-pub fn view_points(world: &World, recv: &Receivers, k: u32) -> Vec<Option<ViewPoint>> {
+/// `keep_going` is asked at the start of each row; Err(Canceled) once it says stop.
+pub fn view_points(
+    world: &World,
+    recv: &Receivers,
+    k: u32,
+    keep_going: KeepGoing,
+) -> Result<Vec<Option<ViewPoint>>, Canceled> {
     let cam = &world.camera;
     let rays = cam.rays();
     let (w, h) = (cam.width * k, cam.height * k);
     let s = 1.0 / k as f32;
-    (0..w * h)
+    let stop = Stop::new(keep_going);
+    let views = (0..w * h)
         .into_par_iter()
         .map(|i| {
+            if !stop.go_at(i as usize, w as usize) {
+                return None;
+            }
             let d = rays.dir(((i % w) as f32 + 0.5) * s, ((i / w) as f32 + 0.5) * s);
             view_point(world, recv, cam.eye, d)
         })
-        .collect()
+        .collect();
+    stop.checked()?;
+    Ok(views)
 }
 
 /// The receiver under water that the ray eye + t·d reaches.
