@@ -60,6 +60,9 @@ pub struct HttpConfig {
     pub header_timeout: Duration,
     /// Most connections served at once; past it they are shed ([`server`]).
     pub max_connections: usize,
+    /// Connections past the cap shed at once with half a second to send their request line;
+    /// past it, [`server::QUICK_SHEDDING`] more get 50 ms, and the rest are closed unanswered.
+    pub shed_slots: usize,
     /// Most bytes of request bodies held at once ([`server::BodyBudget`]).
     pub max_body_bytes_in_flight: usize,
     /// How long `POST /v1/renders` waits for the image before answering 202 with the job.
@@ -81,6 +84,7 @@ impl Default for HttpConfig {
             body_timeout: Duration::from_secs(60),
             header_timeout: Duration::from_secs(10),
             max_connections: 1024,
+            shed_slots: server::MAX_SHEDDING,
             max_body_bytes_in_flight: 512 << 20,
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),

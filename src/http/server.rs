@@ -6,8 +6,10 @@
 //!   sockets held open and silent);
 //! - a **connection cap** ([`HttpConfig::max_connections`]): past it a connection is shed: it
 //!   gets `503` problem+json with `Retry-After` at once, except `GET /healthz`, which is still
-//!   answered, so a flood of idle sockets cannot make the process look dead; past a second
-//!   cap on connections being shed, new ones are closed unanswered;
+//!   answered, so a flood of idle sockets cannot make the process look dead; past
+//!   [`HttpConfig::shed_slots`] connections being shed (each with half a second to send its
+//!   request line), [`QUICK_SHEDDING`] more get 50 ms, and past those new ones are closed
+//!   unanswered;
 //! - request heads larger than our limits are refused by [`limit_head`] as problem+json
 //!   (`414` for a long URI, `431` for too many or too large headers); heads hyper cannot
 //!   parse or buffer at all get hyper's own `400`/`414`/`431`, which [`super::wire`] gives
@@ -37,10 +39,16 @@ pub const MAX_URI: usize = 8 << 10;
 pub const MAX_HEADERS: usize = 100;
 /// Most bytes of header names and values together (431 past it).
 pub const MAX_HEADER_BYTES: usize = 32 << 10;
-/// Connections being shed at once; past it, new ones are closed without an answer.
-const MAX_SHEDDING: usize = 1024;
+/// Connections being shed at once with [`SHED_READ`] (the default of
+/// [`HttpConfig::shed_slots`]).
+pub const MAX_SHEDDING: usize = 1024;
 /// How long a shed connection gets to send its request line, and to take its answer.
 const SHED_READ: Duration = Duration::from_millis(500);
+/// Connections shed at once with only [`QUICK_READ`], once [`HttpConfig::shed_slots`] are
+/// taken (a flood of silent sockets): a prober that sends its request as it connects is still
+/// answered; past these, new connections are closed unanswered.
+pub const QUICK_SHEDDING: usize = 1024;
+const QUICK_READ: Duration = Duration::from_millis(50);
 
 /// Raises the open-file limit to its hard limit and returns the connection cap that fits in
 /// it: `wanted`, or less when the limit leaves no room for that many connections besides those
@@ -63,7 +71,7 @@ pub fn fit_file_limit(wanted: usize) -> usize {
             lim = raised;
         }
     }
-    let room = (lim.rlim_cur as usize).saturating_sub(MAX_SHEDDING + 256);
+    let room = (lim.rlim_cur as usize).saturating_sub(MAX_SHEDDING + QUICK_SHEDDING + 256);
     if room < wanted {
         tracing::warn!(
             wanted,
@@ -188,7 +196,8 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) {
     let slots = Arc::new(Semaphore::new(cfg.max_connections));
-    let shedding = Arc::new(Semaphore::new(MAX_SHEDDING));
+    let shedding = Arc::new(Semaphore::new(cfg.shed_slots));
+    let quick = Arc::new(Semaphore::new(QUICK_SHEDDING));
     // Connections watch `stop` for the graceful shutdown; `done_rx` clones live as long as
     // they do.
     let (stop_tx, stop_rx) = watch::channel(false);
@@ -240,19 +249,29 @@ pub async fn run(
                     drop((permit, done));
                 });
             }
-            Err(_) => match shedding.clone().try_acquire_owned() {
-                Ok(permit) => {
-                    stats.shed.fetch_add(1, Ordering::Relaxed);
-                    tokio::spawn(async move {
-                        shed(stream).await;
-                        drop(permit);
-                    });
+            Err(_) => {
+                let slot = match shedding.clone().try_acquire_owned() {
+                    Ok(p) => Some((p, SHED_READ)),
+                    Err(_) => quick
+                        .clone()
+                        .try_acquire_owned()
+                        .ok()
+                        .map(|p| (p, QUICK_READ)),
+                };
+                match slot {
+                    Some((permit, wait)) => {
+                        stats.shed.fetch_add(1, Ordering::Relaxed);
+                        tokio::spawn(async move {
+                            shed(stream, wait).await;
+                            drop(permit);
+                        });
+                    }
+                    None => {
+                        stats.dropped.fetch_add(1, Ordering::Relaxed);
+                        drop(stream);
+                    }
                 }
-                Err(_) => {
-                    stats.dropped.fetch_add(1, Ordering::Relaxed);
-                    drop(stream);
-                }
-            },
+            }
         }
     }
     drop(listener);
@@ -269,8 +288,9 @@ pub async fn run(
 }
 
 /// Answers a connection past the cap: `/healthz` as usual, anything else `503` with
-/// `Retry-After`; then closes it.
-async fn shed(mut stream: TcpStream) {
+/// `Retry-After`; then closes it. `wait` bounds the wait for the request line, the write of
+/// the answer and the lingering close, each.
+async fn shed(mut stream: TcpStream, wait: Duration) {
     let mut buf = [0u8; 256];
     let mut n = 0;
     let read = async {
@@ -281,7 +301,7 @@ async fn shed(mut stream: TcpStream) {
             }
         }
     };
-    if tokio::time::timeout(SHED_READ, read).await.is_err() {
+    if tokio::time::timeout(wait, read).await.is_err() {
         return;
     }
     let line = &buf[..n];
@@ -317,7 +337,7 @@ async fn shed(mut stream: TcpStream) {
         stream.write_all(body.as_bytes()).await?;
         stream.shutdown().await
     };
-    let _ = tokio::time::timeout(SHED_READ, write).await;
+    let _ = tokio::time::timeout(wait, write).await;
     // A lingering close: read what the client still sends (the rest of its head, a body) for
     // a moment, so that closing with unread data does not reset the connection and lose the
     // answer on its way.
@@ -331,5 +351,5 @@ async fn shed(mut stream: TcpStream) {
             }
         }
     };
-    let _ = tokio::time::timeout(SHED_READ, drain).await;
+    let _ = tokio::time::timeout(wait, drain).await;
 }

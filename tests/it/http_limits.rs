@@ -153,6 +153,42 @@ async fn past_the_connection_cap_load_is_shed_but_healthz_answers() {
     .await;
 }
 
+/// Past the cap and with every half-second shedding slot taken (a flood of silent sockets;
+/// here none are configured), a probe that sends its request as it connects is still answered
+/// within the quick slots' 50 ms.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_the_shedding_slots_taken_healthz_still_answers() {
+    let srv = Server::start("limits-quick", |_, h| {
+        h.max_connections = 1;
+        h.shed_slots = 0;
+        h.header_timeout = Duration::from_secs(60);
+    })
+    .await;
+    let mut held = TcpStream::connect(addr(&srv)).await.unwrap();
+    held.write_all(b"GET /openapi.json HTTP/1.1\r\nHost: x\r\n\r\n")
+        .await
+        .unwrap();
+    let mut b = [0u8; 512];
+    let n = held.read(&mut b).await.unwrap();
+    assert!(b[..n].starts_with(b"HTTP/1.1 200"));
+    // Retried: a loaded test machine may take longer than 50 ms to send a request; without
+    // the quick slots no probe is ever answered.
+    let health = poll("/healthz to answer", Duration::from_secs(20), || async {
+        let mut s = TcpStream::connect(addr(&srv)).await.ok()?;
+        s.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n")
+            .await
+            .ok()?;
+        let out = read_to_close(&mut s, Duration::from_secs(5)).await;
+        let out = String::from_utf8_lossy(&out).into_owned();
+        out.starts_with("HTTP/1.1 200").then_some(out)
+    })
+    .await;
+    assert!(health.contains("\"status\":\"ok\""), "{health}");
+    let out = raw(&srv, "GET /openapi.json HTTP/1.1\r\nHost: x\r\n\r\n").await;
+    assert!(out.starts_with("HTTP/1.1 503"), "{out}");
+    drop(held);
+}
+
 /// Request heads past the server's limits get problem+json, not hyper's empty answers.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn oversized_heads_get_problems() {
