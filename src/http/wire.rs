@@ -1,4 +1,5 @@
-//! Problem bodies for the answers hyper writes itself.
+//! A connection's byte stream as the server writes it: problem bodies for the answers hyper
+//! writes itself, and a lingering close.
 //!
 //! When a request head cannot be parsed (a malformed request line or header, a head past
 //! hyper's buffer, a request target past its limit), hyper answers `400`, `431` or `414` on its
@@ -6,20 +7,42 @@
 //! between hyper and the socket, recognises such a bodiless answer as hyper writes it, and
 //! writes a problem+json answer of the same status in its place, so that every error a client
 //! gets from this server has a body that names the problem.
+//!
+//! When hyper closes a connection whose request body was not read (a `413` from the head
+//! alone, a `401` before an upload), closing at once with the client's bytes unread makes the
+//! kernel reset the connection, and the client may lose the answer on its way. So the close
+//! lingers: the write side is shut down (the answer is out, then a FIN), and what the client
+//! still sends is read and dropped until it closes, [`LINGER_BYTES`] have been read, or
+//! [`LINGER`] has passed.
 
 use super::AppError;
 use axum::http::StatusCode;
+use std::future::Future;
 use std::io;
 use std::pin::Pin;
 use std::task::{Context, Poll, ready};
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 
-/// A connection's byte stream, with hyper's bodiless error answers replaced by problems.
+/// Longest a closing connection reads what its client still sends.
+pub const LINGER: std::time::Duration = std::time::Duration::from_secs(1);
+/// Most bytes a closing connection reads and drops (the largest request body).
+pub const LINGER_BYTES: usize = 64 << 20;
+
+/// A connection's byte stream, with hyper's bodiless error answers replaced by problems and
+/// a lingering close.
 pub struct ProblemIo<T> {
     inner: T,
     /// Bytes of a replacement answer not yet written, from `sent`.
     pending: Vec<u8>,
     sent: usize,
+    /// Once the close has begun: the write side shut down, the deadline, bytes drained.
+    closing: Option<Closing>,
+}
+
+struct Closing {
+    shut: bool,
+    deadline: Pin<Box<tokio::time::Sleep>>,
+    drained: usize,
 }
 
 impl<T> ProblemIo<T> {
@@ -28,6 +51,7 @@ impl<T> ProblemIo<T> {
             inner,
             pending: Vec::new(),
             sent: 0,
+            closing: None,
         }
     }
 }
@@ -131,7 +155,7 @@ impl<T: AsyncRead + Unpin> AsyncRead for ProblemIo<T> {
     }
 }
 
-impl<T: AsyncWrite + Unpin> AsyncWrite for ProblemIo<T> {
+impl<T: AsyncRead + AsyncWrite + Unpin> AsyncWrite for ProblemIo<T> {
     fn poll_write(
         mut self: Pin<&mut Self>,
         cx: &mut Context<'_>,
@@ -174,7 +198,31 @@ impl<T: AsyncWrite + Unpin> AsyncWrite for ProblemIo<T> {
 
     fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
         ready!(self.poll_pending(cx))?;
-        Pin::new(&mut self.inner).poll_shutdown(cx)
+        let this = &mut *self;
+        let c = this.closing.get_or_insert_with(|| Closing {
+            shut: false,
+            deadline: Box::pin(tokio::time::sleep(LINGER)),
+            drained: 0,
+        });
+        if !c.shut {
+            ready!(Pin::new(&mut this.inner).poll_shutdown(cx))?;
+            c.shut = true;
+        }
+        // Linger: drop what the client still sends until it closes, or enough.
+        let mut scratch = [0u8; 16 << 10];
+        while c.drained < LINGER_BYTES {
+            let mut buf = ReadBuf::new(&mut scratch);
+            match Pin::new(&mut this.inner).poll_read(cx, &mut buf) {
+                Poll::Ready(Ok(())) if buf.filled().is_empty() => return Poll::Ready(Ok(())),
+                Poll::Ready(Ok(())) => c.drained += buf.filled().len(),
+                Poll::Ready(Err(_)) => return Poll::Ready(Ok(())),
+                Poll::Pending => {
+                    ready!(c.deadline.as_mut().poll(cx));
+                    return Poll::Ready(Ok(()));
+                }
+            }
+        }
+        Poll::Ready(Ok(()))
     }
 }
 

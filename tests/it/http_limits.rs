@@ -189,6 +189,35 @@ async fn with_the_shedding_slots_taken_healthz_still_answers() {
     drop(held);
 }
 
+/// A body refused from its head alone (413) still reaches a client that sends its whole body
+/// before reading the answer (as most clients do): the server's close lingers, reading and
+/// dropping what comes, instead of resetting the connection with the client's bytes unread
+/// (which made the client's write fail and lose the answer).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_body_refused_from_its_head_still_gets_its_answer() {
+    let srv = Server::start("limits-linger", |_, _| {}).await;
+    let body = vec![b' '; 9 << 20];
+    for _ in 0..3 {
+        let mut s = TcpStream::connect(addr(&srv)).await.unwrap();
+        let head = format!(
+            "POST /v1/renders HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\
+             Content-Length: {}\r\n\r\n",
+            body.len()
+        );
+        s.write_all(head.as_bytes()).await.unwrap();
+        let sent = s.write_all(&body).await;
+        assert!(sent.is_ok(), "the server reset the connection: {sent:?}");
+        let mut out = Vec::new();
+        let r = tokio::time::timeout(Duration::from_secs(30), s.read_to_end(&mut out))
+            .await
+            .expect("the server closes in time");
+        let out = String::from_utf8_lossy(&out).into_owned();
+        assert!(r.is_ok(), "the connection was reset ({r:?}) after: {out}");
+        assert!(out.starts_with("HTTP/1.1 413"), "{out}");
+        assert!(out.contains("limit of 8388608 bytes"), "{out}");
+    }
+}
+
 /// Request heads past the server's limits get problem+json, not hyper's empty answers.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn oversized_heads_get_problems() {
