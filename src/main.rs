@@ -30,6 +30,8 @@ struct Cli {
     cmd: Cmd,
 }
 
+// Parsed once per process: the size of the render variant's flags costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Cmd {
     /// Render a scene to PNG or EXR (format from the extension).
@@ -58,6 +60,11 @@ enum Cmd {
         /// PNG exposure in stops.
         #[arg(long, default_value_t = 0.0)]
         exposure: f32,
+        /// Render the frame this many times on the same renderer (1..=1000) and print each
+        /// stage's median over all but the first (a warm-up that may bake, build pipelines and
+        /// fill caches), with the adapter: for benchmarking (`benches/gpu.sh`).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        repeat: Option<u32>,
         #[arg(long, value_enum, default_value = "clamp")]
         tone_map: ToneMap,
         /// Reference, photons: photons (light paths) to trace in all (default 4,000,000 for the
@@ -341,6 +348,7 @@ fn main() -> Result<()> {
             out,
             layers,
             exposure,
+            repeat,
             tone_map,
             photons,
             spp,
@@ -457,7 +465,12 @@ fn main() -> Result<()> {
                     layers,
                     png,
                 },
-                Animation { time, frames, fps },
+                Animation {
+                    time,
+                    frames,
+                    fps,
+                    repeat,
+                },
                 camera.as_deref(),
             )
         }
@@ -556,6 +569,8 @@ struct Animation {
     time: Option<f32>,
     frames: Option<u32>,
     fps: Option<f32>,
+    /// `--repeat`: frames rendered in all to time one (not with `frames`).
+    repeat: Option<u32>,
 }
 
 /// `caustica render`: the method's frames for the scene, the chosen component (and with
@@ -604,6 +619,9 @@ fn render(
         .map_err(|e| flag_error(&e))?;
     if times.is_some() && is_exr {
         bail!("--frames: a sequence is written as an animated PNG (--out X.png) or a folder");
+    }
+    if times.is_some() && anim.repeat.is_some() {
+        bail!("--repeat times one frame; it cannot be given with --frames");
     }
     timings.push(("load".into(), t.elapsed()));
     let plan = method
@@ -678,6 +696,30 @@ fn render(
         eprintln!("{n}");
     }
     timings.extend(frames.timings.iter().cloned());
+    let frames = match anim.repeat {
+        Some(n) if n > 1 => {
+            let mut runs = Vec::new();
+            let mut last = frames;
+            for _ in 1..n {
+                let t = Instant::now();
+                last = plan.frames(
+                    &world,
+                    &Env {
+                        progress: &|_, _| {},
+                        keep_going: &|| true,
+                        gpu: &gpu,
+                        store: &store,
+                    },
+                )?;
+                let mut stages = last.timings.clone();
+                stages.push(("frame".into(), t.elapsed()));
+                runs.push(stages);
+            }
+            print_medians(plan.method().name(), &last.adapter, &world, &runs);
+            last
+        }
+        _ => frames,
+    };
     let t = Instant::now();
     if layers && is_exr {
         std::fs::write(
@@ -767,6 +809,31 @@ fn cli_error(e: MethodError) -> anyhow::Error {
     match e {
         MethodError::Params(p) => flag_error(&p),
         e => anyhow::anyhow!("{e}"),
+    }
+}
+
+/// `render --repeat`: each stage's median over `runs` (stages in the order of the first run;
+/// `frame` is the whole frame's wall time), one line each, after a line naming the method, the
+/// size, the adapter and the count. `benches/gpu.sh` reads these lines.
+fn print_medians(method: &str, adapter: &str, world: &World, runs: &[Vec<(String, Duration)>]) {
+    println!(
+        "repeat method={method} size={}x{} adapter=\"{adapter}\" frames={}",
+        world.camera.width,
+        world.camera.height,
+        runs.len()
+    );
+    let Some(first) = runs.first() else {
+        return;
+    };
+    for (stage, _) in first {
+        let mut ms: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| r.iter().find(|(n, _)| n == stage))
+            .map(|(_, d)| d.as_secs_f64() * 1e3)
+            .collect();
+        ms.sort_by(f64::total_cmp);
+        let median = ms[ms.len() / 2];
+        println!("repeat stage={stage} median_ms={median:.3}");
     }
 }
 
