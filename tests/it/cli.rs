@@ -156,3 +156,76 @@ fn auto_is_the_default_and_flags_are_checked_by_the_methods_parser() {
         assert!(stderr.contains(want), "{stderr}");
     }
 }
+
+/// `render --repeat N` renders N frames on one renderer and prints each stage's median over the
+/// N-1 after the warm-up, with the adapter; the image is still written, with the same numbers.
+#[test]
+fn repeat_prints_the_medians_of_the_frames_after_a_warm_up() {
+    let dir = temp_dir("cli-repeat");
+    let _cleanup = Cleanup(dir.clone());
+    let png = dir.join("sphere.png");
+    let scene = scenes::path("glass-sphere-directional");
+    let out = caustica(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--method",
+        "direct",
+        "--width",
+        "33",
+        "--height",
+        "17",
+        "--repeat",
+        "3",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let head = stdout
+        .lines()
+        .find(|l| l.starts_with("repeat method="))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        head.contains("method=direct size=33x17 adapter=\""),
+        "{head}"
+    );
+    assert!(head.ends_with("frames=2"), "{head}");
+    let stages: Vec<(&str, f64)> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("repeat stage="))
+        .map(|l| {
+            let (name, ms) = l.split_once(" median_ms=").expect("name and median");
+            (name, ms.parse().expect("a number"))
+        })
+        .collect();
+    let frame = stages
+        .iter()
+        .find(|(n, _)| *n == "frame")
+        .expect("a frame line");
+    assert!(frame.1 > 0.0, "{stdout}");
+    // The frame's own stages, each within the whole frame.
+    assert!(stages.len() >= 2, "{stdout}");
+    assert!(
+        stages.iter().all(|(_, ms)| *ms <= frame.1 + 1e-3),
+        "{stdout}"
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (33, 17));
+    let p = img.get_pixel(1, 15).0[0];
+    assert!((174..=178).contains(&p), "{p}");
+    // Not with a sequence.
+    let pool = scenes::path("pool-noon");
+    let out = caustica(&[
+        "render",
+        pool.to_str().unwrap(),
+        "--repeat",
+        "2",
+        "--frames",
+        "2",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--repeat"));
+}
