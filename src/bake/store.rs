@@ -3,11 +3,23 @@
 //! `{dir}/{kind}-{hash:016x}.{ext}`. Every method that bakes finds or makes its artifacts
 //! through [`ArtifactStore::find_or_bake`]; the CLI keeps its store in `$CAUSTICA_CACHE` (or a
 //! folder under the system's temporary directory), the service under its data directory.
+//!
+//! What a store decodes it also keeps in memory ([`DECODED_BUDGET`] of artifact bytes, the least
+//! recently used dropped past it), so that a render on a bake it has seen does not read and
+//! check the file again: artifacts are named by the hash of their inputs, so a kept one is never
+//! stale. Clones of a store share what it keeps.
 
+use std::any::Any;
+use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+/// Artifact bytes (their encoded size) a store keeps decoded in memory. A dynamic CSL bake
+/// is deflated: decoded it takes a few times its bytes.
+pub const DECODED_BUDGET: usize = 256 << 20;
 
 /// What an artifact is: its file name prefix and extension.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ArtifactKind {
     /// A static CSL set (`bake::csl::CslSet`).
     Csl,
@@ -40,19 +52,83 @@ impl ArtifactKind {
 #[derive(Clone, Debug, Default)]
 pub struct ArtifactStore {
     dir: Option<PathBuf>,
+    decoded: Arc<Mutex<Decoded>>,
+}
+
+/// A decoded artifact, its artifact's bytes and when it was last used.
+type Kept = (Arc<dyn Any + Send + Sync>, usize, u64);
+
+/// Decoded artifacts by (kind, hash); the least recently used go past the budget.
+#[derive(Default)]
+struct Decoded {
+    budget: usize,
+    used: usize,
+    tick: u64,
+    map: HashMap<(ArtifactKind, u64), Kept>,
+}
+
+impl std::fmt::Debug for Decoded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} decoded artifacts, {} of {} bytes",
+            self.map.len(),
+            self.used,
+            self.budget
+        )
+    }
+}
+
+impl Decoded {
+    fn get<T: Any + Send + Sync>(&mut self, key: (ArtifactKind, u64)) -> Option<Arc<T>> {
+        self.tick += 1;
+        let tick = self.tick;
+        let e = self.map.get_mut(&key)?;
+        e.2 = tick;
+        e.0.clone().downcast::<T>().ok()
+    }
+
+    fn put(&mut self, key: (ArtifactKind, u64), value: Arc<dyn Any + Send + Sync>, bytes: usize) {
+        if bytes > self.budget {
+            return;
+        }
+        if let Some(old) = self.map.remove(&key) {
+            self.used -= old.1;
+        }
+        while self.used + bytes > self.budget {
+            let Some(oldest) = self.map.iter().min_by_key(|(_, e)| e.2).map(|(k, _)| *k) else {
+                break;
+            };
+            let e = self.map.remove(&oldest).expect("just found");
+            self.used -= e.1;
+        }
+        self.tick += 1;
+        self.map.insert(key, (value, bytes, self.tick));
+        self.used += bytes;
+    }
 }
 
 impl ArtifactStore {
-    /// A store in `dir` (created on the first save).
+    /// A store in `dir` (created on the first save), keeping up to [`DECODED_BUDGET`] of what it
+    /// decodes in memory.
     pub fn new(dir: impl Into<PathBuf>) -> ArtifactStore {
+        ArtifactStore::with_budget(dir, DECODED_BUDGET)
+    }
+
+    /// A store in `dir` keeping up to `bytes` of artifacts decoded in memory.
+    pub fn with_budget(dir: impl Into<PathBuf>, bytes: usize) -> ArtifactStore {
         ArtifactStore {
             dir: Some(dir.into()),
+            decoded: Arc::new(Mutex::new(Decoded {
+                budget: bytes,
+                ..Decoded::default()
+            })),
         }
     }
 
     /// A store that keeps nothing: every render bakes.
     pub fn none() -> ArtifactStore {
-        ArtifactStore { dir: None }
+        ArtifactStore::default()
     }
 
     /// The CLI's store: `$CAUSTICA_CACHE`, else `caustica-bakes` in the temporary directory.
@@ -98,21 +174,33 @@ impl ArtifactStore {
     /// The artifact (`kind`, `hash`): decoded from the store when kept and intact (`decode`
     /// returns None for a damaged file or one of another hash, which is then baked over), else
     /// made by `bake`, kept (as `encode` writes it) and returned. The flag says whether it came
-    /// from the store.
-    pub fn find_or_bake<T, E>(
+    /// from the store. What is decoded or baked is also kept in memory, where the next call
+    /// finds it without reading the file (a store of nothing keeps nothing there either).
+    pub fn find_or_bake<T: Any + Send + Sync, E>(
         &self,
         kind: ArtifactKind,
         hash: u64,
         decode: impl FnOnce(&[u8]) -> Option<T>,
         bake: impl FnOnce() -> Result<T, E>,
         encode: impl FnOnce(&T) -> Vec<u8>,
-    ) -> Result<(T, bool), E> {
-        if let Some(t) = self.load(kind, hash).and_then(|b| decode(&b)) {
+    ) -> Result<(Arc<T>, bool), E> {
+        let key = (kind, hash);
+        let decoded = || self.decoded.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = decoded().get::<T>(key) {
             return Ok((t, true));
         }
-        let t = bake()?;
+        if let Some(b) = self.load(kind, hash)
+            && let Some(t) = decode(&b)
+        {
+            let t = Arc::new(t);
+            decoded().put(key, t.clone(), b.len());
+            return Ok((t, true));
+        }
+        let t = Arc::new(bake()?);
         if self.dir.is_some() {
-            self.save(kind, hash, &encode(&t));
+            let bytes = encode(&t);
+            self.save(kind, hash, &bytes);
+            decoded().put(key, t.clone(), bytes.len());
         }
         Ok((t, false))
     }
@@ -131,12 +219,21 @@ mod tests {
         let bake = |v: u8| move || Ok::<_, ()>(vec![v, 1, 2]);
         let enc = |t: &Vec<u8>| t.clone();
         let k = ArtifactKind::Transport;
+        let got = |r: Result<(Arc<Vec<u8>>, bool), ()>| r.map(|(t, c)| ((*t).clone(), c));
         assert_eq!(
-            store.find_or_bake(k, 9, decode, bake(7), enc),
+            got(store.find_or_bake(k, 9, decode, bake(7), enc)),
             Ok((vec![7, 1, 2], false))
         );
+        // Found in memory: the file is not read (nor decoded) again.
+        let unread = |_: &[u8]| -> Option<Vec<u8>> { panic!("decoded again") };
         assert_eq!(
-            store.find_or_bake(k, 9, decode, bake(8), enc),
+            got(store.find_or_bake(k, 9, unread, bake(8), enc)),
+            Ok((vec![7, 1, 2], true))
+        );
+        // A second store of the folder finds it on disk.
+        let store = ArtifactStore::new(&dir);
+        assert_eq!(
+            got(store.find_or_bake(k, 9, decode, bake(8), enc)),
             Ok((vec![7, 1, 2], true))
         );
         // Another kind or hash is another file.
@@ -147,10 +244,11 @@ mod tests {
                 .1
         );
         assert!(!store.find_or_bake(k, 10, decode, bake(7), enc).unwrap().1);
-        // A damaged file is baked over.
+        // A damaged file is baked over (by a store that has not decoded it).
         std::fs::write(store.path(k, 9).unwrap(), b"junk").unwrap();
+        let store = ArtifactStore::new(&dir);
         assert_eq!(
-            store.find_or_bake(k, 9, decode, bake(7), enc),
+            got(store.find_or_bake(k, 9, decode, bake(7), enc)),
             Ok((vec![7, 1, 2], false))
         );
         assert!(store.find_or_bake(k, 9, decode, bake(7), enc).unwrap().1);
@@ -158,6 +256,35 @@ mod tests {
         let none = ArtifactStore::none();
         none.save(k, 9, b"x");
         assert!(!none.find_or_bake(k, 9, decode, bake(7), enc).unwrap().1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// What is kept decoded stays within the budget of artifact bytes, the least recently used
+    /// going first.
+    #[test]
+    fn decoded_artifacts_stay_within_their_budget() {
+        let dir = std::env::temp_dir().join(format!("caustica-lru-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let store = ArtifactStore::with_budget(&dir, 250);
+        let k = ArtifactKind::Csl;
+        let bake = |h: u64| move || Ok::<_, ()>(vec![h as u8; 100]);
+        let decode = |b: &[u8]| Some(b.to_vec());
+        let enc = |t: &Vec<u8>| t.clone();
+        for h in [1, 2] {
+            store.find_or_bake(k, h, decode, bake(h), enc).unwrap();
+        }
+        // 1 used last: 2 goes when 3 comes.
+        store.find_or_bake(k, 1, decode, bake(1), enc).unwrap();
+        store.find_or_bake(k, 3, decode, bake(3), enc).unwrap();
+        let kept = |h: u64| store.decoded.lock().unwrap().map.contains_key(&(k, h));
+        assert!(kept(1) && !kept(2) && kept(3));
+        assert_eq!(store.decoded.lock().unwrap().used, 200);
+        // Past the budget alone: not kept, still served from the file.
+        let big = || Ok::<_, ()>(vec![9u8; 300]);
+        store.find_or_bake(k, 4, decode, big, enc).unwrap();
+        assert!(!kept(4));
+        let (t, cached) = store.find_or_bake(k, 4, decode, big, enc).unwrap();
+        assert!(cached && t.len() == 300);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

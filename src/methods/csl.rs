@@ -278,7 +278,7 @@ pub fn sets_for_render(
                 || bake_csl(world, &o.name, dir, &cp, &|p: Progress| part(p.fraction)),
                 CslSet::to_bytes,
             )?;
-            (set, cached, store.path(kind, key))
+            (Arc::unwrap_or_clone(set), cached, store.path(kind, key))
         };
         sets.push(ObjectSet {
             object: oi,

@@ -126,7 +126,8 @@ impl BakeParams {
 pub struct ObjectTable {
     /// Index into `World::objects`.
     pub object: usize,
-    pub table: TransportTable,
+    /// Shared with the store's decoded artifacts.
+    pub table: Arc<TransportTable>,
     /// Whether it came from the store or was given (false: baked now).
     pub cached: bool,
 }
@@ -165,7 +166,7 @@ pub fn tables_for_render(
         if let Some((_, table)) = given.take_if(|g| g.0 == oi) {
             out.push(ObjectTable {
                 object: oi,
-                table,
+                table: Arc::new(table),
                 cached: true,
             });
             continue;
@@ -249,7 +250,7 @@ impl RenderPlan for Plan {
         (env.progress)(0.8, "volumes");
         let t = Instant::now();
         let refs: Vec<(usize, &TransportTable)> =
-            tables.iter().map(|t| (t.object, &t.table)).collect();
+            tables.iter().map(|t| (t.object, &*t.table)).collect();
         let layer = TransportLayer::build_with(world, &refs, self.line_points, env.keep_going)?;
         timings.push(("volumes".into(), t.elapsed()));
         (env.progress)(0.9, "render");
