@@ -91,7 +91,7 @@ fn bench_direct(c: &mut Criterion) {
         &|_| true,
     )
     .expect("csl bake");
-    let placed: Vec<_> = sets.iter().map(|s| (s.object, &s.set)).collect();
+    let placed: Vec<_> = sets.iter().map(|s| (s.object, &*s.set)).collect();
     let layer = caustica::render::CslLayer::new(&world, &placed, irradiance);
     println!("CSLs in the frame: {}", layer.csls.len());
     let first = renderer

@@ -224,7 +224,8 @@ impl BakeParams {
 pub struct ObjectSet {
     /// Index into `World::objects`.
     pub object: usize,
-    pub set: CslSet,
+    /// Shared with the store's decoded artifacts (a static set).
+    pub set: Arc<CslSet>,
     /// Whether its bake came from the store (false: baked now).
     pub cached: bool,
     /// Where the bake is kept in the store, if it is.
@@ -266,7 +267,7 @@ pub fn sets_for_render(
                 || bake_dynamic(world, &o.name, &dp, &|p: DynamicProgress| part(p.fraction)),
                 DynamicSet::to_bytes,
             )?;
-            (d.interpolate(dir), cached, store.path(kind, key))
+            (Arc::new(d.interpolate(dir)), cached, store.path(kind, key))
         } else {
             let cp = params.csl_params();
             let key = csl_source_hash(world, &o.name, dir, &cp)?;
@@ -278,7 +279,7 @@ pub fn sets_for_render(
                 || bake_csl(world, &o.name, dir, &cp, &|p: Progress| part(p.fraction)),
                 CslSet::to_bytes,
             )?;
-            (Arc::unwrap_or_clone(set), cached, store.path(kind, key))
+            (set, cached, store.path(kind, key))
         };
         sets.push(ObjectSet {
             object: oi,
@@ -326,7 +327,7 @@ fn given_set(
     };
     Ok(ObjectSet {
         object,
-        set,
+        set: Arc::new(set),
         cached: true,
         path: None,
     })
@@ -390,7 +391,7 @@ impl RenderPlan for Plan {
         };
         env.check()?;
         (env.progress)(0.9, "render");
-        let placed: Vec<(usize, &CslSet)> = sets.iter().map(|s| (s.object, &s.set)).collect();
+        let placed: Vec<(usize, &CslSet)> = sets.iter().map(|s| (s.object, &*s.set)).collect();
         let layer = CslLayer::new(world, &placed, self.light.1);
         let out = env.render(&mut timings, |r| {
             r.render_csl(world, &RenderOptions::default(), Some(&layer))

@@ -121,7 +121,7 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
         let sets =
             csl::sets_for_render(&world, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
         assert_eq!(sets.len(), 1, "one caustic object");
-        let layer = CslLayer::new(&world, &[(sets[0].object, &sets[0].set)], irradiance);
+        let layer = CslLayer::new(&world, &[(sets[0].object, &*sets[0].set)], irradiance);
         let out = renderer
             .render_csl(&world, &RenderOptions::default(), Some(&layer))
             .unwrap();

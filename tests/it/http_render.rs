@@ -392,7 +392,7 @@ async fn csl_render_bakes_first_then_reuses_the_bake() {
         let sets =
             csl::sets_for_render(&w, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
         let mut r = gpu::renderer();
-        let layer = CslLayer::new(&w, &[(sets[0].object, &sets[0].set)], irradiance);
+        let layer = CslLayer::new(&w, &[(sets[0].object, &*sets[0].set)], irradiance);
         r.render_csl(&w, &RenderOptions::default(), Some(&layer))
             .unwrap()
             .caustics
