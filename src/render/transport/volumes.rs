@@ -52,7 +52,7 @@
 //! is its reference and the test oracle.
 
 use crate::bake::transport::{TransportTable, Vertex, local_angles, table_vertices, tangent_frame};
-use crate::cancel::Stop;
+use crate::cancel::{Canceled, Stop};
 use crate::scene::{Light, Material, World};
 use crate::trace::Accel;
 use crate::trace::optics::{fresnel_dielectric, reflect};
@@ -494,6 +494,12 @@ fn clip_overlap(q: &[DVec3; 3], fp: &[Vec3; 4], n: DVec3) -> Option<(DVec3, f64,
     }
     let c = c / (6.0 * a);
     Some((o + ax * c.x + ay * c.y, a.abs(), area_fp))
+}
+
+impl From<Canceled> for EvalError {
+    fn from(_: Canceled) -> Self {
+        EvalError::Canceled
+    }
 }
 
 /// Errors of [`build_volumes`].
@@ -1084,15 +1090,8 @@ pub fn build_volumes(
     let mut volumes = Vec::new();
     let own: std::sync::OnceLock<(Accel, Vec<u32>)> = std::sync::OnceLock::new();
     let stop = Stop::new(keep_going);
-    let canceled = || {
-        if stop.go() {
-            Ok(())
-        } else {
-            Err(EvalError::Canceled)
-        }
-    };
     for src in sources {
-        canceled()?;
+        stop.check()?;
         // Per vertex and path it leaves on: the exit (world space), the light's travel
         // direction (rigid frame) and its irradiance.
         let lit: Vec<Vec<(u16, LitVertex)>> = {
@@ -1139,7 +1138,7 @@ pub fn build_volumes(
                 })
                 .collect()
         };
-        canceled()?;
+        stop.check()?;
         stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
         // The object alone, to trace the triangles whose corners leave on different paths:
         // built once, when a frame first needs it.
@@ -1148,7 +1147,7 @@ pub fn build_volumes(
             !(la.is_empty() || lb.is_empty() || lc.is_empty() || one_path([la, lb, lc]))
         });
         // The BVH build cannot be interrupted: asked right before and after it.
-        canceled()?;
+        stop.check()?;
         let splitter = needs_split.then(|| {
             let (accel, patches) = own.get_or_init(|| {
                 let local = crate::bake::csl::rigid_frame_world(world, object);
@@ -1167,7 +1166,7 @@ pub fn build_volumes(
                 scale,
             }
         });
-        canceled()?;
+        stop.check()?;
         let (flux, split) = glass.sweep(
             &lit,
             splitter.as_ref(),
@@ -1210,15 +1209,8 @@ pub fn build_reflection_volumes(
         .ok_or_else(|| EvalError::UnknownObject(object_name.to_string()))?;
     let glass = Glass::new(world, &world.objects[oi]);
     let stop = Stop::new(keep_going);
-    let canceled = || {
-        if stop.go() {
-            Ok(())
-        } else {
-            Err(EvalError::Canceled)
-        }
-    };
     // The BVH build cannot be interrupted: asked right before and after it.
-    canceled()?;
+    stop.check()?;
     let own = Accel::build_with(world, |i| i == oi, obvhs::BvhBuildParams::fast_build());
     let (lo, hi) = world.bounds();
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
@@ -1229,7 +1221,7 @@ pub fn build_reflection_volumes(
     let inv_rot = glass.rot.inverse();
     let mut volumes = Vec::new();
     for src in sources {
-        canceled()?;
+        stop.check()?;
         let lit: Vec<Vec<(u16, LitVertex)>> = {
             use rayon::prelude::*;
             (0..glass.vertices.len())
@@ -1269,7 +1261,7 @@ pub fn build_reflection_volumes(
                 .map(|l: Option<LitVertex>| l.map_or_else(Vec::new, |x| vec![(0, x)]))
                 .collect()
         };
-        canceled()?;
+        stop.check()?;
         stats.lit_vertices += lit.iter().filter(|l| !l.is_empty()).count();
         stats.reflected_flux += glass
             .sweep(
