@@ -91,10 +91,11 @@ impl MethodImpl for Transport {
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct BakeParams {
-    /// Rings of sampling directions between the pole and the horizon, 1..=64 (default 8).
+    /// Rings of sampling directions between the pole and the horizon, 1..=64 (default 12).
     #[serde(default)]
     pub rings: Option<u32>,
-    /// Directions per ring, 4..=256 (default 16; with 8 rings the paper's 129 directions).
+    /// Directions per ring, 4..=256 (default 24: 289 directions; 8 rings of 16 are the paper's
+    /// 129).
     #[serde(default)]
     pub azimuths: Option<u32>,
 }
@@ -103,7 +104,7 @@ impl BakeParams {
     /// Parses and checks `v`, found at field `at` of a request, filling the defaults.
     pub fn parse(v: &serde_json::Value, at: &str) -> Result<Self, ParamError> {
         let mut p: BakeParams = from_value(v, at)?;
-        let d = TransportParams::paper();
+        let d = TransportParams::standard();
         p.rings = Some(p.rings.unwrap_or(d.rings));
         p.azimuths = Some(p.azimuths.unwrap_or(d.azimuths));
         p.params()
@@ -113,7 +114,7 @@ impl BakeParams {
     }
 
     pub fn params(&self) -> TransportParams {
-        let d = TransportParams::paper();
+        let d = TransportParams::standard();
         TransportParams {
             rings: self.rings.unwrap_or(d.rings),
             azimuths: self.azimuths.unwrap_or(d.azimuths),
@@ -134,7 +135,7 @@ pub struct ObjectTable {
 
 /// The table of every glass object of `world` for a render: `given` (a table made beforehand)
 /// for the glass object whose content hash it carries, every other one found in the store or
-/// baked at the paper's settings and kept. `progress(f)` sees the bakes' progress in 0..1;
+/// baked at [`TransportParams::standard`] and kept. `progress(f)` sees the bakes' progress in 0..1;
 /// returning false cancels.
 pub fn tables_for_render(
     world: &World,
@@ -159,7 +160,7 @@ pub fn tables_for_render(
         }
         None => None,
     };
-    let params = TransportParams::paper();
+    let params = TransportParams::standard();
     let n = objects.len().max(1) as f32;
     let mut out = Vec::new();
     for (k, &oi) in objects.iter().enumerate() {
