@@ -302,10 +302,12 @@ enum BakeCmd {
         object: Option<String>,
         #[arg(long)]
         out: PathBuf,
-        /// Rings of sampling directions between the pole and the horizon (default 8).
+        /// Rings of sampling directions between the pole and the horizon (default 12; the
+        /// paper's 8).
         #[arg(long)]
         rings: Option<u32>,
-        /// Sampling directions per ring (default 16: 8 × 16 + 1 = 129, the paper's).
+        /// Sampling directions per ring (default 24: 12 × 24 + 1 = 289; the paper's 16, with 8
+        /// rings 129).
         #[arg(long)]
         azimuths: Option<u32>,
     },

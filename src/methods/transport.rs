@@ -160,7 +160,6 @@ pub fn tables_for_render(
         }
         None => None,
     };
-    let params = TransportParams::standard();
     let n = objects.len().max(1) as f32;
     let mut out = Vec::new();
     for (k, &oi) in objects.iter().enumerate() {
@@ -173,6 +172,24 @@ pub fn tables_for_render(
             continue;
         }
         let object = &world.objects[oi];
+        // The standard table where it fits the table's sample cap, else the paper's coarser
+        // one (a mesh of 110k to 248k vertices), so that a render does not refuse what it
+        // rendered at 129 directions.
+        let vertices: usize = object
+            .parts
+            .iter()
+            .filter(|p| {
+                matches!(
+                    world.materials[p.material as usize],
+                    crate::scene::Material::Dielectric { .. }
+                )
+            })
+            .map(|p| p.mesh.positions.len())
+            .sum();
+        let params = [TransportParams::standard(), TransportParams::paper()]
+            .into_iter()
+            .find(|p| crate::bake::transport::check_table_size(vertices, p).is_ok())
+            .unwrap_or(TransportParams::standard());
         let key = source_hash(world, object, &params);
         let (table, cached) = env.store.find_or_bake(
             ArtifactKind::Transport,

@@ -475,7 +475,7 @@ async fn transport_render_bakes_first_then_reuses_the_table() {
         let mut w = scenes::parse(&text);
         w.camera.width = 64;
         w.camera.height = 64;
-        let table = bake_transport(&w, "glass", &TransportParams::paper(), &|_| true).unwrap();
+        let table = bake_transport(&w, "glass", &TransportParams::standard(), &|_| true).unwrap();
         let layer =
             TransportLayer::build(&w, &[(1, &table)], volumes::DEFAULT_LINE_POINTS).unwrap();
         let mut r = gpu::renderer();
