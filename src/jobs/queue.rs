@@ -119,12 +119,39 @@ impl Queues {
         Some(q)
     }
 
-    /// Drops the job `id`; whether it was queued.
+    /// Drops the job `id`; whether it was queued. Its key's last tag in its class goes back to
+    /// that of the key's latest job still queued there, so that a key that cancels a backlog
+    /// is not left waiting behind it.
     pub fn remove(&mut self, id: &str) -> bool {
-        let before = self.len();
-        self.cpu.retain(|q| q.handle.id != id);
-        self.gpu.retain(|q| q.handle.id != id);
-        before != self.len()
+        let mut gone = None;
+        for heap in [&mut self.cpu, &mut self.gpu] {
+            heap.retain(|q| {
+                let keep = q.handle.id != id;
+                if !keep {
+                    gone = Some((q.owner.clone(), q.job.lane(), q.priority));
+                }
+                keep
+            });
+        }
+        let Some(class) = gone else {
+            return false;
+        };
+        let (owner, lane, priority) = &class;
+        let latest = self
+            .lane(*lane)
+            .iter()
+            .filter(|q| (&q.owner, q.priority) == (owner, *priority))
+            .map(|q| q.tag)
+            .max();
+        match latest {
+            Some(t) => {
+                self.last.insert(class, t);
+            }
+            None => {
+                self.last.remove(&class);
+            }
+        }
+        true
     }
 }
 
@@ -218,5 +245,22 @@ mod tests {
         q.push(job("d", "d0", Priority::Render, seq.next().unwrap()));
         q.push(job("d", "d1", Priority::Render, seq.next().unwrap()));
         assert_eq!(drain(&mut q), ["x1", "d0", "x2", "d1"]);
+        // A key that cancels its backlog is not tagged after it.
+        for i in 0..5 {
+            q.push(job(
+                "e",
+                &format!("e{i}"),
+                Priority::Render,
+                seq.next().unwrap(),
+            ));
+        }
+        for i in 0..5 {
+            assert!(q.remove(&format!("e{i}")));
+        }
+        assert!(!q.remove("e0"));
+        q.push(job("f", "f0", Priority::Render, seq.next().unwrap()));
+        q.push(job("f", "f1", Priority::Render, seq.next().unwrap()));
+        q.push(job("e", "e5", Priority::Render, seq.next().unwrap()));
+        assert_eq!(drain(&mut q), ["f0", "e5", "f1"]);
     }
 }
