@@ -780,18 +780,23 @@ pub fn verify_with(
 mod tests {
     use super::*;
 
+    /// A glass ball of radius 0.5 named `ball`, of `segments` segments.
+    fn glass_ball(segments: u32) -> World {
+        let json = format!(
+            r#"{{"camera": {{"eye": [0, 3, 3], "target": [0, 0, 0]}},
+                 "materials": {{"glass": {{"type": "dielectric", "ior": 1.5}}}},
+                 "objects": [{{"name": "ball", "shape": {{"type": "sphere", "radius": 0.5,
+                              "segments": {segments}}}, "material": "glass"}}]}}"#
+        );
+        crate::scene::load_scene_json(json.as_bytes()).expect("scene resolves")
+    }
+
     /// The fit check asks to go on around its BVH build, while its grid is traced (the first
     /// triangles, the convexity, every 16 rows), as its photons are binned and per row of the
     /// model's cells, and ends canceled whenever told to stop.
     #[test]
     fn the_fit_check_stops_inside_its_loops_when_asked() {
-        let world = crate::scene::load_scene_json(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                 "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
-                              "segments": 32}, "material": "glass"}]}"#,
-        )
-        .expect("scene resolves");
+        let world = glass_ball(32);
         let p = CslParams {
             grid: 64,
             ..CslParams::fast()
@@ -855,13 +860,7 @@ mod tests {
     /// memory only bound it, and the set says which ended it.
     #[test]
     fn a_bake_stops_by_coverage_within_its_bounds() {
-        let world = crate::scene::load_scene_json(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                 "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
-                              "segments": 64}, "material": "glass"}]}"#,
-        )
-        .expect("scene resolves");
+        let world = glass_ball(64);
         let light = Vec3::new(0.3, -1.0, 0.2);
         let bake = |p: CslParams| bake_csl(&world, "ball", light, &p, &|_| true).unwrap();
         let base = CslParams {
@@ -900,13 +899,7 @@ mod tests {
     fn fits_side_by_side_or_in_turn_and_a_shared_bvh_give_the_same_set() {
         // A glass sphere lit obliquely, whose bundles need the second fit (plane before the
         // exits) as well as the first.
-        let world = crate::scene::load_scene_json(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                 "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
-                              "segments": 64}, "material": "glass"}]}"#,
-        )
-        .expect("scene resolves");
+        let world = glass_ball(64);
         let params = CslParams {
             grid: 96,
             ..CslParams::fast()
