@@ -238,12 +238,14 @@ async fn oversized_heads_get_problems() {
 }
 
 /// What hyper refuses before any handler runs (a request line or header it cannot parse, more
-/// header fields than it reads) is answered with hyper's status
+/// header fields than it reads, a head larger than its buffer) is answered with hyper's status
 /// and a problem+json body, and the server goes on serving.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn heads_hyper_cannot_parse_get_problems() {
     let srv = Server::start("limits-parse", |_, _| {}).await;
     let many: String = (0..300).map(|i| format!("x-h{i}: v\r\n")).collect();
+    // Past hyper's ~400 KB buffer: answered while the rest still arrives (the close lingers).
+    let huge = format!("x-big: {}\r\n", "a".repeat(600 << 10));
     for (request, status, kind) in [
         (
             "NOT HTTP AT ALL\r\n\r\n".to_string(),
@@ -257,6 +259,11 @@ async fn heads_hyper_cannot_parse_get_problems() {
         ),
         (
             format!("GET /healthz HTTP/1.1\r\nHost: x\r\n{many}\r\n"),
+            431,
+            "headers-too-large",
+        ),
+        (
+            format!("GET /healthz HTTP/1.1\r\nHost: x\r\n{huge}\r\n"),
             431,
             "headers-too-large",
         ),
