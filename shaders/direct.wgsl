@@ -7,24 +7,15 @@
 // the reflected and (first-interface) refracted directions, or, under method transport, the
 // reflected environment plus what the vertices' refracted viewing rays see (the `view`
 // attribute, interpolated). Specular objects are 0 in `direct`,
-// receivers 0 in `specular`. `caustics`: the caustic spot lights of Liu et al. 2008 evaluated per
-// pixel on receivers (Eqs. 2-4 in csl.inc.wgsl), each arriving ray shaded with the receiver's
-// BRDF for its known direction and dropped when an occluder (occlusion.inc.wgsl: everything but
-// the caustic objects) lies between the receiver and the CSL's light plane. Surfaces are one-sided like Mitsuba's BSDFs: seen from the back, or lit from
-// behind, they get nothing.
+// receivers 0 in `specular`. `caustics` is cleared here; the caustics methods' passes write it
+// afterwards (method csl: csl.wgsl). Surfaces are one-sided like Mitsuba's BSDFs: seen from
+// the back, or lit from behind, they get nothing.
 
 #include "shadow_lookup.inc.wgsl"
-#include "csl.inc.wgsl"
-#include "occlusion.inc.wgsl"
 
 @group(0) @binding(0) var<uniform> g: Globals;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
-@group(0) @binding(6) var<storage, read> csls: array<Csl>;
-
-// Whether this pipeline evaluates the caustics layer (the csl pipeline sets it): the direct-only
-// pipeline is compiled without that code.
-override CSL_LAYER: bool = false;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -147,43 +138,7 @@ fn fs_main(in: VsOut) -> FsOut {
     // Environment: diffuse lobe only, unshadowed.
     l += albedo / PI * sh_irradiance(g.sh, n);
     out.direct = vec4<f32>(l, 1.0);
-    if CSL_LAYER && g.counts.w > 0u {
-        // The pixel's footprint on the receiver: the parallelogram with edges dp/dx, dp/dy.
-        out.caustics = vec4<f32>(csl_shade(p, n, ng, v, m, dx, dy) * g.csl_irradiance.rgb, 1.0);
-    }
     return out;
-}
-
-// Caustic radiance towards v per unit light irradiance at receiver point p (shading normal n,
-// geometric ng), averaged over the pixel (its footprint on the receiver has edges e1, e2):
-// every CSL's arrivals, BRDF-weighted, unoccluded ones only. Mirrors bake/csl/eval.rs `shade`.
-fn csl_shade(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>, v: vec3<f32>, m: Material, e1: vec3<f32>, e2: vec3<f32>) -> vec3<f32> {
-    var sum = vec3<f32>(0.0);
-    // Shadow rays start off the surface, on the side they leave towards, by a margin scaled to
-    // the coordinates' magnitude (as trace::Hit::spawn).
-    let eps = 1e-4 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
-    for (var i = 0u; i < g.counts.w; i++) {
-        let c = csls[i];
-        let arr = csl_arrivals_px(c, p, e1, e2);
-        for (var k = 0u; k < arr.count; k++) {
-            let wi = -arr.dir[k];
-            let cos_i = dot(n, wi);
-            if cos_i <= 0.0 || all(arr.density[k] <= vec3<f32>(0.0)) {
-                continue;
-            }
-            var f = m.albedo.rgb / PI;
-            if m.kind == MAT_GLOSSY {
-                f = glossy_brdf(n, wi, v, m.albedo.rgb, m.specular.rgb, m.roughness);
-            }
-            let t_plane = dot(p - c.origin, c.axis) / max(dot(arr.dir[k], c.axis), 1e-4);
-            let o = p + ng * select(-eps, eps, dot(wi, ng) >= 0.0);
-            if occluded(o, wi, t_plane) {
-                continue;
-            }
-            sum += f * arr.density[k] * cos_i;
-        }
-    }
-    return sum;
 }
 
 // Background: a fullscreen triangle at the far plane, drawn after the geometry with a

@@ -1,7 +1,8 @@
 // G-buffer of the per-pixel caustics passes (render/gbuffer.rs; transport and pinhole read it):
 // per pixel, the visible surface's world position and shading normal, for receivers only.
 // `position.w` is the pixel's reach (> 0) on a receiver seen from its front (the side Mitsuba-like one-sided BSDFs answer), 0 elsewhere
-// (specular objects, back faces, background); `normal.w` is the material index.
+// (specular objects, back faces, background); `normal.w` is the material index; `geometric` is
+// the surface's geometric normal, facing the camera (method csl's footprints and shadow rays).
 
 #include "common.inc.wgsl"
 
@@ -18,6 +19,7 @@ struct VsOut {
 struct GOut {
     @location(0) position: vec4<f32>,
     @location(1) normal: vec4<f32>,
+    @location(2) geometric: vec4<f32>,
 }
 
 @vertex
@@ -43,5 +45,6 @@ fn fs_main(in: VsOut) -> GOut {
     let reach = max(0.75 * (length(dpdx(p)) + length(dpdy(p))), 1e-9);
     out.position = vec4<f32>(p, select(0.0, reach, receiver));
     out.normal = vec4<f32>(n, f32(in.material));
+    out.geometric = vec4<f32>(ng, 0.0);
     return out;
 }

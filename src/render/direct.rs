@@ -1,7 +1,7 @@
 //! The direct pass (`shaders/direct.wgsl`): one forward pass over the scene after the shadow
-//! pass, writing the `direct`, `specular` and `caustics` HDR layers (see the shader for what
-//! each holds; `caustics` is written here only when caustic spot lights are bound, method
-//! `csl`: [`super::csl`]), then the visible environment behind everything.
+//! pass, writing the `direct` and `specular` HDR layers and clearing `caustics` (see the shader
+//! for what each holds; the caustics methods' passes write that layer afterwards), then the
+//! visible environment behind everything.
 
 use super::csl::CslBuffers;
 use super::lights::{GpuLight, LightPlan};
@@ -40,8 +40,6 @@ pub struct Globals {
 /// Pipelines and layouts of the direct pass, created once per device.
 pub struct DirectPipelines {
     pub main: wgpu::RenderPipeline,
-    /// `main` with the caustics layer compiled in (`CSL_LAYER`).
-    pub main_csl: wgpu::RenderPipeline,
     pub background: wgpu::RenderPipeline,
     pub main_layout: wgpu::BindGroupLayout,
     pub shadow_sampler: wgpu::Sampler,
@@ -142,39 +140,31 @@ impl DirectPipelines {
                 bias,
             })
         };
-        let main_pipeline = |label, csl: bool| {
-            let constants = [("CSL_LAYER", if csl { 1.0 } else { 0.0 })];
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&main_pl),
-                vertex: wgpu::VertexState {
-                    module: &direct_mod,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(vertex_layout())],
-                },
-                primitive,
-                depth_stencil: depth(
-                    true,
-                    wgpu::CompareFunction::Less,
-                    wgpu::DepthBiasState::default(),
-                ),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &direct_mod,
-                    entry_point: Some("fs_main"),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants: &constants,
-                        ..Default::default()
-                    },
-                    targets: &targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let main = main_pipeline("direct", false);
-        let main_csl = main_pipeline("direct+csl", true);
+        let main = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("direct"),
+            layout: Some(&main_pl),
+            vertex: wgpu::VertexState {
+                module: &direct_mod,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout())],
+            },
+            primitive,
+            depth_stencil: depth(
+                true,
+                wgpu::CompareFunction::Less,
+                wgpu::DepthBiasState::default(),
+            ),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &direct_mod,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
         let background = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("background"),
             layout: Some(&main_pl),
@@ -211,7 +201,6 @@ impl DirectPipelines {
         });
         DirectPipelines {
             main,
-            main_csl,
             background,
             main_layout,
             shadow_sampler,
@@ -239,7 +228,12 @@ impl Targets {
             height,
             direct: tex("direct", HDR_FORMAT, color),
             specular: tex("specular", HDR_FORMAT, color),
-            caustics: tex("caustics", HDR_FORMAT, color),
+            // Method csl's compute passes write the layer as a storage texture.
+            caustics: tex(
+                "caustics",
+                HDR_FORMAT,
+                color | wgpu::TextureUsages::STORAGE_BINDING,
+            ),
             depth: tex(
                 "depth",
                 DEPTH_FORMAT,
@@ -315,7 +309,7 @@ pub struct FrameBuffers {
     pub globals: wgpu::Buffer,
     pub lights: wgpu::Buffer,
     pub csls: wgpu::Buffer,
-    /// Caustic spot lights to evaluate (0: the direct-only pipeline draws).
+    /// Caustic spot lights to evaluate (0: the CSL passes do not run).
     pub csl_count: u32,
     pub csl_texels: wgpu::Buffer,
 }
@@ -432,13 +426,8 @@ pub fn encode(
     let cv = targets.caustics.create_view(&Default::default());
     let depth = targets.depth.create_view(&Default::default());
     let clear = super::cleared_attachment;
-    let name = if frame.csl_count > 0 {
-        "direct+csl"
-    } else {
-        "direct"
-    };
     let ts = timestamps.map(|t| {
-        let k = t.pass(name);
+        let k = t.pass("direct");
         (&*t, k)
     });
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -458,11 +447,7 @@ pub fn encode(
     });
     pass.set_bind_group(0, &bg, &[]);
     if let Some((vb, ib)) = scene.geometry() {
-        pass.set_pipeline(if frame.csl_count > 0 {
-            &p.main_csl
-        } else {
-            &p.main
-        });
+        pass.set_pipeline(&p.main);
         pass.set_vertex_buffer(0, vb.slice(..));
         pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..scene.index_count, 0, 0..1);

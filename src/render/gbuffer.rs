@@ -1,7 +1,7 @@
 //! The G-buffer of the receivers (`shaders/gbuffer.wgsl`): per pixel, the visible surface's
-//! world position and shading normal, flagged where it is a receiver seen from its front. The
-//! passes that gather caustics per pixel read it: `transport` (illumination volumes) and
-//! `pinhole` (reflector samples).
+//! world position and shading normal, flagged where it is a receiver seen from its front, and its
+//! geometric normal. The passes that gather caustics per pixel read it: `csl` (caustic spot
+//! lights), `transport` (illumination volumes), `pinhole` (reflector samples) and the others.
 
 use super::scene::{SceneBuffers, vertex_layout};
 use super::shaders;
@@ -68,7 +68,7 @@ impl GBufferPipeline {
                 module: &module,
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
-                targets: &[target.clone(), target],
+                targets: &[target.clone(), target.clone(), target],
             }),
             multiview_mask: None,
             cache: None,
@@ -83,6 +83,7 @@ pub struct GBuffer {
     pub height: u32,
     pub position: wgpu::Texture,
     pub normal: wgpu::Texture,
+    pub geometric: wgpu::Texture,
     pub depth: wgpu::Texture,
 }
 
@@ -96,6 +97,7 @@ impl GBuffer {
             height,
             position: tex("gbuffer position", GBUF_FORMAT, color),
             normal: tex("gbuffer normal", GBUF_FORMAT, color),
+            geometric: tex("gbuffer geometric normal", GBUF_FORMAT, color),
             depth: tex(
                 "gbuffer depth",
                 super::direct::DEPTH_FORMAT,
@@ -121,7 +123,12 @@ pub fn encode(
     gbuf: &GBuffer,
     scene: &SceneBuffers,
     globals: &wgpu::Buffer,
+    timestamps: Option<&mut super::timestamps::Timestamps>,
 ) {
+    let ts = timestamps.map(|t| {
+        let k = t.pass("gbuffer");
+        (&*t, k)
+    });
     let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("gbuffer"),
         layout: &p.layout,
@@ -137,11 +144,12 @@ pub fn encode(
         ],
     });
     let (pos_view, nrm_view) = gbuf.views();
+    let geo_view = gbuf.geometric.create_view(&Default::default());
     let depth_view = gbuf.depth.create_view(&Default::default());
     let clear = super::cleared_attachment;
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("gbuffer"),
-        color_attachments: &[clear(&pos_view), clear(&nrm_view)],
+        color_attachments: &[clear(&pos_view), clear(&nrm_view), clear(&geo_view)],
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &depth_view,
             depth_ops: Some(wgpu::Operations {
@@ -150,7 +158,7 @@ pub fn encode(
             }),
             stencil_ops: None,
         }),
-        timestamp_writes: None,
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
         occlusion_query_set: None,
         multiview_mask: None,
     });

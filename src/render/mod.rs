@@ -200,6 +200,9 @@ struct DeviceCache {
     beams: Option<beams::gpu::BeamsPipeline>,
     /// Built on the first photons frame.
     photons: Option<photons::gpu::PhotonsPipeline>,
+    /// Built on the first csl frame; the scratch kept per size and CSL word count.
+    csl: Option<csl::pass::CslPipelines>,
+    csl_scratch: Option<csl::pass::CslScratch>,
     /// Built on the first frame that needs a G-buffer (transport, pinhole, water, beams,
     /// photons).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
@@ -267,6 +270,20 @@ impl DeviceCache {
                 .get_or_insert_with(|| photons::gpu::PhotonsPipeline::new(dev))
                 .fit(dev, size);
         }
+        if let Some(c) = &plan.csl {
+            self.csl
+                .get_or_insert_with(|| csl::pass::CslPipelines::new(dev))
+                .prepare(dev, plan.glossy);
+            let pixels = u64::from(size.0) * u64::from(size.1);
+            if !self
+                .csl_scratch
+                .as_ref()
+                .is_some_and(|s| s.fits(pixels, c.csls.len()))
+            {
+                drop(self.csl_scratch.take());
+                self.csl_scratch = Some(csl::pass::CslScratch::new(dev, pixels, c.csls.len()));
+            }
+        }
         if plan.needs_gbuffer() {
             if self.gbuffer_pipeline.is_none() {
                 self.gbuffer_pipeline = Some(gbuffer::GBufferPipeline::new(dev));
@@ -326,6 +343,8 @@ impl Renderer {
             water: None,
             beams: None,
             photons: None,
+            csl: None,
+            csl_scratch: None,
             gbuffer_pipeline: None,
             targets: None,
             gbuffer: None,
@@ -525,7 +544,7 @@ impl Renderer {
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan);
             // Shadow maps, direct, transport, pinhole or water (with the water's light map).
-            timestamps::Timestamps::new(&self.ctx, dev, 7)
+            timestamps::Timestamps::new(&self.ctx, dev, 8)
         })?;
         let loop_budget = self.loop_budget.unwrap_or_else(|| self.ctx.loop_budget());
         let (frame, volumes, pinhole_buffers, water_buffers, beams_buffers, generation) =
@@ -585,7 +604,29 @@ impl Renderer {
             if let (true, Some(gp), Some(gb)) =
                 (plan.needs_gbuffer(), &c.gbuffer_pipeline, &c.gbuffer)
             {
-                gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals);
+                gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals, ts.as_mut());
+            }
+            if let (true, Some(cp), Some(cs), Some(gb)) =
+                (frame.csl_count > 0, &c.csl, &c.csl_scratch, &c.gbuffer)
+            {
+                let inputs = csl::pass::CslInputs {
+                    globals: &frame.globals,
+                    materials: &scene.materials,
+                    csls: &frame.csls,
+                    texels: &frame.csl_texels,
+                    blockers,
+                    glossy: plan.glossy,
+                };
+                csl::pass::encode(
+                    dev,
+                    &mut enc,
+                    cp,
+                    gb,
+                    &inputs,
+                    cs,
+                    &targets.caustics,
+                    ts.as_mut(),
+                );
             }
             if let (Some(pb), Some(pp), Some(gb)) = (&pinhole_buffers, &c.pinhole, &c.gbuffer) {
                 pinhole::encode(

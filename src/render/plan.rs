@@ -79,6 +79,9 @@ pub struct FramePlan<'a> {
     /// The objects whose own caustic light nothing else occludes (the caustic objects of the
     /// method), when the frame has caustics.
     pub caustic_objects: Option<&'a [usize]>,
+    /// Whether the scene has a glossy material (the CSL passes are compiled without the glossy
+    /// BRDF otherwise).
+    pub glossy: bool,
 }
 
 impl<'a> FramePlan<'a> {
@@ -184,6 +187,25 @@ impl<'a> FramePlan<'a> {
                     }
                     None => Cow::Borrowed(l.csls.as_slice()),
                 };
+                if csls.len() > super::csl::pass::MAX_FRAME_CSLS {
+                    return Err(RenderError::Limit(format!(
+                        "{} caustic spot lights in the frame; the CSL pass evaluates at most {}",
+                        csls.len(),
+                        super::csl::pass::MAX_FRAME_CSLS
+                    )));
+                }
+                let scratch = super::csl::pass::scratch_bytes(
+                    u64::from(width) * u64::from(height),
+                    csls.len(),
+                );
+                if scratch > max_storage {
+                    return Err(RenderError::Limit(format!(
+                        "the CSL pass's list of pixels ({scratch} bytes for {} CSLs at \
+                         {width}×{height}) over the adapter's storage binding limit of \
+                         {max_storage}",
+                        csls.len()
+                    )));
+                }
                 let texel_bytes: u64 = csls.iter().map(|c| c.texels.len() as u64 * 8).sum();
                 if texel_bytes > max_storage {
                     return Err(RenderError::Limit(format!(
@@ -280,6 +302,10 @@ impl<'a> FramePlan<'a> {
             beams,
             photons,
             caustic_objects,
+            glossy: world
+                .materials
+                .iter()
+                .any(|m| matches!(m, crate::scene::Material::Glossy { .. })),
         })
     }
 
@@ -294,7 +320,8 @@ impl<'a> FramePlan<'a> {
 
     /// Whether a pass gathers caustics per pixel over the G-buffer of the receivers.
     pub fn needs_gbuffer(&self) -> bool {
-        self.transport.is_some()
+        self.csl.as_ref().is_some_and(|c| !c.csls.is_empty())
+            || self.transport.is_some()
             || self.pinhole.is_some()
             || self.water.is_some()
             || self.beams.is_some()

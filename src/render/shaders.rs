@@ -12,6 +12,7 @@ pub const FILES: &[(&str, &str)] = &[
     ("shadow.wgsl", include_str!("../../shaders/shadow.wgsl")),
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("csl.inc.wgsl", include_str!("../../shaders/csl.inc.wgsl")),
+    ("csl.wgsl", include_str!("../../shaders/csl.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     ("pinhole.wgsl", include_str!("../../shaders/pinhole.wgsl")),
     ("water.wgsl", include_str!("../../shaders/water.wgsl")),
@@ -190,7 +191,7 @@ mod tests {
             ],
         );
         mirror(
-            "direct.wgsl",
+            "csl.wgsl",
             "Csl",
             size_of::<GpuCsl>(),
             &[
@@ -209,7 +210,7 @@ mod tests {
             ],
         );
         mirror(
-            "direct.wgsl",
+            "csl.wgsl",
             "BvhNode",
             size_of::<GpuBvhNode>(),
             &[
@@ -220,7 +221,7 @@ mod tests {
             ],
         );
         mirror(
-            "direct.wgsl",
+            "csl.wgsl",
             "BlockerTri",
             size_of::<GpuTriangle>(),
             &[

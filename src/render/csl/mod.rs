@@ -1,12 +1,13 @@
-//! The CSL pass (method `csl`, Liu et al. 2008 §2): caustic spot lights evaluated per pixel
-//! inside the direct pass (`shaders/direct.wgsl` with `CSL_LAYER`, the evaluation in
-//! `shaders/csl.inc.wgsl`, occlusion by the non-caustic objects in `shaders/occlusion.inc.wgsl`
-//! over [`super::blockers`]). Here: the frame's CSLs ([`CslLayer`]) and their packing for
-//! upload; the set of a dynamic bake for the frame's light direction ([`interpolate`]); the CPU
-//! evaluation the pass is checked against ([`eval`]).
+//! The CSL passes (method `csl`, Liu et al. 2008 §2): caustic spot lights evaluated per pixel
+//! on the G-buffer's receivers in compute passes culled per tile ([`pass`], `shaders/csl.wgsl`;
+//! the evaluation in `shaders/csl.inc.wgsl`, occlusion by the non-caustic objects in
+//! `shaders/occlusion.inc.wgsl` over [`super::blockers`]). Here: the frame's CSLs ([`CslLayer`])
+//! and their packing for upload; the set of a dynamic bake for the frame's light direction
+//! ([`interpolate`]); the CPU evaluation the passes are checked against ([`eval`]).
 
 pub mod eval;
 pub mod interpolate;
+pub mod pass;
 
 use crate::bake::csl::{Csl, CslSet};
 use crate::scene::World;
