@@ -17,6 +17,13 @@
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
 
+// What the frame needs compiled in (render/direct.rs `Variant`): an environment map, a medium
+// on the light's way (method beams), glossy receivers. Without them the pipeline is made
+// without their code, which every pixel would otherwise run under a mask on llvmpipe.
+override HAS_ENV_MAP: bool = true;
+override HAS_MEDIUM: bool = true;
+override HAS_GLOSSY: bool = true;
+
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
@@ -48,7 +55,7 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @lo
 // Mitsuba's `envmap`, column i centred on u = (i + 0.5)/W (u wraps), row j on v = j/(H - 1).
 fn env_radiance(d: vec3<f32>) -> vec3<f32> {
     var l = g.env_radiance.rgb;
-    if g.env_map_scale.w > 0.5 {
+    if HAS_ENV_MAP && g.env_map_scale.w > 0.5 {
         let uv = env_uv(d);
         let w = g.counts.y;
         let h = g.counts.z;
@@ -128,9 +135,11 @@ fn fs_main(in: VsOut) -> FsOut {
             continue;
         }
         // The medium on the light's way here (method beams; none otherwise).
-        e *= light_transmittance(g, p, at, kind == LIGHT_DIRECTIONAL);
+        if HAS_MEDIUM {
+            e *= light_transmittance(g, p, at, kind == LIGHT_DIRECTIONAL);
+        }
         var f = albedo / PI;
-        if m.kind == MAT_GLOSSY {
+        if HAS_GLOSSY && m.kind == MAT_GLOSSY {
             f = glossy_brdf(n, wi, v, albedo, m.specular.rgb, m.roughness);
         }
         l += f * e * cos_i * vis;

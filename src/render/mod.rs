@@ -223,6 +223,7 @@ impl DeviceCache {
     /// transport or pinhole pipelines and the G-buffer when it gathers caustics per pixel.
     fn fit(&mut self, dev: &wgpu::Device, queue: &wgpu::Queue, plan: &FramePlan) {
         let size = (plan.width, plan.height);
+        self.pipelines.prepare(dev, plan.direct_variant());
         if self
             .targets
             .as_ref()
@@ -595,7 +596,7 @@ impl Renderer {
                 &c.pipelines,
                 scene,
                 &frame,
-                blockers,
+                plan.direct_variant(),
                 targets,
                 atlas,
                 env,

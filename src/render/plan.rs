@@ -309,6 +309,15 @@ impl<'a> FramePlan<'a> {
         })
     }
 
+    /// What the direct pass needs compiled in: an environment map, a medium, glossy receivers.
+    pub fn direct_variant(&self) -> super::direct::Variant {
+        super::direct::Variant {
+            env_map: self.globals.env_map_scale[3] > 0.5,
+            medium: self.globals.medium_half[0] > 0.0,
+            glossy: self.glossy,
+        }
+    }
+
     /// Whether the frame has a caustics layer to read back.
     pub fn has_caustics(&self) -> bool {
         self.csl.is_some()
