@@ -8,8 +8,18 @@
 // triangle by the footprint quadrilateral). The arriving ray there is shaded with the
 // receiver's BRDF and dropped when an occluder (occlusion.inc.wgsl: everything but the caustic
 // objects) lies between the receiver and where it left the object. Mirrors
-// `Volume::arrival` with a footprint and `eval::render_caustics`; additive blending sums the
-// volumes into the caustics layer.
+// `Volume::arrival` with a footprint and `eval::render_caustics`.
+//
+// Two ways to sum the volumes into the caustics layer. llvmpipe runs every branch of a shader
+// under a mask, discarded fragments included, so a fragment that fails the cheap tests would
+// still pay for the whole evaluation. Hence, by default: `fs_select` draws the hulls running
+// only the cheap tests (cross-section, edges) and appends each (pixel, volume) that passes to
+// a list; `evaluate` (compute, one invocation an entry, sized on the GPU by `list_args`)
+// evaluates the entries and adds their light to the pixel's sum in 64-bit fixed point
+// (2⁻³² W/(m²·sr) a unit; integer sums do not depend on the order the entries come in, so the
+// frame is the same every time); `resolve` writes the sums into the layer. When the list
+// overflows, every pixel is flagged (alpha 2) and the renderer draws the frame again with
+// `fs_volume`, which evaluates every covered fragment and blends additively.
 
 #include "common.inc.wgsl"
 #include "hull.inc.wgsl"
@@ -36,6 +46,21 @@ struct Volume {
 @group(0) @binding(10) var gbuf_position: texture_2d<f32>;
 @group(0) @binding(11) var gbuf_normal: texture_2d<f32>;
 @group(0) @binding(12) var<storage, read> volumes: array<Volume>;
+// The list of fs_select (how many entries were appended, possibly more than it holds; the
+// dispatch of `evaluate`), its entries (pixel, volume), and the sums (per pixel, per channel,
+// low and high word).
+struct ListState {
+    count: atomic<u32>,
+    groups_x: u32,
+    groups_y: u32,
+    groups_z: u32,
+}
+@group(0) @binding(13) var<storage, read_write> list: ListState;
+@group(0) @binding(14) var<storage, read_write> entries: array<vec2<u32>>;
+@group(0) @binding(15) var<storage, read_write> sums: array<atomic<u32>>;
+
+const EVAL_GROUP: u32 = 64u;
+const MAX_GROUPS_X: u32 = 65535u;
 
 fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
     return a.x * b.y - a.y * b.x;
@@ -132,28 +157,32 @@ fn outside_edge(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, s: f32, r: f32) -> boo
     return s * cross2(edge, c - a) < -r * length(edge);
 }
 
-@fragment
-fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
-    let frag = in.clip;
-    let texel = vec2<u32>(frag.xy);
-    let gp = textureLoad(gbuf_position, texel, 0);
-    if gp.w <= 0.0 {
-        discard;
-    }
-    let gn = textureLoad(gbuf_normal, texel, 0);
-    let p = gp.xyz;
-    let n = normalize(gn.xyz);
-    let v = volumes[in.volume];
+// A volume's cross-section with a receiver's tangent plane, in plane coordinates around q0
+// (t0 = 0), when the cheap tests pass (ok): the plane meets all three exit rays within the
+// volume's length, and the pixel's centre is within its footprint's reach of the triangle.
+struct Cross {
+    ok: bool,
+    q0: vec3<f32>,
+    ax: vec3<f32>,
+    ay: vec3<f32>,
+    t1: vec2<f32>,
+    t2: vec2<f32>,
+    area_q2: f32,
+}
+
+fn cross_section(v: Volume, p: vec3<f32>, n: vec3<f32>, reach: f32) -> Cross {
+    var cr: Cross;
+    cr.ok = false;
     let len = v.e1.w;
     // Cross-section with the receiver's tangent plane (unrolled: llvmpipe spills indexed
     // local arrays to memory).
     let den = vec3<f32>(dot(v.d0.xyz, n), dot(v.d1.xyz, n), dot(v.d2.xyz, n));
     if any(den >= vec3<f32>(0.0)) {
-        discard;
+        return cr;
     }
     let t = vec3<f32>(dot(p - v.e0.xyz, n), dot(p - v.e1.xyz, n), dot(p - v.e2.xyz, n)) / den;
     if any(t < vec3<f32>(0.0)) || any(t > vec3<f32>(len)) {
-        discard;
+        return cr;
     }
     let q0 = v.e0.xyz + v.d0.xyz * t.x;
     let q1 = v.e1.xyz + v.d1.xyz * t.y;
@@ -170,25 +199,47 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
     let t2 = vec2<f32>(dot(q2 - q0, ax), dot(q2 - q0, ay));
     let area_q2 = cross2(t1, t2);
     if area_q2 == 0.0 {
-        discard;
+        return cr;
     }
     // Cheap rejection before the footprint: the pixel centre farther outside an edge of the
     // cross-section than its footprint reaches (gp.w) cannot overlap it.
     let pc = vec2<f32>(dot(p - q0, ax), dot(p - q0, ay));
     let s = sign(area_q2);
-    if outside_edge(t0, t1, pc, s, gp.w) || outside_edge(t1, t2, pc, s, gp.w)
-        || outside_edge(t2, t0, pc, s, gp.w) {
-        discard;
+    if outside_edge(t0, t1, pc, s, reach) || outside_edge(t1, t2, pc, s, reach)
+        || outside_edge(t2, t0, pc, s, reach) {
+        return cr;
     }
+    cr.ok = true;
+    cr.q0 = q0;
+    cr.ax = ax;
+    cr.ay = ay;
+    cr.t1 = t1;
+    cr.t2 = t2;
+    cr.area_q2 = area_q2;
+    return cr;
+}
+
+// The light of volume v averaged over the footprint of the pixel at `frag` (pixel centre,
+// pixels, y down) on the receiver at p (normal n, material index `mat`), given its cross
+// section; 0 where none arrives.
+fn volume_light(v: Volume, cr: Cross, p: vec3<f32>, n: vec3<f32>, mat: u32, frag: vec2<f32>) -> vec3<f32> {
+    let none = vec3<f32>(0.0);
+    let q0 = cr.q0;
+    let ax = cr.ax;
+    let ay = cr.ay;
+    let t0 = vec2<f32>(0.0);
+    let t1 = cr.t1;
+    let t2 = cr.t2;
+    let area_q2 = cr.area_q2;
     // The pixel's footprint on the plane.
-    let base = floor(frag.xy);
+    let base = floor(frag);
     var f: array<vec2<f32>, 4>;
     let offs = array<vec2<f32>, 4>(vec2<f32>(0.0, 0.0), vec2<f32>(1.0, 0.0), vec2<f32>(1.0, 1.0), vec2<f32>(0.0, 1.0));
     for (var k = 0u; k < 4u; k++) {
         let d = pixel_ray(base + offs[k]);
         let dn = dot(d, n);
         if abs(dn) < 1e-6 {
-            discard;
+            return none;
         }
         let w = g.eye.xyz + d * (dot(p - g.eye.xyz, n) / dn) - q0;
         f[k] = vec2<f32>(dot(w, ax), dot(w, ay));
@@ -204,11 +255,11 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
     }
     area_f = 0.5 * abs(area_f);
     if area_f <= 0.0 {
-        discard;
+        return none;
     }
     let o = clip_overlap(t0, t1, t2, f);
     if o.c.w < 0.5 {
-        discard;
+        return none;
     }
     // Barycentrics of the overlap's centroid.
     let c = o.c.xy;
@@ -228,11 +279,11 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
     let wi = -dir;
     let cos_i = dot(n, wi);
     if cos_i <= 0.0 || all(e <= vec3<f32>(0.0)) {
-        discard;
+        return none;
     }
     let at = q0 + ax * c.x + ay * c.y;
     let exit = b0 * v.e0.xyz + b1 * v.e1.xyz + b2 * v.e2.xyz;
-    let m = materials[u32(gn.w)];
+    let m = materials[mat];
     let vdir = normalize(g.eye.xyz - p);
     var brdf = m.albedo.rgb / PI;
     if m.kind == MAT_GLOSSY {
@@ -241,7 +292,115 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
     let eps = 1e-4 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z)));
     let origin = p + n * eps;
     if occluded(origin, wi, length(at - exit)) {
+        return none;
+    }
+    return brdf * e;
+}
+
+// Every covered fragment evaluated, blended additively (the fallback when a pixel's list
+// overflowed).
+@fragment
+fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
+    let frag = in.clip;
+    let texel = vec2<u32>(frag.xy);
+    let gp = textureLoad(gbuf_position, texel, 0);
+    if gp.w <= 0.0 {
         discard;
     }
-    return vec4<f32>(brdf * e, 0.0);
+    let gn = textureLoad(gbuf_normal, texel, 0);
+    let p = gp.xyz;
+    let n = normalize(gn.xyz);
+    let v = volumes[in.volume];
+    let cr = cross_section(v, p, n, gp.w);
+    if !cr.ok {
+        discard;
+    }
+    let l = volume_light(v, cr, p, n, u32(gn.w), frag.xy);
+    if all(l <= vec3<f32>(0.0)) {
+        discard;
+    }
+    return vec4<f32>(l, 0.0);
+}
+
+// The cheap tests only; a volume that passes is appended to the list. Writes no colour (the
+// pipeline's write mask is empty).
+@fragment
+fn fs_select(in: VsOut) -> @location(0) vec4<f32> {
+    let texel = vec2<u32>(in.clip.xy);
+    let gp = textureLoad(gbuf_position, texel, 0);
+    if gp.w > 0.0 {
+        let n = normalize(textureLoad(gbuf_normal, texel, 0).xyz);
+        if cross_section(volumes[in.volume], gp.xyz, n, gp.w).ok {
+            let k = atomicAdd(&list.count, 1u);
+            if k < arrayLength(&entries) {
+                entries[k] = vec2<u32>(texel.y * u32(g.viewport.x) + texel.x, in.volume);
+            }
+        }
+    }
+    return vec4<f32>(0.0);
+}
+
+fn listed() -> u32 {
+    return min(atomicLoad(&list.count), arrayLength(&entries));
+}
+
+@compute @workgroup_size(1, 1, 1)
+fn list_args() {
+    let groups = (listed() + EVAL_GROUP - 1u) / EVAL_GROUP;
+    list.groups_x = min(groups, MAX_GROUPS_X);
+    list.groups_y = (groups + MAX_GROUPS_X - 1u) / MAX_GROUPS_X;
+    list.groups_z = 1u;
+}
+
+// Adds v (>= 0) to the 64-bit fixed-point sum at words k, k + 1.
+fn add_fixed(k: u32, v: f32) {
+    let whole = floor(v);
+    let lo = u32(min((v - whole) * 4294967296.0, 4294967040.0));
+    let hi = u32(min(whole, 4294967040.0));
+    let old = atomicAdd(&sums[k], lo);
+    let carry = select(0u, 1u, old + lo < old);
+    if hi + carry != 0u {
+        atomicAdd(&sums[k + 1u], hi + carry);
+    }
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.y * groups.x * EVAL_GROUP + gid.x;
+    if i >= listed() {
+        return;
+    }
+    let e = entries[i];
+    let width = u32(g.viewport.x);
+    let texel = vec2<u32>(e.x % width, e.x / width);
+    let gp = textureLoad(gbuf_position, texel, 0);
+    let gn = textureLoad(gbuf_normal, texel, 0);
+    let n = normalize(gn.xyz);
+    let v = volumes[e.y];
+    let cr = cross_section(v, gp.xyz, n, gp.w);
+    let l = volume_light(v, cr, gp.xyz, n, u32(gn.w), vec2<f32>(texel) + 0.5);
+    if any(l > vec3<f32>(0.0)) {
+        for (var c = 0u; c < 3u; c++) {
+            add_fixed(e.x * 6u + 2u * c, l[c]);
+        }
+    }
+}
+
+@group(1) @binding(0) var caustics: texture_storage_2d<rgba32float, write>;
+
+// The sums into the layer (over what the direct pass left: nothing); alpha 2 everywhere when
+// the list overflowed.
+@compute @workgroup_size(8, 8, 1)
+fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let size = vec2<u32>(u32(g.viewport.x), u32(g.viewport.y));
+    if gid.x >= size.x || gid.y >= size.y {
+        return;
+    }
+    let k = (gid.y * size.x + gid.x) * 6u;
+    var l = vec3<f32>(0.0);
+    for (var c = 0u; c < 3u; c++) {
+        l[c] = f32(atomicLoad(&sums[k + 2u * c + 1u])) + f32(atomicLoad(&sums[k + 2u * c])) * 2.3283064e-10;
+    }
+    let overflow = atomicLoad(&list.count) > arrayLength(&entries);
+    textureStore(caustics, gid.xy, vec4<f32>(l, select(1.0, 2.0, overflow)));
 }

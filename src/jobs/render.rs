@@ -316,8 +316,9 @@ impl Job for RenderJob {
     /// stored photons, triangles); a GPU method's: ~384 bytes a pixel over all frames (its
     /// targets, layers and readback, which lavapipe keeps in host memory: measured 190 for
     /// `direct`, 278 for `photons`, 341 for `beams` at 640×480 to 1280×960), 256 bytes a
-    /// triangle, 16 MiB, and the photon buffers of `photons` (320 MiB) and the beams of
-    /// `beams` (256 MiB).
+    /// triangle, 16 MiB, and the photon buffers of `photons` (320 MiB), the beams of `beams`
+    /// (256 MiB) and the list of (pixel, volume) pairs and sums of `transport` (152 bytes a
+    /// pixel).
     fn memory(&self) -> u64 {
         let c = &self.world.camera;
         let frames = self.times.as_ref().map_or(1, |t| t.len() as u64);
@@ -333,8 +334,12 @@ impl Job for RenderJob {
             Method::Beams => 256 << 20,
             _ => 0,
         };
+        let per_pixel = match method {
+            Method::Transport => 384 + crate::render::transport::LIST_BYTES_PER_PIXEL,
+            _ => 384,
+        };
         let triangles = self.world.triangle_count() as u64;
-        (16 << 20) + fixed + pixels * 384 + triangles * 256
+        (16 << 20) + fixed + pixels * per_pixel + triangles * 256
     }
 
     /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most

@@ -221,7 +221,13 @@ impl DeviceCache {
     /// The resources kept between frames, made or remade to fit `plan`: the targets of its
     /// size, a shadow map array that holds its layers, the environment texture of its map, the
     /// transport or pinhole pipelines and the G-buffer when it gathers caustics per pixel.
-    fn fit(&mut self, dev: &wgpu::Device, queue: &wgpu::Queue, plan: &FramePlan) {
+    fn fit(
+        &mut self,
+        dev: &wgpu::Device,
+        queue: &wgpu::Queue,
+        plan: &FramePlan,
+        transport_list: u64,
+    ) {
         let size = (plan.width, plan.height);
         self.pipelines.prepare(dev, plan.direct_variant());
         if self
@@ -250,8 +256,15 @@ impl DeviceCache {
             let map = env.map.as_ref().map(|(m, _)| m.as_ref());
             self.env = Some(direct::EnvTexture::new(dev, queue, map, key));
         }
-        if plan.transport.is_some() && self.transport.is_none() {
-            self.transport = Some(transport::TransportPipelines::new(dev));
+        if plan.transport.is_some() {
+            self.transport
+                .get_or_insert_with(|| transport::TransportPipelines::new(dev))
+                .fit(
+                    dev,
+                    u64::from(size.0) * u64::from(size.1),
+                    transport_list,
+                    dev.limits().max_storage_buffer_binding_size,
+                );
         }
         if let Some(layer) = plan.pinhole {
             self.pinhole
@@ -306,6 +319,25 @@ pub struct Renderer {
     cache: DeviceCache,
     /// Replaces the adapter's loop budget ([`GpuContext::loop_budget`]) when set.
     loop_budget: Option<u32>,
+    /// Entries a pixel of the transport pass's list ([`transport::LIST_ENTRIES_PER_PIXEL`]
+    /// unless a test sets it).
+    transport_list: u64,
+}
+
+/// How a frame is drawn: the pinhole pass's clusters a draw, and whether the transport
+/// volumes are blended fragment by fragment instead of gathered from per-pixel lists.
+#[derive(Clone, Copy, Debug)]
+struct Attempt {
+    cap: u32,
+    transport_blended: bool,
+}
+
+/// What a frame reports for [`Renderer::render_with`] to draw it again: the pinhole pass's
+/// draws, and the pixels whose list of transport volumes overflowed.
+#[derive(Clone, Copy, Debug)]
+struct FrameReport {
+    pinhole: Option<PinholeDraws>,
+    transport_overflow: usize,
 }
 
 /// How many clusters of points a pinhole pass drew at a time, and how many pixels report a
@@ -325,6 +357,7 @@ impl Renderer {
             ctx,
             cache,
             loop_budget: None,
+            transport_list: transport::LIST_ENTRIES_PER_PIXEL,
         })
     }
 
@@ -462,6 +495,13 @@ impl Renderer {
         self.loop_budget = budget;
     }
 
+    /// Replaces the entries a pixel the transport pass's list holds (`None`:
+    /// [`transport::LIST_ENTRIES_PER_PIXEL`]). Tests make it overflow with 0 to check the
+    /// frame drawn again by blending.
+    pub fn set_transport_list(&mut self, per_pixel: Option<u64>) {
+        self.transport_list = per_pixel.unwrap_or(transport::LIST_ENTRIES_PER_PIXEL);
+    }
+
     /// Renders `world` with the caustics method `caustics`. A pinhole frame in which the
     /// adapter ended the loop over points early (llvmpipe's cap on loop iterations, when a
     /// draw's estimate of its iterations falls short) is drawn again with a quarter of the
@@ -472,10 +512,13 @@ impl Renderer {
         opts: &RenderOptions,
         caustics: Caustics,
     ) -> Result<RenderOutput, RenderError> {
-        let mut cap = u32::MAX;
+        let mut attempt = Attempt {
+            cap: u32::MAX,
+            transport_blended: false,
+        };
         loop {
-            let (out, draws) = self.render_on_a_live_device(world, opts, caustics, cap)?;
-            match draws {
+            let (out, report) = self.render_on_a_live_device(world, opts, caustics, attempt)?;
+            match report.pinhole {
                 Some(d) if d.cut_pixels > 0 && d.per_draw > 1 => {
                     tracing::warn!(
                         pixels = d.cut_pixels,
@@ -483,7 +526,7 @@ impl Renderer {
                         "the adapter ended the pinhole pass's loop over points early; \
                          drawing again with fewer clusters a draw"
                     );
-                    cap = (d.per_draw / 4).max(1);
+                    attempt.cap = (d.per_draw / 4).max(1);
                 }
                 Some(d) if d.cut_pixels > 0 => {
                     return Err(RenderError::Limit(format!(
@@ -495,6 +538,14 @@ impl Renderer {
                         crate::gpu::LLVMPIPE_LOOP_ITERATIONS
                     )));
                 }
+                _ if report.transport_overflow > 0 && !attempt.transport_blended => {
+                    tracing::info!(
+                        entries_per_pixel = transport::LIST_ENTRIES_PER_PIXEL,
+                        "more (pixel, illumination volume) pairs than the list holds; drawing \
+                         the volumes again, every fragment evaluated and blended"
+                    );
+                    attempt.transport_blended = true;
+                }
                 _ => return Ok(out),
             }
         }
@@ -505,13 +556,13 @@ impl Renderer {
         world: &World,
         opts: &RenderOptions,
         caustics: Caustics,
-        cap: u32,
-    ) -> Result<(RenderOutput, Option<PinholeDraws>), RenderError> {
-        match self.render_once(world, opts, caustics, cap) {
+        attempt: Attempt,
+    ) -> Result<(RenderOutput, FrameReport), RenderError> {
+        match self.render_once(world, opts, caustics, attempt) {
             Err(RenderError::Gpu(e)) if matches!(e, GpuError::Lost(_)) || self.ctx.is_lost() => {
                 tracing::warn!(error = %e, "render failed on a lost device; retrying on a new one");
                 self.ctx.mark_lost();
-                self.render_once(world, opts, caustics, cap)
+                self.render_once(world, opts, caustics, attempt)
             }
             r => r,
         }
@@ -522,8 +573,9 @@ impl Renderer {
         world: &World,
         opts: &RenderOptions,
         caustics: Caustics,
-        cap: u32,
-    ) -> Result<(RenderOutput, Option<PinholeDraws>), RenderError> {
+        attempt: Attempt,
+    ) -> Result<(RenderOutput, FrameReport), RenderError> {
+        let cap = attempt.cap;
         let t0 = Instant::now();
         let mut timings = Vec::new();
         let h = self.ctx.ensure_device()?;
@@ -541,9 +593,10 @@ impl Renderer {
 
         // Prepare: the resources kept between frames, then this frame's buffers.
         let dev = &h.device;
+        let transport_list = self.transport_list;
         let c = &mut self.cache;
         let mut ts = self.ctx.scoped(dev, || {
-            c.fit(dev, &h.queue, &plan);
+            c.fit(dev, &h.queue, &plan, transport_list);
             // Shadow maps, direct, transport, pinhole or water (with the water's light map).
             timestamps::Timestamps::new(&self.ctx, dev, 8)
         })?;
@@ -673,6 +726,7 @@ impl Renderer {
                     blockers,
                     vb,
                     l.volumes.len() as u32,
+                    attempt.transport_blended,
                     targets,
                     ts.as_mut(),
                 );
@@ -733,16 +787,24 @@ impl Renderer {
         };
         let (direct_frame, _) = read(opts.components.direct, &targets.direct)?;
         let (specular_frame, _) = read(opts.components.specular, &targets.specular)?;
-        let (caustics_frame, draws) = if plan.has_caustics() {
+        let mut report = FrameReport {
+            pinhole: None,
+            transport_overflow: 0,
+        };
+        let caustics_frame = if plan.has_caustics() {
             let (f, flagged) = read(true, &targets.caustics)?;
-            // The pinhole pass reports loops ended early in the layer's alpha.
-            let draws = pinhole_buffers.as_ref().map(|b| PinholeDraws {
+            // The pinhole pass reports loops ended early in the layer's alpha; the transport
+            // gather the pixels whose list of volumes overflowed.
+            report.pinhole = pinhole_buffers.as_ref().map(|b| PinholeDraws {
                 per_draw: b.per_draw,
                 cut_pixels: flagged,
             });
-            (Some(f), draws)
+            if plan.transport.is_some() {
+                report.transport_overflow = flagged;
+            }
+            Some(f)
         } else {
-            (None, None)
+            None
         };
         let keep_going = match caustics {
             Caustics::Photons(_, k) => k.0,
@@ -796,7 +858,7 @@ impl Renderer {
                 adapter: self.ctx.adapter_info().to_string(),
                 photons: photons_run,
             },
-            draws,
+            report,
         ))
     }
 }

@@ -219,6 +219,15 @@ impl<'a> FramePlan<'a> {
             }
             None => None,
         };
+        if transport.is_some() {
+            let sums = u64::from(width) * u64::from(height) * 24;
+            if sums > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "the transport pass's per-pixel sums ({sums} bytes at {width}×{height}) over \
+                     the adapter's storage binding limit of {max_storage}"
+                )));
+            }
+        }
         if let Some(l) = transport {
             let bytes = l.volumes.len() as u64 * std::mem::size_of::<GpuVolume>() as u64;
             if bytes > max_storage {

@@ -508,3 +508,31 @@ fn glass_seen_through_the_tables_matches_the_reference() {
         "{c:?}"
     );
 }
+
+/// When the pass's list of (pixel, volume) pairs overflows (here: a list of one entry), the
+/// frame is drawn again with every covered fragment evaluated and blended: the same caustics
+/// as the list's, to rounding (the list sums in 64-bit fixed point, the blend in f32).
+#[test]
+fn an_overflowing_list_draws_the_frame_again_by_blending() {
+    let world = sphere_scene("glass-sphere-directional", 24, |s| s);
+    let table = bake(&world, 6, 12);
+    let (_, layer) = cpu_caustics(&world, &table);
+    let mut r = gpu::renderer();
+    let listed = r
+        .render_transport(&world, &Default::default(), &layer)
+        .unwrap()
+        .caustics
+        .unwrap();
+    r.set_transport_list(Some(0));
+    let blended = r
+        .render_transport(&world, &Default::default(), &layer)
+        .unwrap()
+        .caustics
+        .unwrap();
+    let c = compare::compare(&blended, &listed, &floor_mask(&world));
+    eprintln!("blended vs listed: {c:?}");
+    assert!(c.rel_l1 < 1e-4, "{c:?}");
+    assert!((c.flux_ratio - 1.0).abs() < 1e-5, "{c:?}");
+    let total: f64 = listed.pixels.iter().map(|p| p.x as f64).sum();
+    assert!(total > 0.0, "the caustic is there");
+}

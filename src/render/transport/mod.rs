@@ -164,10 +164,43 @@ impl TransportLayer {
     }
 }
 
-/// The volume pipeline, created once per device.
+/// Entries of the list of (pixel, volume) pairs per pixel of the frame (transport.wgsl's
+/// `fs_select` appends them); the measured mean on the canonical sphere under its point light
+/// is 4.8 a receiver pixel, with a tail of a few thousand in a few pixels.
+pub const LIST_ENTRIES_PER_PIXEL: u64 = 16;
+
+/// The list and the sums of a frame size.
+struct Lists {
+    pixels: u64,
+    per_pixel: u64,
+    /// `ListState`: the count and the dispatch of `evaluate`.
+    state: wgpu::Buffer,
+    /// The dispatch copied out of `state` (one buffer cannot be a dispatch's storage and its
+    /// indirect arguments).
+    args: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    sums: wgpu::Buffer,
+}
+
+/// The volume pipelines, created once per device: the select draw and the evaluate and
+/// resolve dispatches (the default), and the blended draw that evaluates every covered
+/// fragment (the fallback when the list overflows); the list, kept per image size.
 pub struct TransportPipelines {
     pub volume: wgpu::RenderPipeline,
+    select: wgpu::RenderPipeline,
+    list_args: wgpu::ComputePipeline,
+    evaluate: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
     pub volume_layout: wgpu::BindGroupLayout,
+    output_layout: wgpu::BindGroupLayout,
+    lists: Option<Lists>,
+}
+
+/// Bytes a pixel of the list (at most) and the sums take.
+pub const LIST_BYTES_PER_PIXEL: u64 = LIST_ENTRIES_PER_PIXEL * 8 + 24;
+
+fn list_capacity(pixels: u64, per_pixel: u64, max_binding: u64) -> u64 {
+    (pixels * per_pixel).min(max_binding / 8).max(1)
 }
 
 /// Vertices drawn per volume or beam (`HULL_VERTICES` of hull.inc.wgsl).
@@ -176,10 +209,16 @@ pub const HULL_VERTICES: u32 = 12;
 impl TransportPipelines {
     pub fn new(device: &wgpu::Device) -> TransportPipelines {
         let entry = super::layout_entry;
-        let vf = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let frag = wgpu::ShaderStages::FRAGMENT;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let vf = wgpu::ShaderStages::VERTEX_FRAGMENT | cs;
+        let frag = wgpu::ShaderStages::FRAGMENT | cs;
         let (uniform, storage) = (super::UNIFORM_BINDING, super::STORAGE_BINDING);
         let texture = super::texture_binding(false);
+        let rw = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: false },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
         let volume_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("transport volumes"),
             entries: &[
@@ -190,7 +229,22 @@ impl TransportPipelines {
                 entry(10, frag, texture),
                 entry(11, frag, texture),
                 entry(12, vf, storage),
+                entry(13, frag, rw),
+                entry(14, frag, rw),
+                entry(15, frag, rw),
             ],
+        });
+        let output_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("transport gather"),
+            entries: &[entry(
+                0,
+                cs,
+                wgpu::BindingType::StorageTexture {
+                    access: wgpu::StorageTextureAccess::WriteOnly,
+                    format: HDR_FORMAT,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                },
+            )],
         });
         let module = |name: &str| {
             device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -223,35 +277,114 @@ impl TransportPipelines {
                 operation: wgpu::BlendOperation::Add,
             },
         };
-        let volume = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("transport volumes"),
-            layout: Some(&layout(&volume_layout)),
-            vertex: wgpu::VertexState {
-                module: &tmod,
-                entry_point: Some("vs_volume"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive,
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &tmod,
-                entry_point: Some("fs_volume"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: Some(add),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
+        let volume_pl = layout(&volume_layout);
+        let draw = |label, entry: &str, blend, write_mask| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&volume_pl),
+                vertex: wgpu::VertexState {
+                    module: &tmod,
+                    entry_point: Some("vs_volume"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive,
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &tmod,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: HDR_FORMAT,
+                        blend,
+                        write_mask,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let volume = draw(
+            "transport volumes",
+            "fs_volume",
+            Some(add),
+            wgpu::ColorWrites::ALL,
+        );
+        let select = draw(
+            "transport select",
+            "fs_select",
+            None,
+            wgpu::ColorWrites::empty(),
+        );
+        let compute_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&volume_layout), Some(&output_layout)],
+            immediate_size: 0,
         });
+        let compute = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&compute_pl),
+                module: &tmod,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
         TransportPipelines {
             volume,
+            select,
+            list_args: compute("list_args"),
+            evaluate: compute("evaluate"),
+            resolve: compute("resolve"),
             volume_layout,
+            output_layout,
+            lists: None,
         }
+    }
+
+    /// Makes the list (`per_pixel` entries a pixel) and sums for frames of `pixels` pixels
+    /// (kept while they stay), no buffer over `max_binding` bytes.
+    pub fn fit(&mut self, device: &wgpu::Device, pixels: u64, per_pixel: u64, max_binding: u64) {
+        if self
+            .lists
+            .as_ref()
+            .is_some_and(|l| (l.pixels, l.per_pixel) == (pixels, per_pixel))
+        {
+            return;
+        }
+        drop(self.lists.take());
+        let buffer = |label, size: u64, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        self.lists = Some(Lists {
+            pixels,
+            per_pixel,
+            state: buffer("transport list state", 16, storage | copy),
+            args: buffer(
+                "transport evaluate dispatch",
+                12,
+                wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            ),
+            entries: buffer(
+                "transport list",
+                list_capacity(pixels, per_pixel, max_binding) * 8,
+                storage,
+            ),
+            sums: buffer(
+                "transport sums",
+                pixels * 24,
+                storage | wgpu::BufferUsages::COPY_DST,
+            ),
+        });
     }
 }
 
@@ -282,9 +415,14 @@ pub fn encode(
     blockers: &BlockerBuffers,
     volumes: &wgpu::Buffer,
     count: u32,
+    blended: bool,
     targets: &Targets,
     timestamps: Option<&mut Timestamps>,
 ) {
+    let lists = p
+        .lists
+        .as_ref()
+        .expect("TransportPipelines::fit made the list");
     let (pos_view, nrm_view) = gbuf.views();
     let vbg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("transport volumes"),
@@ -318,13 +456,100 @@ pub fn encode(
                 binding: 12,
                 resource: volumes.as_entire_binding(),
             },
+            wgpu::BindGroupEntry {
+                binding: 13,
+                resource: lists.state.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 14,
+                resource: lists.entries.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 15,
+                resource: lists.sums.as_entire_binding(),
+            },
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
-    let mut pass = super::caustics_pass(enc, &cv, "transport", timestamps);
-    if count > 0 {
-        pass.set_pipeline(&p.volume);
-        pass.set_bind_group(0, &vbg, &[]);
-        pass.draw(0..HULL_VERTICES, 0..count);
+    if blended {
+        let mut pass = super::caustics_pass(enc, &cv, "transport", timestamps);
+        if count > 0 {
+            pass.set_pipeline(&p.volume);
+            pass.set_bind_group(0, &vbg, &[]);
+            pass.draw(0..HULL_VERTICES, 0..count);
+        }
+        return;
     }
+    enc.clear_buffer(&lists.state, 0, None);
+    enc.clear_buffer(&lists.sums, 0, None);
+    let ts = timestamps.map(|t| {
+        let k = t.pass("transport");
+        (&*t, k)
+    });
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("transport select"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &cv,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: ts.map(|(t, k)| t.writes(k, true, false)),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if count > 0 {
+            pass.set_pipeline(&p.select);
+            pass.set_bind_group(0, &vbg, &[]);
+            pass.draw(0..HULL_VERTICES, 0..count);
+        }
+    }
+    let obg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("transport gather"),
+        layout: &p.output_layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(&cv),
+        }],
+    });
+    {
+        let mut pass = compute_pass(enc, "transport list args", None, [&vbg, &obg]);
+        pass.set_pipeline(&p.list_args);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+    enc.copy_buffer_to_buffer(&lists.state, 4, &lists.args, 0, 12);
+    {
+        let mut pass = compute_pass(enc, "transport evaluate", None, [&vbg, &obg]);
+        pass.set_pipeline(&p.evaluate);
+        pass.dispatch_workgroups_indirect(&lists.args, 0);
+    }
+    let mut pass = compute_pass(
+        enc,
+        "transport resolve",
+        ts.map(|(t, k)| t.compute_writes(k, false, true)),
+        [&vbg, &obg],
+    );
+    pass.set_pipeline(&p.resolve);
+    pass.dispatch_workgroups(gbuf.width.div_ceil(8), gbuf.height.div_ceil(8), 1);
+}
+
+/// A compute pass with the volume and output bind groups set.
+fn compute_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    groups: [&wgpu::BindGroup; 2],
+) -> wgpu::ComputePass<'e> {
+    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes,
+    });
+    pass.set_bind_group(0, groups[0], &[]);
+    pass.set_bind_group(1, groups[1], &[]);
+    pass
 }
