@@ -219,15 +219,6 @@ impl<'a> FramePlan<'a> {
             }
             None => None,
         };
-        if transport.is_some() {
-            let sums = u64::from(width) * u64::from(height) * 24;
-            if sums > max_storage {
-                return Err(RenderError::Limit(format!(
-                    "the transport pass's per-pixel sums ({sums} bytes at {width}×{height}) over \
-                     the adapter's storage binding limit of {max_storage}"
-                )));
-            }
-        }
         if let Some(l) = transport {
             let bytes = l.volumes.len() as u64 * std::mem::size_of::<GpuVolume>() as u64;
             if bytes > max_storage {
@@ -235,6 +226,14 @@ impl<'a> FramePlan<'a> {
                     "{} illumination volumes ({bytes} bytes) over the adapter's storage binding \
                      limit of {max_storage}",
                     l.volumes.len()
+                )));
+            }
+            // The pass's per-pixel sums (its list is cut to the limit and falls back when full).
+            let sums = u64::from(width) * u64::from(height) * 24;
+            if sums > max_storage {
+                return Err(RenderError::Limit(format!(
+                    "the transport pass's per-pixel sums ({sums} bytes at {width}×{height}) over \
+                     the adapter's storage binding limit of {max_storage}"
                 )));
             }
         }
@@ -483,6 +482,24 @@ mod tests {
         .err()
         .unwrap();
         assert!(e.to_string().contains("illumination volumes"), "{e}");
+        // One volume fits; the per-pixel sums of the list (24 bytes a pixel) do not.
+        let one = TransportLayer {
+            volumes: transport.volumes[..1].to_vec(),
+            ..transport.clone()
+        };
+        let small = DeviceLimits {
+            max_storage_binding: 10_000,
+            ..limits()
+        };
+        let e = FramePlan::new(
+            &w,
+            &RenderOptions::default(),
+            Caustics::Transport(&one),
+            &small,
+        )
+        .err()
+        .unwrap();
+        assert!(e.to_string().contains("per-pixel sums"), "{e}");
         let gl = DeviceLimits {
             float32_blendable: false,
             ..limits()
