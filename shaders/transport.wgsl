@@ -15,11 +15,12 @@
 // still pay for the whole evaluation. Hence, by default: `fs_select` draws the hulls running
 // only the cheap tests (cross-section, edges) and appends each (pixel, volume) that passes to
 // a list; `evaluate` (compute, one invocation an entry, sized on the GPU by `list_args`)
-// evaluates the entries and adds their light to the pixel's sum in 64-bit fixed point
-// (2⁻³² W/(m²·sr) a unit; integer sums do not depend on the order the entries come in, so the
-// frame is the same every time); `resolve` writes the sums into the layer. When the list
-// overflows, every pixel is flagged (alpha 2) and the renderer draws the frame again with
-// `fs_volume`, which evaluates every covered fragment and blends additively.
+// evaluates the entries and adds their light to the pixel's sum in 64-bit fixed point (a unit
+// of 2⁻⁸ of the frame's brightest volume's radiance on a white receiver, ListParams, in steps
+// of 2⁻³² of a unit; integer sums do not depend on the order the entries come in, so the frame
+// is the same every time); `resolve` writes the sums into the layer. When the list overflows,
+// every pixel is flagged (alpha 2) and the renderer draws the frame again with `fs_volume`,
+// which evaluates every covered fragment and blends additively.
 
 #include "common.inc.wgsl"
 #include "hull.inc.wgsl"
@@ -58,6 +59,14 @@ struct ListState {
 @group(0) @binding(13) var<storage, read_write> list: ListState;
 @group(0) @binding(14) var<storage, read_write> entries: array<vec2<u32>>;
 @group(0) @binding(15) var<storage, read_write> sums: array<atomic<u32>>;
+struct ListParams {
+    // W/(m²·sr) a unit of the sums (render/transport `sums_unit`).
+    unit: f32,
+    pad0: f32,
+    pad1: f32,
+    pad2: f32,
+}
+@group(0) @binding(16) var<uniform> list_params: ListParams;
 
 const EVAL_GROUP: u32 = 64u;
 const MAX_GROUPS_X: u32 = 65535u;
@@ -352,7 +361,8 @@ fn list_args() {
     list.groups_z = 1u;
 }
 
-// Adds v (>= 0) to the 64-bit fixed-point sum at words k, k + 1.
+// Adds v (>= 0, in units) to the 64-bit fixed-point sum at words k, k + 1: the low word
+// counts 2⁻³² of a unit.
 fn add_fixed(k: u32, v: f32) {
     let whole = floor(v);
     let lo = u32(min((v - whole) * 4294967296.0, 4294967040.0));
@@ -381,7 +391,7 @@ fn evaluate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     let l = volume_light(v, cr, gp.xyz, n, u32(gn.w), vec2<f32>(texel) + 0.5);
     if any(l > vec3<f32>(0.0)) {
         for (var c = 0u; c < 3u; c++) {
-            add_fixed(e.x * 6u + 2u * c, l[c]);
+            add_fixed(e.x * 6u + 2u * c, l[c] / list_params.unit);
         }
     }
 }
@@ -401,6 +411,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var c = 0u; c < 3u; c++) {
         l[c] = f32(atomicLoad(&sums[k + 2u * c + 1u])) + f32(atomicLoad(&sums[k + 2u * c])) * 2.3283064e-10;
     }
+    l *= list_params.unit;
     let overflow = atomicLoad(&list.count) > arrayLength(&entries);
     textureStore(caustics, gid.xy, vec4<f32>(l, select(1.0, 2.0, overflow)));
 }

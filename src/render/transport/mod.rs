@@ -232,6 +232,7 @@ impl TransportPipelines {
                 entry(13, frag, rw),
                 entry(14, frag, rw),
                 entry(15, frag, rw),
+                entry(16, frag, uniform),
             ],
         });
         let output_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -389,17 +390,50 @@ impl TransportPipelines {
 }
 
 /// The volumes buffer of a frame (never empty: a zero volume that covers nothing when there is
-/// none, so the binding stays valid).
-pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> wgpu::Buffer {
+/// none, so the binding stays valid) and the uniform of the list's sums.
+pub struct VolumeBuffers {
+    pub volumes: wgpu::Buffer,
+    /// `ListParams` of transport.wgsl: the fixed-point sums' unit.
+    params: wgpu::Buffer,
+}
+
+/// The fixed-point unit of a frame's sums: 2⁻⁸ of the largest flux density any volume carries
+/// over π (the radiance a white diffuse receiver sends under it). A sum holds up to 2³² units
+/// (1.7·10⁷ times that radiance, room for foci) in steps of 2⁻³² of a unit (~10⁻¹² of it),
+/// whatever units the scene's lights are in.
+pub fn sums_unit(volumes: &[Volume]) -> f32 {
+    let peak = volumes
+        .iter()
+        .flat_map(|v| v.flux_density.iter().map(|f| f.max_element()))
+        .filter(|f| f.is_finite())
+        .fold(0.0f32, f32::max);
+    (peak / std::f32::consts::PI * 2f32.powi(-8)).max(f32::MIN_POSITIVE)
+}
+
+pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> VolumeBuffers {
     let mut packed: Vec<GpuVolume> = volumes.iter().map(GpuVolume::pack).collect();
     if packed.is_empty() {
         packed.push(GpuVolume::zeroed());
     }
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("transport volumes"),
-        contents: bytemuck::cast_slice(&packed),
-        usage: wgpu::BufferUsages::STORAGE,
-    })
+    let init = |label, contents: &[u8], usage| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    VolumeBuffers {
+        volumes: init(
+            "transport volumes",
+            bytemuck::cast_slice(&packed),
+            wgpu::BufferUsages::STORAGE,
+        ),
+        params: init(
+            "transport list params",
+            bytemuck::cast_slice(&[sums_unit(volumes), 0.0, 0.0, 0.0]),
+            wgpu::BufferUsages::UNIFORM,
+        ),
+    }
 }
 
 /// Encodes the volume pass over the G-buffer `gbuf` (drawn before it, after the direct pass,
@@ -413,7 +447,7 @@ pub fn encode(
     scene: &SceneBuffers,
     globals: &wgpu::Buffer,
     blockers: &BlockerBuffers,
-    volumes: &wgpu::Buffer,
+    volumes: &VolumeBuffers,
     count: u32,
     blended: bool,
     targets: &Targets,
@@ -454,7 +488,7 @@ pub fn encode(
             },
             wgpu::BindGroupEntry {
                 binding: 12,
-                resource: volumes.as_entire_binding(),
+                resource: volumes.volumes.as_entire_binding(),
             },
             wgpu::BindGroupEntry {
                 binding: 13,
@@ -467,6 +501,10 @@ pub fn encode(
             wgpu::BindGroupEntry {
                 binding: 15,
                 resource: lists.sums.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 16,
+                resource: volumes.params.as_entire_binding(),
             },
         ],
     });
@@ -552,4 +590,28 @@ fn compute_pass<'e>(
     pass.set_bind_group(0, groups[0], &[]);
     pass.set_bind_group(1, groups[1], &[]);
     pass
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// The sums' unit follows the frame's brightest volume, so a scene lit a billion times more
+    /// dimly keeps the same relative precision; without volumes it is still positive.
+    #[test]
+    fn the_sums_unit_scales_with_the_light() {
+        let volume = |f: f32| Volume {
+            exits: [Vec3::ZERO; 3],
+            dirs: [Vec3::NEG_Y; 3],
+            flux_density: [Vec3::splat(f), Vec3::splat(0.5 * f), Vec3::ZERO],
+            source_area: 1.0,
+            length: 1.0,
+        };
+        let bright = sums_unit(&[volume(3.0), volume(1.0)]);
+        assert!((bright - 3.0 / std::f32::consts::PI / 256.0).abs() < 1e-6 * bright);
+        let dim = sums_unit(&[volume(3e-9), volume(1e-9)]);
+        assert!((dim / bright - 1e-9).abs() < 1e-12, "{dim} {bright}");
+        assert!(sums_unit(&[]) > 0.0);
+    }
 }
