@@ -108,13 +108,25 @@ fn csl_arrival(c: Csl, r: f32, side: f32, ux: f32, uy: f32, a: f32, b: f32, out:
 // Appends the ray from light-plane point (px, py) at radius r, with image value i and Eq. 4's
 // area ratio sigma (Csl::arrival).
 fn csl_push(c: Csl, r: f32, px: f32, py: f32, i: vec3<f32>, sigma: f32, out: ptr<function, CslArrivals>) {
+    let ray = csl_ray(c, r, px, py, i, sigma);
+    let k = (*out).count;
+    (*out).dir[k] = ray.dir;
+    (*out).density[k] = ray.density;
+    (*out).count = k + 1u;
+}
+
+// The ray from light-plane point (px, py) at radius r with image value i and area ratio sigma:
+// its unit travel direction and its flux per unit area perpendicular to it.
+struct CslRay {
+    dir: vec3<f32>,
+    density: vec3<f32>,
+}
+
+fn csl_ray(c: Csl, r: f32, px: f32, py: f32, i: vec3<f32>, sigma: f32) -> CslRay {
     let g = c.kappa + c.gamma * r;
     let u = c.x_axis * px + c.y_axis * py;
     let dir = normalize(c.axis - u * g);
-    let k = (*out).count;
-    (*out).dir[k] = dir;
-    (*out).density[k] = i / (sigma * max(dot(dir, c.axis), 1e-4));
-    (*out).count = k + 1u;
+    return CslRay(dir, i / (sigma * max(dot(dir, c.axis), 1e-4)));
 }
 
 // A receiver point in a CSL's frame (Csl::local): height z above the light plane, distance rho
@@ -162,6 +174,58 @@ fn csl_reach(c: Csl, a: f32, b: f32) -> f32 {
     return hmax;
 }
 
+// The candidate light-plane radii of the rays through a point at distance rho from the axis
+// where the ray map has coefficients a, b, and the side of the axis each leaves on: as Csl
+// radii() finds them (at most three, in its order; a candidate may still be off the image).
+struct CslCandidates {
+    radius: vec3<f32>,
+    side: vec3<f32>,
+    count: u32,
+}
+
+fn csl_candidates(rho: f32, a: f32, b: f32) -> CslCandidates {
+    var out: CslCandidates;
+    out.radius = vec3<f32>(0.0);
+    out.side = vec3<f32>(0.0);
+    out.count = 0u;
+    let linear = abs(a) <= 1e-9 * max(abs(b), 1e-30);
+    for (var s = 0; s < 2; s++) {
+        let side = select(-1.0, 1.0, s == 0);
+        let cc = side * rho;
+        if linear {
+            if b != 0.0 && out.count < 3u {
+                let r = cc / b;
+                if r > 0.0 {
+                    out.radius[out.count] = r;
+                    out.side[out.count] = side;
+                    out.count += 1u;
+                }
+            }
+            continue;
+        }
+        let disc = b * b - 4.0 * a * cc;
+        if disc < 0.0 {
+            continue;
+        }
+        let q = 0.5 * (b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+        if q != 0.0 {
+            let r1 = q / a;
+            if r1 > 0.0 && out.count < 3u {
+                out.radius[out.count] = r1;
+                out.side[out.count] = side;
+                out.count += 1u;
+            }
+            let r2 = cc / q;
+            if r2 > 0.0 && out.count < 3u {
+                out.radius[out.count] = r2;
+                out.side[out.count] = side;
+                out.count += 1u;
+            }
+        }
+    }
+    return out;
+}
+
 // The rays of CSL c through point x.
 fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     var out: CslArrivals;
@@ -179,39 +243,9 @@ fn csl_arrivals(c: Csl, x: vec3<f32>) -> CslArrivals {
     if (rho > csl_reach(c, a, b) * 1.0001 + 1e-7) {
         return out;
     }
-    // Radii are collected as Csl radii() does (at most three), then turned into arrivals.
-    var found = 0u;
-    for (var s = 0; s < 2; s++) {
-        let side = select(-1.0, 1.0, s == 0);
-        let cc = side * rho;
-        if (abs(a) <= 1e-9 * max(abs(b), 1e-30)) {
-            if (b != 0.0 && found < 3u) {
-                let r = cc / b;
-                if (r > 0.0) {
-                    csl_arrival(c, r, side, ux, uy, a, b, &out);
-                    found += 1u;
-                }
-            }
-            continue;
-        }
-        let disc = b * b - 4.0 * a * cc;
-        if (disc < 0.0) {
-            continue;
-        }
-        let sgn = select(-1.0, 1.0, b >= 0.0);
-        let q = 0.5 * (b + sgn * sqrt(disc));
-        if (q != 0.0) {
-            let r1 = q / a;
-            if (r1 > 0.0 && found < 3u) {
-                csl_arrival(c, r1, side, ux, uy, a, b, &out);
-                found += 1u;
-            }
-            let r2 = cc / q;
-            if (r2 > 0.0 && found < 3u) {
-                csl_arrival(c, r2, side, ux, uy, a, b, &out);
-                found += 1u;
-            }
-        }
+    let cand = csl_candidates(rho, a, b);
+    for (var k = 0u; k < cand.count; k++) {
+        csl_arrival(c, cand.radius[k], cand.side[k], ux, uy, a, b, &out);
     }
     return out;
 }

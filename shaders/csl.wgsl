@@ -174,62 +174,22 @@ fn shade_point(c: Csl, l: CslLocal, r: Receiver, m: Material) -> vec3<f32> {
     if rho > csl_reach(c, a, b) * 1.0001 + 1e-7 {
         return vec3<f32>(0.0);
     }
-    // Up to three (radius, side) candidates, in csl_arrivals' order.
-    var radius = vec3<f32>(0.0);
-    var sides = vec3<f32>(0.0);
-    var found = 0u;
-    let linear = abs(a) <= 1e-9 * max(abs(b), 1e-30);
-    for (var s = 0; s < 2; s++) {
-        let side = select(-1.0, 1.0, s == 0);
-        let cc = side * rho;
-        if linear {
-            if b != 0.0 && found < 3u {
-                let r0 = cc / b;
-                if r0 > 0.0 {
-                    radius[found] = r0;
-                    sides[found] = side;
-                    found += 1u;
-                }
-            }
-            continue;
-        }
-        let disc = b * b - 4.0 * a * cc;
-        if disc < 0.0 {
-            continue;
-        }
-        let q = 0.5 * (b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
-        if q != 0.0 {
-            let r1 = q / a;
-            if r1 > 0.0 && found < 3u {
-                radius[found] = r1;
-                sides[found] = side;
-                found += 1u;
-            }
-            let r2 = cc / q;
-            if r2 > 0.0 && found < 3u {
-                radius[found] = r2;
-                sides[found] = side;
-                found += 1u;
-            }
-        }
-    }
+    let cand = csl_candidates(rho, a, b);
     var sum = vec3<f32>(0.0);
     let dr = c.half_extent / f32(c.size);
-    for (var k = 0u; k < found; k++) {
-        let rr = radius[k];
+    for (var k = 0u; k < cand.count; k++) {
+        let rr = cand.radius[k];
         if !(rr > 0.0) || rr > 3.0e38 {
             continue;
         }
-        let px = sides[k] * rr * l.ux;
-        let py = sides[k] * rr * l.uy;
+        let px = cand.side[k] * rr * l.ux;
+        let py = cand.side[k] * rr * l.uy;
         let i = csl_intensity(c, px, py);
         if i.x < 0.0 {
             continue;
         }
-        let sigma = csl_area_ratio(a, b, rr, dr);
-        let gg = c.kappa + c.gamma * rr;
-        let dir = normalize(c.axis - (c.x_axis * px + c.y_axis * py) * gg);
-        sum += shade_unoccluded(r, m, dir, i / (sigma * max(dot(dir, c.axis), 1e-4)));
+        let ray = csl_ray(c, rr, px, py, i, csl_area_ratio(a, b, rr, dr));
+        sum += shade_unoccluded(r, m, ray.dir, ray.density);
     }
     return sum;
 }

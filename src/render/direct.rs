@@ -49,13 +49,6 @@ pub struct Variant {
 }
 
 impl Variant {
-    /// Every feature compiled in.
-    pub const ALL: Variant = Variant {
-        env_map: true,
-        medium: true,
-        glossy: true,
-    };
-
     fn index(self) -> usize {
         self.env_map as usize | (self.medium as usize) << 1 | (self.glossy as usize) << 2
     }
