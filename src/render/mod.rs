@@ -937,6 +937,17 @@ fn caustics_pass<'e>(
         let k = t.pass(name);
         (&*t, k)
     });
+    caustics_pass_timed(enc, view, name, ts.map(|(t, k)| t.writes(k, true, true)))
+}
+
+/// [`caustics_pass`] with the timestamp writes given (a pass timed together with the ones after
+/// it writes only its beginning).
+fn caustics_pass_timed<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    name: &'static str,
+    timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
     enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(name),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -949,7 +960,7 @@ fn caustics_pass<'e>(
             },
         })],
         depth_stencil_attachment: None,
-        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
+        timestamp_writes,
         occlusion_query_set: None,
         multiview_mask: None,
     })

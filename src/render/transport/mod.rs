@@ -525,22 +525,12 @@ pub fn encode(
         (&*t, k)
     });
     {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("transport select"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &cv,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: ts.map(|(t, k)| t.writes(k, true, false)),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = super::caustics_pass_timed(
+            enc,
+            &cv,
+            "transport select",
+            ts.map(|(t, k)| t.writes(k, true, false)),
+        );
         if count > 0 {
             pass.set_pipeline(&p.select);
             pass.set_bind_group(0, &vbg, &[]);
