@@ -256,13 +256,14 @@ impl DeviceCache {
             let map = env.map.as_ref().map(|(m, _)| m.as_ref());
             self.env = Some(direct::EnvTexture::new(dev, queue, map, key));
         }
-        if plan.transport.is_some() {
+        if let Some(l) = plan.transport {
             self.transport
                 .get_or_insert_with(|| transport::TransportPipelines::new(dev))
                 .fit(
                     dev,
                     u64::from(size.0) * u64::from(size.1),
                     transport_list,
+                    l.volumes.len() as u64,
                     dev.limits().max_storage_buffer_binding_size,
                 );
         }

@@ -173,6 +173,7 @@ pub const LIST_ENTRIES_PER_PIXEL: u64 = 16;
 struct Lists {
     pixels: u64,
     per_pixel: u64,
+    capacity: u64,
     /// `ListState`: the count and the dispatch of `evaluate`.
     state: wgpu::Buffer,
     /// The dispatch copied out of `state` (one buffer cannot be a dispatch's storage and its
@@ -196,11 +197,19 @@ pub struct TransportPipelines {
     lists: Option<Lists>,
 }
 
-/// Bytes a pixel of the list (at most) and the sums take.
+/// Bytes a pixel of the list (at most) and the sums take; a volume's entries add
+/// [`LIST_ENTRIES_PER_VOLUME`] × 8 more.
 pub const LIST_BYTES_PER_PIXEL: u64 = LIST_ENTRIES_PER_PIXEL * 8 + 24;
 
-fn list_capacity(pixels: u64, per_pixel: u64, max_binding: u64) -> u64 {
-    (pixels * per_pixel).min(max_binding / 8).max(1)
+/// Entries of the list per illumination volume besides those per pixel: in a small image every
+/// volume still covers a pixel or a few (the canonical sphere's 34.7k volumes overflowed 16
+/// entries a pixel at 160 × 120).
+pub const LIST_ENTRIES_PER_VOLUME: u64 = 16;
+
+fn list_capacity(pixels: u64, per_pixel: u64, volumes: u64, max_binding: u64) -> u64 {
+    (pixels * per_pixel + volumes * per_pixel.min(LIST_ENTRIES_PER_VOLUME))
+        .min(max_binding / 8)
+        .max(1)
 }
 
 /// Vertices drawn per volume or beam (`HULL_VERTICES` of hull.inc.wgsl).
@@ -345,14 +354,22 @@ impl TransportPipelines {
         }
     }
 
-    /// Makes the list (`per_pixel` entries a pixel) and sums for frames of `pixels` pixels
-    /// (kept while they stay), no buffer over `max_binding` bytes.
-    pub fn fit(&mut self, device: &wgpu::Device, pixels: u64, per_pixel: u64, max_binding: u64) {
-        if self
-            .lists
-            .as_ref()
-            .is_some_and(|l| (l.pixels, l.per_pixel) == (pixels, per_pixel))
-        {
+    /// Makes the list (`per_pixel` entries a pixel, and as many a volume up to
+    /// [`LIST_ENTRIES_PER_VOLUME`], for `volumes` volumes) and sums for frames of `pixels`
+    /// pixels (kept while they are the same and the list is long enough), no buffer over
+    /// `max_binding` bytes.
+    pub fn fit(
+        &mut self,
+        device: &wgpu::Device,
+        pixels: u64,
+        per_pixel: u64,
+        volumes: u64,
+        max_binding: u64,
+    ) {
+        let capacity = list_capacity(pixels, per_pixel, volumes, max_binding);
+        if self.lists.as_ref().is_some_and(|l| {
+            (l.pixels, l.per_pixel) == (pixels, per_pixel) && l.capacity >= capacity
+        }) {
             return;
         }
         drop(self.lists.take());
@@ -369,17 +386,14 @@ impl TransportPipelines {
         self.lists = Some(Lists {
             pixels,
             per_pixel,
+            capacity,
             state: buffer("transport list state", 16, storage | copy),
             args: buffer(
                 "transport evaluate dispatch",
                 12,
                 wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
             ),
-            entries: buffer(
-                "transport list",
-                list_capacity(pixels, per_pixel, max_binding) * 8,
-                storage,
-            ),
+            entries: buffer("transport list", capacity * 8, storage),
             sums: buffer(
                 "transport sums",
                 pixels * 24,
