@@ -429,27 +429,40 @@ fn source_hash(world: &World, object: &Object, light: Vec3, params: &CslParams) 
 
 /// Hash of what a bake reads of an object: its scale, meshes and materials (not its rotation
 /// and translation: bakes work in the object's rigid frame).
+/// Remembered while the object's meshes live ([`crate::bake::memo_by_meshes`]).
 pub(crate) fn object_hash(world: &World, object: &Object) -> u64 {
-    let mut h = Fnv64::new();
     let (scale, _, _) = object.transform.to_scale_rotation_translation();
+    let material = |p: &crate::scene::Part| format!("{:?}", world.materials[p.material as usize]);
+    // What the hash reads besides the meshes' content.
+    let mut extra = Fnv64::new();
     for v in scale.to_array() {
-        h.write_f32(v);
+        extra.write_f32(v);
     }
     for p in &object.parts {
-        h.write_u32(p.mesh.positions.len() as u32);
-        for v in p.mesh.positions.iter().chain(&p.mesh.normals) {
-            for c in v.to_array() {
-                h.write_f32(c);
-            }
-        }
-        for t in &p.mesh.indices {
-            for c in t {
-                h.write_u32(*c);
-            }
-        }
-        h.write(format!("{:?}", world.materials[p.material as usize]).as_bytes());
+        extra.write(material(p).as_bytes());
     }
-    h.finish()
+    let meshes: Vec<_> = object.parts.iter().map(|p| &p.mesh).collect();
+    crate::bake::memo_by_meshes(&meshes, extra.finish(), || {
+        let mut h = Fnv64::new();
+        for v in scale.to_array() {
+            h.write_f32(v);
+        }
+        for p in &object.parts {
+            h.write_u32(p.mesh.positions.len() as u32);
+            for v in p.mesh.positions.iter().chain(&p.mesh.normals) {
+                for c in v.to_array() {
+                    h.write_f32(c);
+                }
+            }
+            for t in &p.mesh.indices {
+                for c in t {
+                    h.write_u32(*c);
+                }
+            }
+            h.write(material(p).as_bytes());
+        }
+        h.finish()
+    })
 }
 
 /// The light a static CSL bake is for: the scene's first directional light, as (unit travel
