@@ -1,5 +1,6 @@
 //! Load harness: N concurrent clients render a stored (cached) scene over loopback and the
-//! harness reports renders/s and p50/p99 latency. Bounded in requests and time.
+//! harness reports renders/s, p50/p99 latency, each Server-Timing stage's median and the
+//! median time a render spent outside the GPU passes. Bounded in requests and time.
 //!
 //! cargo run --example load -- [--clients 16] [--requests 400] [--method direct|reference|csl]
 //!     [--size 64] [--seconds 60] [--csl-grid 1280] [--url http://HOST:PORT]
@@ -104,6 +105,7 @@ async fn main() {
         tasks.push(tokio::spawn(async move {
             let mut lat = Vec::new();
             let mut errors = 0usize;
+            let mut timings = Vec::new();
             while next.fetch_add(1, Ordering::SeqCst) < requests && Instant::now() < deadline {
                 let t = Instant::now();
                 let r = c
@@ -113,21 +115,26 @@ async fn main() {
                     .await;
                 match r {
                     Ok(r) if r.status() == 200 => {
+                        if let Some(v) = r.headers().get("server-timing") {
+                            timings.push(server_timing(v.to_str().unwrap_or("")));
+                        }
                         let _ = r.bytes().await;
                         lat.push(t.elapsed());
                     }
                     _ => errors += 1,
                 }
             }
-            (lat, errors)
+            (lat, errors, timings)
         }));
     }
     let mut lat = Vec::new();
     let mut errors = 0;
+    let mut timings = Vec::new();
     for t in tasks {
-        let (l, e) = t.await.unwrap();
+        let (l, e, st) = t.await.unwrap();
         lat.extend(l);
         errors += e;
+        timings.extend(st);
     }
     let wall = t0.elapsed();
     lat.sort();
@@ -141,4 +148,60 @@ async fn main() {
         pct(0.5).as_secs_f64() * 1e3,
         pct(0.99).as_secs_f64() * 1e3,
     );
+    // Per render, from its Server-Timing: the median of each stage, and of the time the
+    // server worked on it outside the GPU passes: `request` less the waits for other renders
+    // (`queue`, `gpu_lock`) and the `gpu-*` stages.
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let mut names: Vec<&str> = Vec::new();
+    for t in &timings {
+        for (n, _) in t {
+            if !names.contains(&n.as_str()) {
+                names.push(n);
+            }
+        }
+    }
+    let stages: Vec<String> = names
+        .iter()
+        .map(|n| {
+            let v = timings
+                .iter()
+                .filter_map(|t| t.iter().find(|(m, _)| m == n).map(|(_, d)| *d))
+                .collect();
+            format!("{n} {:.3}", median(v))
+        })
+        .collect();
+    println!("median Server-Timing stages (ms): {}", stages.join(", "));
+    let outside = timings
+        .iter()
+        .filter_map(|t| {
+            let request = t.iter().find(|(n, _)| n == "request")?.1;
+            let other: f64 = t
+                .iter()
+                .filter(|(n, _)| n.starts_with("gpu-") || n == "queue" || n == "gpu_lock")
+                .map(|(_, d)| d)
+                .sum();
+            Some(request - other)
+        })
+        .collect::<Vec<_>>();
+    println!(
+        "per render outside the GPU passes (request less queue, gpu_lock and gpu-*): median \
+         {:.2} ms over {} renders",
+        median(outside.clone()),
+        outside.len()
+    );
+}
+
+/// The (name, milliseconds) of a Server-Timing header.
+fn server_timing(v: &str) -> Vec<(String, f64)> {
+    v.split(',')
+        .filter_map(|m| {
+            let mut parts = m.trim().split(';');
+            let name = parts.next()?.trim().to_string();
+            let dur = parts.find_map(|p| p.trim().strip_prefix("dur="))?;
+            Some((name, dur.parse().ok()?))
+        })
+        .collect()
 }
