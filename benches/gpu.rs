@@ -1,5 +1,6 @@
 //! GPU frame time: the direct renderer (shadow maps + direct/specular layers + readback) at
-//! 800×600 on the glass-sphere scene, and the same frame with the CSL caustics layer evaluated
+//! 800×600 on the glass-sphere scene (the same frame again, whose shadow maps the renderer
+//! keeps, and a frame whose light turned, which draws them), and the same frame with the CSL caustics layer evaluated
 //! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), and
 //! at 640×480 the transport-table caustics (method `transport`: per frame the illumination
 //! volumes and view refraction on the CPU, then the G-buffer and volume passes; a paper-settings
@@ -78,8 +79,23 @@ fn bench_direct(c: &mut Criterion) {
     println!("one frame's stages: {:?}", first.timings);
     let mut g = c.benchmark_group("gpu");
     g.sample_size(20).measurement_time(Duration::from_secs(15));
+    // The same frame again: the renderer keeps the shadow maps (scene and light unchanged).
     g.bench_function("direct_frame_800x600_glass_sphere", |b| {
         b.iter(|| renderer.render(&world, &opts).expect("render"))
+    });
+    // The light turns a little every frame: the shadow maps are drawn every frame.
+    let mut turning = world.clone();
+    let mut k = 0u32;
+    g.bench_function("direct_frame_800x600_glass_sphere_light_turning", |b| {
+        b.iter(|| {
+            k += 1;
+            turning.lights[0] = Light::Directional {
+                direction: Vec3::new(1.0, -1.2, 0.01 * (k % 2) as f32).normalize(),
+                irradiance: Vec3::splat(3.0),
+                angular_radius: 0.0,
+            };
+            renderer.render(&turning, &opts).expect("render")
+        })
     });
     let (dir, irradiance) =
         caustica::bake::csl::scene_directional_light(&world).expect("a directional light");

@@ -9,7 +9,9 @@
 # renderer (`caustica render --repeat`: the first frame is a warm-up that bakes, builds
 # pipelines and fills caches) and prints a table of medians over the other frames: each GPU
 # pass (timestamp queries, the `gpu:` stages; absent where the adapter has no timestamps), their
-# sum, and the whole frame as the CLI sees it (CPU work, uploads and readback included). Bakes
+# sum, and the whole frame as the CLI sees it (CPU work, uploads and readback included). The
+# light does not move between the frames, so they reuse the warm-up's shadow maps (no
+# `shadow_maps` pass after it), as an interactive client that orbits the camera would. Bakes
 # are made fresh (a private CAUSTICA_CACHE) and timed apart. The raw lines of every run stay
 # in the folder printed at the end.
 set -euo pipefail

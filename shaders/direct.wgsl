@@ -7,8 +7,9 @@
 // the reflected and (first-interface) refracted directions, or, under method transport, the
 // reflected environment plus what the vertices' refracted viewing rays see (the `view`
 // attribute, interpolated). Specular objects are 0 in `direct`,
-// receivers 0 in `specular`. `caustics` is cleared here; the caustics methods' passes write it
-// afterwards (method csl: csl.wgsl). Surfaces are one-sided like Mitsuba's BSDFs: seen from
+// receivers 0 in `specular`. `caustics` is cleared by this pass (rgb 0, alpha 1) and written by
+// no fragment of it; the caustics methods' passes write it afterwards (method csl: csl.wgsl).
+// Surfaces are one-sided like Mitsuba's BSDFs: seen from
 // the back, or lit from behind, they get nothing.
 
 #include "shadow_lookup.inc.wgsl"
@@ -34,10 +35,10 @@ struct VsOut {
     @location(3) view: vec4<f32>,
 }
 
+// Location 2, the caustics layer, is cleared by the pass and written by no fragment here.
 struct FsOut {
     @location(0) direct: vec4<f32>,
     @location(1) specular: vec4<f32>,
-    @location(2) caustics: vec4<f32>,
 }
 
 @vertex
@@ -90,7 +91,6 @@ fn fs_main(in: VsOut) -> FsOut {
     var out: FsOut;
     out.direct = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    out.caustics = vec4<f32>(0.0, 0.0, 0.0, 1.0);
 
     if m.kind == MAT_DIELECTRIC || m.kind == MAT_MIRROR {
         var ns = n;
@@ -169,6 +169,5 @@ fn fs_background(@builtin(position) frag: vec4<f32>) -> FsOut {
     // belongs to `direct`, as in the reference renderer.
     out.direct = vec4<f32>(env_radiance(d), 1.0);
     out.specular = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    out.caustics = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     return out;
 }

@@ -41,6 +41,14 @@ impl Frame {
         }
     }
 
+    /// Adds `o` (same size) to this frame, pixel by pixel: [`Frame::add`] without a new image.
+    pub fn add_assign(&mut self, o: &Frame) {
+        assert_eq!((self.width, self.height), (o.width, o.height));
+        for (a, b) in self.pixels.iter_mut().zip(&o.pixels) {
+            *a += *b;
+        }
+    }
+
     pub fn scale(&mut self, s: f32) {
         for p in &mut self.pixels {
             *p *= s;

@@ -458,6 +458,60 @@ impl GpuContext {
         Ok(out)
     }
 
+    /// Maps every MAP_READ buffer of `buffers` with one wait for the device, hands `f` each
+    /// one's bytes (its index and the mapped range, read in place) and unmaps them.
+    pub fn map_read_each(
+        &self,
+        device: &wgpu::Device,
+        buffers: &[&wgpu::Buffer],
+        mut f: impl FnMut(usize, &[u8]),
+    ) -> Result<(), GpuError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        for (i, b) in buffers.iter().enumerate() {
+            let tx = tx.clone();
+            b.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send((i, r));
+            });
+        }
+        drop(tx);
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Lost(format!("poll: {e}")))?;
+        let mut mapped = vec![false; buffers.len()];
+        let mut failed = None;
+        for (i, r) in rx.try_iter() {
+            match r {
+                Ok(()) => mapped[i] = true,
+                Err(e) => failed = Some(e.to_string()),
+            }
+        }
+        let result = match (failed, mapped.iter().all(|m| *m)) {
+            (Some(e), _) if self.is_lost() => Err(GpuError::Lost(e)),
+            (Some(e), _) => Err(GpuError::Map(e)),
+            (None, false) if self.is_lost() => Err(GpuError::Lost("map callback never ran".into())),
+            (None, false) => Err(GpuError::Map("map callback never ran".into())),
+            (None, true) => {
+                let mut r = Ok(());
+                for (i, b) in buffers.iter().enumerate() {
+                    match b.slice(..).get_mapped_range() {
+                        Ok(bytes) => f(i, &bytes),
+                        Err(e) => {
+                            r = Err(GpuError::Map(e.to_string()));
+                            break;
+                        }
+                    }
+                }
+                r
+            }
+        };
+        for (b, m) in buffers.iter().zip(&mapped) {
+            if *m {
+                b.unmap();
+            }
+        }
+        result
+    }
+
     /// Maps a MAP_READ buffer, waits for it and returns a copy of its bytes.
     pub fn map_read(
         &self,

@@ -417,10 +417,10 @@ impl Frames {
     /// The frames of a GPU render.
     pub fn from_output(out: RenderOutput, timings: Vec<(String, Duration)>) -> Frames {
         Frames {
-            layers: out.components(),
-            timings,
             notes: vec![format!("adapter: {}", out.adapter)],
-            adapter: out.adapter,
+            adapter: out.adapter.clone(),
+            layers: out.into_components(),
+            timings,
             statistics: None,
         }
     }

@@ -3,7 +3,7 @@
 //! for what each holds; the caustics methods' passes write that layer afterwards), then the
 //! visible environment behind everything.
 
-use super::csl::CslBuffers;
+use super::csl::GpuCsl;
 use super::lights::{GpuLight, LightPlan};
 use super::scene::{SceneBuffers, vertex_layout};
 use super::shaders;
@@ -178,7 +178,14 @@ impl DirectPipelines {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         });
-        let targets = [hdr_target.clone(), hdr_target.clone(), hdr_target];
+        // The caustics layer is cleared by the pass (to alpha 1, as the shader used to write
+        // it) and written by no fragment here: no shader output, nothing written.
+        let caustics_target = Some(wgpu::ColorTargetState {
+            format: HDR_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::empty(),
+        });
+        let targets = [hdr_target.clone(), hdr_target, caustics_target];
         let primitive = wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
             cull_mode: None,
@@ -348,10 +355,11 @@ pub fn camera_near_far(eye: Vec3, lo: Vec3, hi: Vec3) -> (f32, f32) {
 pub struct FrameBuffers {
     pub globals: wgpu::Buffer,
     pub lights: wgpu::Buffer,
+    /// The CSLs' parameters ([`super::csl::pack_params`]; their images are kept with the
+    /// device's resources).
     pub csls: wgpu::Buffer,
     /// Caustic spot lights to evaluate (0: the CSL passes do not run).
     pub csl_count: u32,
-    pub csl_texels: wgpu::Buffer,
 }
 
 impl FrameBuffers {
@@ -359,7 +367,7 @@ impl FrameBuffers {
         device: &wgpu::Device,
         globals: &Globals,
         plan: &LightPlan,
-        csl: &CslBuffers,
+        csls: &[GpuCsl],
     ) -> FrameBuffers {
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -385,15 +393,10 @@ impl FrameBuffers {
             ),
             csls: init(
                 "csls",
-                bytemuck::cast_slice(&csl.params),
+                bytemuck::cast_slice(csls),
                 wgpu::BufferUsages::STORAGE,
             ),
             csl_count: globals.counts[3],
-            csl_texels: init(
-                "csl texels",
-                bytemuck::cast_slice(&csl.texels),
-                wgpu::BufferUsages::STORAGE,
-            ),
         }
     }
 }
@@ -471,7 +474,19 @@ pub fn encode(
     });
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("direct"),
-        color_attachments: &[clear(&dv), clear(&sv), clear(&cv)],
+        color_attachments: &[
+            clear(&dv),
+            clear(&sv),
+            Some(wgpu::RenderPassColorAttachment {
+                view: &cv,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            }),
+        ],
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &depth,
             depth_ops: Some(wgpu::Operations {

@@ -4,7 +4,8 @@
 //! - `direct`: receivers lit by every light, with shadows ([`shadow`], [`direct`]);
 //! - `specular`: the specular objects themselves and the visible environment ([`direct`]);
 //! - `caustics`: the caustics methods' layer (`None` when none ran); method `csl` evaluates
-//!   its caustic spot lights per pixel in the direct pass ([`csl`], [`Renderer::render_csl`]);
+//!   its caustic spot lights per pixel in compute passes after a G-buffer ([`csl`],
+//!   [`Renderer::render_csl`]);
 //!   method `transport` draws the illumination volumes of its light transport tables over a
 //!   G-buffer of the receivers in a pass after it ([`transport`],
 //!   [`Renderer::render_transport`]); method `pinhole` projects the light its reflector points
@@ -14,12 +15,15 @@
 //!   pass and splats them over it, frame after frame, after the frame's other passes
 //!   ([`photons`], [`Renderer::render_photons`]).
 //!
-//! The frame is `direct + caustics + specular + volume + volume_caustics`
+//! The frame is `direct + specular + caustics + volume + volume_caustics`
 //! ([`RenderOutput::total`]). A frame is first a
 //! [`FramePlan`] (every check and limit, no device), then passes encoded into one command
-//! buffer with their GPU times ([`timestamps`]). The pipelines are built once per device; the
-//! targets are kept per image size, the scene's buffers and the occluders per scene
-//! ([`scene::SceneCache`]). Each pass module has its shader of the same name in `shaders/`.
+//! buffer with their GPU times ([`timestamps`]), the copies of the layers read back at its end.
+//! The pipelines are built once per device; the targets and the staging buffers are kept per
+//! image size, the scene's buffers and the occluders per scene ([`scene::SceneCache`]), the
+//! shadow maps per scene and light views (a frame that moved only the camera draws no shadow
+//! pass), a CSL layer's images per [`CslLayer::images_key`]. Each pass module has its shader of
+//! the same name in `shaders/`.
 
 pub mod beams;
 pub mod blockers;
@@ -49,6 +53,7 @@ use crate::scene::World;
 use glam::Vec3;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
+use wgpu::util::DeviceExt;
 
 /// The caustics method of a frame.
 #[derive(Clone, Copy, Debug, Default)]
@@ -144,32 +149,43 @@ impl RenderOutput {
     /// Every component, in [`Component::ALL`]'s order (`indirect`, which no GPU pass computes,
     /// and the others when no pass made them, are black).
     pub fn components(&self) -> Vec<(Component, Frame)> {
-        let black = || Frame::new(self.direct.width, self.direct.height);
+        self.clone().into_components()
+    }
+
+    /// [`Self::components`], the layers moved into it instead of copied.
+    pub fn into_components(self) -> Vec<(Component, Frame)> {
+        let (w, h) = (self.direct.width, self.direct.height);
+        let mut total = Some(self.total());
+        let mut direct = Some(self.direct);
+        let mut specular = Some(self.specular);
+        let (mut caustics, mut volume_caustics, mut volume) =
+            (self.caustics, self.volume_caustics, self.volume);
         Component::ALL
             .into_iter()
             .map(|c| {
                 let f = match c {
-                    Component::Total => self.total(),
-                    Component::Direct => self.direct.clone(),
-                    Component::Caustics => self.caustics.clone().unwrap_or_else(black),
-                    Component::Specular => self.specular.clone(),
-                    Component::VolumeCaustics => self.volume_caustics.clone().unwrap_or_else(black),
-                    Component::Volume => self.volume.clone().unwrap_or_else(black),
-                    Component::Indirect => black(),
+                    Component::Total => total.take(),
+                    Component::Direct => direct.take(),
+                    Component::Caustics => caustics.take(),
+                    Component::Specular => specular.take(),
+                    Component::VolumeCaustics => volume_caustics.take(),
+                    Component::Volume => volume.take(),
+                    Component::Indirect => None,
                 };
-                (c, f)
+                (c, f.unwrap_or_else(|| Frame::new(w, h)))
             })
             .collect()
     }
 
-    /// direct + caustics + specular + volume + volume_caustics.
+    /// direct + specular + caustics + volume + volume_caustics, summed in that order.
     pub fn total(&self) -> Frame {
-        let mut t = self.direct.add(&self.specular);
+        let mut t = self.direct.clone();
+        t.add_assign(&self.specular);
         for c in [&self.caustics, &self.volume, &self.volume_caustics]
             .into_iter()
             .flatten()
         {
-            t = t.add(c);
+            t.add_assign(c);
         }
         t
     }
@@ -203,11 +219,15 @@ struct DeviceCache {
     /// Built on the first csl frame; the scratch kept per size and CSL word count.
     csl: Option<csl::pass::CslPipelines>,
     csl_scratch: Option<csl::pass::CslScratch>,
+    /// The CSLs' packed intensity images and the [`csl::CslLayer::images_key`] they were
+    /// uploaded under (None: the last frame's, uploaded for it alone).
+    csl_images: Option<(Option<u64>, wgpu::Buffer)>,
     /// Built on the first frame that needs a G-buffer (transport, pinhole, water, beams,
     /// photons).
     gbuffer_pipeline: Option<gbuffer::GBufferPipeline>,
     /// Kept per image size.
     targets: Option<direct::Targets>,
+    staging: Option<Staging>,
     gbuffer: Option<gbuffer::GBuffer>,
     /// Grown as needed.
     atlas: Option<shadow::ShadowAtlas>,
@@ -236,6 +256,14 @@ impl DeviceCache {
             .is_none_or(|t| (t.width, t.height) != size)
         {
             self.targets = Some(direct::Targets::new(dev, size.0, size.1));
+        }
+        if self
+            .staging
+            .as_ref()
+            .is_none_or(|s| (s.width, s.height) != size)
+        {
+            drop(self.staging.take());
+            self.staging = Some(Staging::new(dev, size.0, size.1));
         }
         let n_layers = plan.lights.layers.len() as u32;
         if !self
@@ -297,6 +325,17 @@ impl DeviceCache {
             {
                 drop(self.csl_scratch.take());
                 self.csl_scratch = Some(csl::pass::CslScratch::new(dev, pixels, c.csls.len()));
+            }
+            let key = c.images_key();
+            if key.is_none() || self.csl_images.as_ref().is_none_or(|(k, _)| *k != key) {
+                drop(self.csl_images.take());
+                let words = csl::pack_texels(&c.csls);
+                let buffer = dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("csl images"),
+                    contents: bytemuck::cast_slice(&words),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                self.csl_images = Some((key, buffer));
             }
         }
         if plan.needs_gbuffer() {
@@ -380,8 +419,10 @@ impl Renderer {
             photons: None,
             csl: None,
             csl_scratch: None,
+            csl_images: None,
             gbuffer_pipeline: None,
             targets: None,
+            staging: None,
             gbuffer: None,
             atlas: None,
             env: None,
@@ -559,14 +600,21 @@ impl Renderer {
         caustics: Caustics,
         attempt: Attempt,
     ) -> Result<(RenderOutput, FrameReport), RenderError> {
-        match self.render_once(world, opts, caustics, attempt) {
+        let r = match self.render_once(world, opts, caustics, attempt) {
             Err(RenderError::Gpu(e)) if matches!(e, GpuError::Lost(_)) || self.ctx.is_lost() => {
                 tracing::warn!(error = %e, "render failed on a lost device; retrying on a new one");
                 self.ctx.mark_lost();
                 self.render_once(world, opts, caustics, attempt)
             }
             r => r,
+        };
+        if r.is_err() {
+            // The shadow pass may have been encoded and never run: draw it next frame.
+            if let Some(a) = &mut self.cache.atlas {
+                a.invalidate();
+            }
         }
+        r
     }
 
     fn render_once(
@@ -590,7 +638,7 @@ impl Renderer {
             &DeviceLimits::of(&self.ctx, &h.device),
         )?;
         let (width, height) = (plan.width, plan.height);
-        let csl = csl::CslBuffers::new(plan.csl.as_ref().map_or(&[], |c| &c.csls[..]));
+        let csl_params = csl::pack_params(plan.csl.as_ref().map_or(&[], |c| &c.csls[..]));
 
         // Prepare: the resources kept between frames, then this frame's buffers.
         let dev = &h.device;
@@ -606,7 +654,7 @@ impl Renderer {
             self.ctx.scoped(dev, || {
                 let (_, generation) = c.scene.prepare(dev, &h.queue, world, plan.transport);
                 (
-                    direct::FrameBuffers::upload(dev, &plan.globals, &plan.lights, &csl),
+                    direct::FrameBuffers::upload(dev, &plan.globals, &plan.lights, &csl_params),
                     plan.transport
                         .map(|l| transport::upload_volumes(dev, &l.volumes)),
                     plan.pinhole.zip(c.pinhole.as_ref()).map(|(l, p)| {
@@ -622,28 +670,40 @@ impl Renderer {
             c.occluders
                 .prepare(dev, world, generation, plan.caustic_objects)
         })?;
-        let (Some(scene), Some(targets), Some(atlas), Some(env)) =
-            (c.scene.buffers(), &c.targets, &c.atlas, &c.env)
-        else {
+        let (Some(scene), Some(targets), Some(staging), Some(atlas), Some(env)) = (
+            c.scene.buffers(),
+            &c.targets,
+            &c.staging,
+            &mut c.atlas,
+            &c.env,
+        ) else {
             unreachable!("made above");
         };
         timings.push(("prepare".to_string(), t0.elapsed()));
 
-        // Encode and submit.
+        // Encode and submit. The layers read back: direct, specular, caustics.
+        let layers = [
+            opts.components.direct,
+            opts.components.specular,
+            plan.has_caustics(),
+        ];
         let t1 = Instant::now();
         self.ctx.scoped(dev, || {
             let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
+            // Skipped when the array holds this scene's depths for these light views already.
             shadow::encode(
                 dev,
                 &mut enc,
                 &c.shadow,
                 scene,
+                generation,
                 &plan.lights,
                 atlas,
                 ts.as_mut(),
             );
+            let atlas = &*atlas;
             direct::encode(
                 dev,
                 &mut enc,
@@ -661,14 +721,18 @@ impl Renderer {
             {
                 gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals, ts.as_mut());
             }
-            if let (true, Some(cp), Some(cs), Some(gb)) =
-                (frame.csl_count > 0, &c.csl, &c.csl_scratch, &c.gbuffer)
-            {
+            if let (true, Some(cp), Some(cs), Some((_, images)), Some(gb)) = (
+                frame.csl_count > 0,
+                &c.csl,
+                &c.csl_scratch,
+                &c.csl_images,
+                &c.gbuffer,
+            ) {
                 let inputs = csl::pass::CslInputs {
                     globals: &frame.globals,
                     materials: &scene.materials,
                     csls: &frame.csls,
-                    texels: &frame.csl_texels,
+                    texels: images,
                     blockers,
                     glossy: plan.glossy,
                 };
@@ -750,6 +814,15 @@ impl Renderer {
                     ts.as_mut(),
                 );
             }
+            // The layers read back, copied at the end of the frame's own commands.
+            for (k, t) in [&targets.direct, &targets.specular, &targets.caustics]
+                .into_iter()
+                .enumerate()
+            {
+                if layers[k] {
+                    staging.copy(&mut enc, k, t);
+                }
+            }
             if let Some(t) = &ts {
                 t.resolve(&mut enc);
             }
@@ -768,32 +841,40 @@ impl Renderer {
         }
 
         let t3 = Instant::now();
-        // A frame, and the pixels whose alpha is above 1.5 (the direct pass leaves 1 in every
-        // pixel; each pinhole draw whose loop over points was ended early adds 1).
-        let read = |on: bool, t: &wgpu::Texture| -> Result<(Frame, usize), RenderError> {
-            if !on {
-                return Ok((Frame::new(width, height), 0));
-            }
+        // Beams' own layers, read one by one.
+        let read = |t: &wgpu::Texture| -> Result<Frame, RenderError> {
             let px = self.ctx.readback_rgba32f(t)?;
-            let flagged = px.iter().filter(|p| p[3] > 1.5).count();
-            let frame = Frame {
+            Ok(Frame {
                 width,
                 height,
                 pixels: px
                     .into_iter()
                     .map(|p| Vec3::new(p[0], p[1], p[2]))
                     .collect(),
-            };
-            Ok((frame, flagged))
+            })
         };
-        let (direct_frame, _) = read(opts.components.direct, &targets.direct)?;
-        let (specular_frame, _) = read(opts.components.specular, &targets.specular)?;
+        let wanted: Vec<usize> = (0..layers.len()).filter(|&k| layers[k]).collect();
+        let mut read_back: [Option<(Frame, usize)>; 3] = Default::default();
+        self.ctx.map_read_each(
+            dev,
+            &wanted
+                .iter()
+                .map(|&k| &staging.buffers[k])
+                .collect::<Vec<_>>(),
+            |i, bytes| read_back[wanted[i]] = Some(staging.frame(bytes)),
+        )?;
+        let [direct_read, specular_read, caustics_read] = read_back;
+        if staging.bytes() > KEEP_STAGING_BYTES {
+            c.staging = None;
+        }
+        let black = || Frame::new(width, height);
+        let direct_frame = direct_read.map_or_else(black, |r| r.0);
+        let specular_frame = specular_read.map_or_else(black, |r| r.0);
         let mut report = FrameReport {
             pinhole: None,
             transport_overflow: 0,
         };
-        let caustics_frame = if plan.has_caustics() {
-            let (f, flagged) = read(true, &targets.caustics)?;
+        let caustics_frame = if let Some((f, flagged)) = caustics_read {
             // The pinhole pass reports loops ended early in the layer's alpha; the transport
             // gather the pixels whose list of volumes overflowed.
             report.pinhole = pinhole_buffers.as_ref().map(|b| PinholeDraws {
@@ -833,10 +914,10 @@ impl Renderer {
         };
         let (volume_caustics, volume) = match (&plan.beams, &c.beams) {
             (Some(l), Some(bp)) => (
-                Some(read(true, bp.volume())?.0),
+                Some(read(bp.volume())?),
                 // The in-scattering pass runs where the scene has a medium.
                 if l.medium.half[0] > 0.0 {
-                    Some(read(true, bp.inscatter())?.0)
+                    Some(read(bp.inscatter())?)
                 } else {
                     None
                 },
@@ -861,6 +942,100 @@ impl Renderer {
             },
             report,
         ))
+    }
+}
+
+/// The buffers the layers a frame reads back (direct, specular, caustics) are copied into at
+/// the end of its command buffer, rows padded to 256 bytes: kept per image size with the
+/// targets (up to [`KEEP_STAGING_BYTES`]), so that a frame allocates no staging memory and
+/// waits for the device once.
+struct Staging {
+    width: u32,
+    height: u32,
+    /// Bytes a row takes in the buffers.
+    padded: u64,
+    buffers: [wgpu::Buffer; 3],
+}
+
+/// Staging buffers up to this size (the three together) are kept for the next frame; larger
+/// ones (past about 2.8 megapixels) are freed after their frame, so that one large render does
+/// not leave a service holding their memory.
+const KEEP_STAGING_BYTES: u64 = 128 << 20;
+
+impl Staging {
+    fn bytes(&self) -> u64 {
+        self.buffers.iter().map(|b| b.size()).sum()
+    }
+
+    fn new(device: &wgpu::Device, width: u32, height: u32) -> Staging {
+        let padded =
+            (u64::from(width) * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
+        let buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: padded * u64::from(height),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        Staging {
+            width,
+            height,
+            padded,
+            buffers: [
+                buffer("direct readback"),
+                buffer("specular readback"),
+                buffer("caustics readback"),
+            ],
+        }
+    }
+
+    /// Copies `texture` (Rgba32Float, this size) into buffer `k`.
+    fn copy(&self, enc: &mut wgpu::CommandEncoder, k: usize, texture: &wgpu::Texture) {
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.buffers[k],
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded as u32),
+                    rows_per_image: Some(self.height),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    /// The frame in a buffer's mapped `bytes`, and how many of its pixels have an alpha above
+    /// 1.5 (the direct pass leaves 1 in every pixel; each pinhole draw whose loop over points
+    /// was ended early adds 1; the transport gather flags the pixels whose list overflowed).
+    fn frame(&self, bytes: &[u8]) -> (Frame, usize) {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut pixels = Vec::with_capacity(w * h);
+        let mut flagged = 0;
+        for y in 0..h {
+            let start = y * self.padded as usize;
+            let row: &[f32] = bytemuck::cast_slice(&bytes[start..start + w * 16]);
+            for p in row.chunks_exact(4) {
+                flagged += usize::from(p[3] > 1.5);
+                pixels.push(Vec3::new(p[0], p[1], p[2]));
+            }
+        }
+        let frame = Frame {
+            width: self.width,
+            height: self.height,
+            pixels,
+        };
+        (frame, flagged)
     }
 }
 

@@ -61,6 +61,17 @@ pub struct CslFrame<'a> {
     pub layer: &'a CslLayer,
 }
 
+impl CslFrame<'_> {
+    /// The layer's [`CslLayer::images_key`] where the frame evaluates the layer's own images
+    /// (None where they were made coarser to fit: those are uploaded every frame).
+    pub fn images_key(&self) -> Option<u64> {
+        match self.csls {
+            Cow::Borrowed(_) => self.layer.images_key,
+            Cow::Owned(_) => None,
+        }
+    }
+}
+
 /// Everything decided about a frame before the GPU sees it.
 pub struct FramePlan<'a> {
     pub width: u32,
@@ -518,6 +529,7 @@ mod tests {
             csls: vec![],
             irradiance: glam::Vec3::splat(2.0),
             caustic_objects: vec![0],
+            images_key: None,
         };
         let p = FramePlan::new(
             &w,

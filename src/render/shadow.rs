@@ -90,6 +90,31 @@ pub struct ShadowAtlas {
     pub resolution: u32,
     pub layers: u32,
     pub texture: wgpu::Texture,
+    /// What the array holds: the scene generation and the layers last drawn into it. A frame
+    /// whose scene and light views are the same (only the camera, the caustics or the image
+    /// size changed) draws no shadow pass.
+    drawn: Option<ShadowKey>,
+}
+
+/// The scene generation ([`super::scene::SceneCache`]) and every layer's matrix and
+/// visibility: all that the depths in the array depend on.
+#[derive(Clone, Debug, PartialEq)]
+struct ShadowKey {
+    generation: u64,
+    layers: Vec<([f32; 16], bool)>,
+}
+
+impl ShadowKey {
+    fn of(generation: u64, lights: &LightPlan) -> ShadowKey {
+        ShadowKey {
+            generation,
+            layers: lights
+                .layers
+                .iter()
+                .map(|l| (l.view_proj.to_cols_array(), l.visible))
+                .collect(),
+        }
+    }
 }
 
 impl ShadowAtlas {
@@ -118,7 +143,13 @@ impl ShadowAtlas {
             resolution,
             layers,
             texture,
+            drawn: None,
         }
+    }
+
+    /// Forgets what the array holds: the next frame draws its shadow pass whatever its key.
+    pub fn invalidate(&mut self) {
+        self.drawn = None;
     }
 
     pub fn fits(&self, resolution: u32, layers: u32) -> bool {
@@ -139,20 +170,30 @@ impl ShadowAtlas {
 }
 
 /// Encodes one depth pass per layer of `lights` (none without shadowed lights); the first
-/// begins and the last ends the `shadow_maps` timing.
+/// begins and the last ends the `shadow_maps` timing. Nothing is encoded when `atlas` already
+/// holds these layers of scene generation `generation` (the frame before drew them); returns
+/// whether the pass was encoded. The caller submits what was encoded, or
+/// [`ShadowAtlas::invalidate`]s the array.
+#[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
     enc: &mut wgpu::CommandEncoder,
     p: &ShadowPipeline,
     scene: &SceneBuffers,
+    generation: u64,
     lights: &LightPlan,
-    atlas: &ShadowAtlas,
+    atlas: &mut ShadowAtlas,
     timestamps: Option<&mut Timestamps>,
-) {
+) -> bool {
     let n_layers = lights.layers.len();
     if n_layers == 0 {
-        return;
+        return false;
     }
+    let key = ShadowKey::of(generation, lights);
+    if atlas.drawn.as_ref() == Some(&key) {
+        return false;
+    }
+    atlas.drawn = Some(key);
     let mut bytes = vec![0u8; n_layers * LAYER_STRIDE as usize];
     for (i, l) in lights.layers.iter().enumerate() {
         let at = i * LAYER_STRIDE as usize;
@@ -214,4 +255,5 @@ pub fn encode(
             pass.draw_indexed(0..scene.index_count, 0, 0..1);
         }
     }
+    true
 }

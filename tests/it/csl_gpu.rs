@@ -172,3 +172,51 @@ fn per_pixel_caustics_layer_matches_the_cpu_and_is_occluded() {
     assert!(walled[0] < 0.5 * open[0], "{walled:?} vs {open:?}");
     assert!(walled[1] > 0.85 * open[1], "{walled:?} vs {open:?}");
 }
+
+/// The renderer keeps a CSL layer's images on the device between frames, by the layer's
+/// `images_key`: frames of layers with other images (another key, or none) after it are those
+/// of a fresh renderer, and so is the first layer's frame again after them.
+#[test]
+fn csl_images_kept_between_frames_follow_the_layer() {
+    use caustica::methods::{ArtifactStore, csl};
+    use caustica::render::{CslLayer, RenderOptions};
+    let world = sphere_scene(false, false);
+    let (dir, irradiance) = scenes::directional_light(&world);
+    let params =
+        csl::BakeParams::parse(&serde_json::json!({"preset": "fast", "grid": 128}), "").unwrap();
+    let sets =
+        csl::sets_for_render(&world, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
+    let a = CslLayer::new(&world, &[(sets[0].object, &*sets[0].set)], irradiance);
+    assert!(a.images_key.is_some());
+    // The same CSLs with other images: every texel halved.
+    let dimmed = |key| {
+        let mut l = a.clone();
+        for c in &mut l.csls {
+            for t in &mut c.texels {
+                for v in t.iter_mut() {
+                    *v /= 2;
+                }
+            }
+        }
+        l.images_key = key;
+        l
+    };
+    let b = dimmed(Some(a.images_key.unwrap() ^ 1));
+    let c = dimmed(None);
+    let opts = RenderOptions::default();
+    let frame = |r: &mut caustica::render::Renderer, l: &CslLayer| {
+        r.render_csl(&world, &opts, Some(l))
+            .unwrap()
+            .caustics
+            .expect("caustics layer")
+    };
+    let want_a = frame(&mut gpu::renderer(), &a);
+    let want_b = frame(&mut gpu::renderer(), &b);
+    assert!(want_a != want_b, "the other images show");
+    let mut r = gpu::renderer();
+    assert!(frame(&mut r, &a) == want_a, "a");
+    assert!(frame(&mut r, &b) == want_b, "b after a: another key");
+    assert!(frame(&mut r, &a) == want_a, "a after b");
+    assert!(frame(&mut r, &c) == want_b, "c after a: no key");
+    assert!(frame(&mut r, &a) == want_a, "a after c");
+}

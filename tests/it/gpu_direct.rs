@@ -647,9 +647,11 @@ fn wide_spot_uses_cube_shadows_and_matches_cpu() {
     );
 }
 
-/// The renderer keeps the scene's buffers and occluders between frames of the same scene: a
-/// frame after other scenes, after the same scene moved, and after a transport frame (whose
-/// glass vertices carry the radiance seen through them) is the frame a fresh renderer makes.
+/// The renderer keeps the scene's buffers and occluders between frames of the same scene, and
+/// the shadow maps between frames of the same scene and light views: a frame after other
+/// scenes, after the same scene moved, lit from elsewhere or seen from elsewhere, and after a
+/// transport frame (whose glass vertices carry the radiance seen through them) is the frame a
+/// fresh renderer makes; a frame whose only change is the camera draws no shadow pass.
 #[test]
 fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
     use caustica::bake::transport::{TransportParams, bake_transport};
@@ -661,6 +663,14 @@ fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
     let mut b = a.clone();
     b.objects[1].transform =
         Mat4::from_translation(Vec3::new(0.6, 0.0, -0.3)) * b.objects[1].transform;
+    // The same scene lit from elsewhere, and seen from elsewhere.
+    let mut lit = a.clone();
+    let Light::Directional { direction, .. } = &mut lit.lights[0] else {
+        panic!("the canonical scene has a directional light")
+    };
+    *direction = Vec3::new(-0.6, -1.0, 0.3).normalize();
+    let mut seen = a.clone();
+    seen.camera.eye += Vec3::new(0.5, 0.3, -0.2);
     let table = bake_transport(&a, "glass", &TransportParams::paper(), &|_| true).unwrap();
     let layer = TransportLayer::build(&a, &[(1, &table)], DEFAULT_LINE_POINTS).unwrap();
     let opts = RenderOptions::default();
@@ -672,6 +682,8 @@ fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
     };
     let (want_a, _) = fresh(&a, Caustics::None);
     let (want_b, _) = fresh(&b, Caustics::None);
+    let (want_lit, _) = fresh(&lit, Caustics::None);
+    let (want_seen, _) = fresh(&seen, Caustics::None);
     let (want_t, want_t_specular) = fresh(&a, Caustics::Transport(&layer));
     // Frames compared pixel for pixel; a failure names the largest difference.
     let same = |got: &Frame, want: &Frame, what: &str| {
@@ -687,15 +699,30 @@ fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
         );
     };
     assert!(want_a != want_b, "the move shows");
+    assert!(want_a != want_lit, "the light's turn shows");
     let mut r = crate::support::gpu::renderer();
+    // The frame, its glass, and whether it drew the shadow pass where the adapter times passes.
     let mut frame = |w: &World, c: Caustics| {
         let out = r.render_with(w, &opts, c).unwrap();
-        (out.total(), out.specular)
+        let timed = out.timings.iter().any(|(n, _)| n.starts_with("gpu:"));
+        let drawn = timed.then(|| out.timings.iter().any(|(n, _)| n == "gpu:shadow_maps"));
+        (out.total(), out.specular, drawn)
     };
     same(&frame(&a, Caustics::None).0, &want_a, "a");
     same(&frame(&b, Caustics::None).0, &want_b, "b after a");
     same(&frame(&a, Caustics::None).0, &want_a, "a after b");
-    let (t, t_specular) = frame(&a, Caustics::Transport(&layer));
+    let (got, _, drawn) = frame(&lit, Caustics::None);
+    same(&got, &want_lit, "a lit from elsewhere after a");
+    assert_ne!(drawn, Some(false), "a turned light draws the shadow pass");
+    same(
+        &frame(&a, Caustics::None).0,
+        &want_a,
+        "a after a lit from elsewhere",
+    );
+    let (got, _, drawn) = frame(&seen, Caustics::None);
+    same(&got, &want_seen, "a seen from elsewhere after a");
+    assert_ne!(drawn, Some(true), "a moved camera keeps the shadow maps");
+    let (t, t_specular, _) = frame(&a, Caustics::Transport(&layer));
     same(&t, &want_t, "a with transport");
     same(&t_specular, &want_t_specular, "a's glass with transport");
     let plain = frame(&a, Caustics::None);

@@ -24,6 +24,10 @@ pub struct CslLayer {
     /// Indices into `World::objects` of the caustic objects: they do not occlude their own
     /// caustic light; every other object does.
     pub caustic_objects: Vec<usize>,
+    /// Names the CSLs' intensity images (the sets they came from, by content hash), so that
+    /// the renderer keeps them on the device between frames and uploads only the CSLs' few
+    /// parameters; None: uploaded every frame.
+    pub images_key: Option<u64>,
 }
 
 impl CslLayer {
@@ -32,14 +36,26 @@ impl CslLayer {
     pub fn new(world: &World, sets: &[(usize, &CslSet)], irradiance: Vec3) -> CslLayer {
         let mut csls = Vec::new();
         let mut caustic_objects = Vec::new();
+        // A set's images are those of its bake (placing it moves its CSLs, not their images),
+        // and its source hash names its bake's inputs: an interpolated set's includes the
+        // light direction.
+        let mut key = crate::bake::Fnv64::new();
+        key.write(b"csl images");
         for &(oi, set) in sets {
             csls.extend(set.to_world(world.objects[oi].rigid_transform()));
             caustic_objects.push(oi);
+            key.write(&set.source_hash.to_le_bytes());
+            key.write(&set.params_hash.to_le_bytes());
+            for c in &set.csls {
+                key.write_u32(c.size);
+                key.write(&(c.texels.len() as u64).to_le_bytes());
+            }
         }
         CslLayer {
             csls,
             irradiance,
             caustic_objects,
+            images_key: Some(key.finish()),
         }
     }
 }
@@ -61,10 +77,12 @@ pub struct GpuCsl {
     pub pad: [u32; 2],
 }
 
-/// CSL parameters and packed texels (two u32 words per RGB texel) for upload.
-pub fn pack(csls: &[Csl]) -> (Vec<GpuCsl>, Vec<u32>) {
-    let mut params = Vec::with_capacity(csls.len());
-    let mut words = Vec::new();
+/// The CSLs' parameters for upload, each pointing at its image in the packed texels of
+/// [`pack_texels`]; never empty (a placeholder when no CSL is bound: `Globals::counts[3]` says
+/// how many are real).
+pub fn pack_params(csls: &[Csl]) -> Vec<GpuCsl> {
+    let mut params = Vec::with_capacity(csls.len().max(1));
+    let mut offset = 0;
     for c in csls {
         params.push(GpuCsl {
             origin: c.origin.to_array(),
@@ -76,33 +94,27 @@ pub fn pack(csls: &[Csl]) -> (Vec<GpuCsl>, Vec<u32>) {
             y_axis: c.y_axis().to_array(),
             scale: c.scale / 65535.0,
             size: c.size,
-            texel_offset: words.len() as u32,
+            texel_offset: offset,
             pad: [0; 2],
         });
-        for t in &c.texels {
-            words.push(t[0] as u32 | (t[1] as u32) << 16);
-            words.push(t[2] as u32);
-        }
+        offset += 2 * c.texels.len() as u32;
     }
+    if params.is_empty() {
+        params.push(GpuCsl::zeroed());
+    }
+    params
+}
+
+/// The CSLs' intensity images packed for upload (two u32 words per RGB texel, in order);
+/// never empty.
+pub fn pack_texels(csls: &[Csl]) -> Vec<u32> {
+    let mut words: Vec<u32> = csls
+        .iter()
+        .flat_map(|c| &c.texels)
+        .flat_map(|t| [t[0] as u32 | (t[1] as u32) << 16, t[2] as u32])
+        .collect();
     if words.is_empty() {
         words.push(0);
     }
-    (params, words)
-}
-
-/// The CSLs of a frame packed for upload: never-empty arrays (placeholders when no CSL is
-/// bound; `Globals::counts[3]` says how many are real).
-pub struct CslBuffers {
-    pub params: Vec<GpuCsl>,
-    pub texels: Vec<u32>,
-}
-
-impl CslBuffers {
-    pub fn new(csls: &[Csl]) -> Self {
-        let (mut params, texels) = pack(csls);
-        if params.is_empty() {
-            params.push(GpuCsl::zeroed());
-        }
-        CslBuffers { params, texels }
-    }
+    words
 }

@@ -2,10 +2,9 @@
 //! receiver points with the functions of the CSL pass (shaders/csl.inc.wgsl): the csl_gpu
 //! tests check the GPU's CSL evaluation against the CPU's at arbitrary points and normals.
 
-use bytemuck::Zeroable;
 use caustica::bake::csl::Csl;
 use caustica::gpu::{GpuContext, GpuError};
-use caustica::render::csl::{GpuCsl, pack};
+use caustica::render::csl::{pack_params, pack_texels};
 use caustica::render::shaders::{FILES, expand_includes};
 use glam::Vec3;
 use wgpu::util::DeviceExt;
@@ -95,12 +94,8 @@ impl CslEvaluator {
         }
         let device = ctx.device();
         let queue = ctx.queue();
-        let (params, words) = pack(csls);
-        let params = if params.is_empty() {
-            vec![GpuCsl::zeroed()]
-        } else {
-            params
-        };
+        // Both never empty: placeholders when there is no CSL.
+        let (params, words) = (pack_params(csls), pack_texels(csls));
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
