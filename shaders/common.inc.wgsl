@@ -194,3 +194,29 @@ fn facing_geometric_normal(dx: vec3<f32>, dy: vec3<f32>, n: vec3<f32>) -> vec3<f
     }
     return select(ng / l, -ng / l, dot(ng, n) < 0.0);
 }
+
+// What the G-buffer holds of a fragment at world point p with interpolated normal `normal`, of
+// material `material` (its `kind`), seen from `eye` (gbuffer.wgsl's pass, and direct.wgsl's
+// fs_main_gbuffer that writes it in the direct pass; fragment stage only): `position.w` is the
+// pixel's reach (> 0) on a receiver seen from its front (the side Mitsuba-like one-sided BSDFs
+// answer), 0 elsewhere (specular objects, back faces); `normal.w` is the material index;
+// `geometric` the surface's geometric normal, facing the camera.
+struct GOut {
+    @location(0) position: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) geometric: vec4<f32>,
+}
+
+fn gbuffer_texel(p: vec3<f32>, normal: vec3<f32>, material: u32, kind: u32, eye: vec3<f32>) -> GOut {
+    let n = normalize(normal);
+    let ng = facing_geometric_normal(dpdx(p), dpdy(p), n);
+    let v = normalize(eye - p);
+    var out: GOut;
+    let receiver = kind != MAT_DIELECTRIC && kind != MAT_MIRROR && dot(ng, v) > 0.0 && dot(n, v) > 0.0;
+    // Half the footprint's two sides, with margin for the perspective (no corner is farther).
+    let reach = max(0.75 * (length(dpdx(p)) + length(dpdy(p))), 1e-9);
+    out.position = vec4<f32>(p, select(0.0, reach, receiver));
+    out.normal = vec4<f32>(n, f32(material));
+    out.geometric = vec4<f32>(ng, 0.0);
+    return out;
+}

@@ -79,8 +79,36 @@ fn env_radiance(d: vec3<f32>) -> vec3<f32> {
     return l;
 }
 
+// The direct pass of a frame whose caustics pass reads a G-buffer: the same shading, and the
+// G-buffer (gbuffer.wgsl's outputs, at locations 3..5) from the same fragments, instead of a
+// second pass over the geometry.
+struct FsOutG {
+    @location(0) direct: vec4<f32>,
+    @location(1) specular: vec4<f32>,
+    @location(3) position: vec4<f32>,
+    @location(4) normal: vec4<f32>,
+    @location(5) geometric: vec4<f32>,
+}
+
+@fragment
+fn fs_main_gbuffer(in: VsOut) -> FsOutG {
+    let shaded = shade(in);
+    let gb = gbuffer_texel(in.world, in.normal, in.material, materials[in.material].kind, g.eye.xyz);
+    var out: FsOutG;
+    out.direct = shaded.direct;
+    out.specular = shaded.specular;
+    out.position = gb.position;
+    out.normal = gb.normal;
+    out.geometric = gb.geometric;
+    return out;
+}
+
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
+    return shade(in);
+}
+
+fn shade(in: VsOut) -> FsOut {
     let p = in.world;
     let n = normalize(in.normal);
     let dx = dpdx(p);

@@ -1,8 +1,8 @@
-// G-buffer of the per-pixel caustics passes (render/gbuffer.rs; transport and pinhole read it):
-// per pixel, the visible surface's world position and shading normal, for receivers only.
-// `position.w` is the pixel's reach (> 0) on a receiver seen from its front (the side Mitsuba-like one-sided BSDFs answer), 0 elsewhere
-// (specular objects, back faces, background); `normal.w` is the material index; `geometric` is
-// the surface's geometric normal, facing the camera (method csl's footprints and shadow rays).
+// G-buffer of the per-pixel caustics passes (render/gbuffer.rs; csl, transport, pinhole, water,
+// beams and photons read it) as a pass of its own, for adapters whose render passes cannot take
+// it beside the direct pass's layers (direct.wgsl's fs_main_gbuffer writes it there otherwise):
+// per pixel, the visible surface's world position and shading normal, for receivers only
+// (common.inc.wgsl's gbuffer_texel; 0 on the background).
 
 #include "common.inc.wgsl"
 
@@ -14,12 +14,6 @@ struct VsOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) @interpolate(flat) material: u32,
-}
-
-struct GOut {
-    @location(0) position: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) geometric: vec4<f32>,
 }
 
 @vertex
@@ -34,17 +28,5 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @lo
 
 @fragment
 fn fs_main(in: VsOut) -> GOut {
-    let p = in.world;
-    let n = normalize(in.normal);
-    let ng = facing_geometric_normal(dpdx(p), dpdy(p), n);
-    let v = normalize(g.eye.xyz - p);
-    let kind = materials[in.material].kind;
-    var out: GOut;
-    let receiver = kind != MAT_DIELECTRIC && kind != MAT_MIRROR && dot(ng, v) > 0.0 && dot(n, v) > 0.0;
-    // Half the footprint's two sides, with margin for the perspective (no corner is farther).
-    let reach = max(0.75 * (length(dpdx(p)) + length(dpdy(p))), 1e-9);
-    out.position = vec4<f32>(p, select(0.0, reach, receiver));
-    out.normal = vec4<f32>(n, f32(in.material));
-    out.geometric = vec4<f32>(ng, 0.0);
-    return out;
+    return gbuffer_texel(in.world, in.normal, in.material, materials[in.material].kind, g.eye.xyz);
 }

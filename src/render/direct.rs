@@ -46,13 +46,24 @@ pub struct Variant {
     pub env_map: bool,
     pub medium: bool,
     pub glossy: bool,
+    /// The pass writes the G-buffer too (`fs_main_gbuffer`: locations 3..5), for a frame whose
+    /// caustics pass reads one, instead of a G-buffer pass over the geometry again.
+    pub gbuffer: bool,
 }
 
 impl Variant {
     fn index(self) -> usize {
-        self.env_map as usize | (self.medium as usize) << 1 | (self.glossy as usize) << 2
+        self.env_map as usize
+            | (self.medium as usize) << 1
+            | (self.glossy as usize) << 2
+            | (self.gbuffer as usize) << 3
     }
 }
+
+/// Bytes a sample of the direct pass's attachments takes when it writes the G-buffer too: its
+/// three layers and the G-buffer's three textures, all four floats. An adapter whose limit is
+/// lower draws the G-buffer in a pass of its own.
+pub const GBUFFER_IN_DIRECT_BYTES: u32 = 6 * 16;
 
 /// The main and background pipelines of one [`Variant`].
 struct VariantPipelines {
@@ -67,7 +78,7 @@ pub struct DirectPipelines {
     pub shadow_sampler: wgpu::Sampler,
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
-    variants: [Option<VariantPipelines>; 8],
+    variants: [Option<VariantPipelines>; 16],
 }
 
 impl DirectPipelines {
@@ -185,7 +196,32 @@ impl DirectPipelines {
             blend: None,
             write_mask: wgpu::ColorWrites::empty(),
         });
+        let gbuf = |write_mask| {
+            Some(wgpu::ColorTargetState {
+                format: super::gbuffer::GBUF_FORMAT,
+                blend: None,
+                write_mask,
+            })
+        };
+        let all = wgpu::ColorWrites::ALL;
+        let none = wgpu::ColorWrites::empty();
         let targets = [hdr_target.clone(), hdr_target, caustics_target];
+        // With the G-buffer: the background writes none of it (it stays cleared to 0).
+        let with_gbuffer = |m| {
+            [
+                targets[0].clone(),
+                targets[1].clone(),
+                targets[2].clone(),
+                gbuf(m),
+                gbuf(m),
+                gbuf(m),
+            ]
+        };
+        let (main_targets, background_targets) = if variant.gbuffer {
+            (with_gbuffer(all).to_vec(), with_gbuffer(none).to_vec())
+        } else {
+            (targets.to_vec(), targets.to_vec())
+        };
         let primitive = wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
             cull_mode: None,
@@ -219,9 +255,13 @@ impl DirectPipelines {
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: direct_mod,
-                entry_point: Some("fs_main"),
+                entry_point: Some(if variant.gbuffer {
+                    "fs_main_gbuffer"
+                } else {
+                    "fs_main"
+                }),
                 compilation_options: options(),
-                targets: &targets,
+                targets: &main_targets,
             }),
             multiview_mask: None,
             cache: None,
@@ -246,7 +286,7 @@ impl DirectPipelines {
                 module: direct_mod,
                 entry_point: Some("fs_background"),
                 compilation_options: options(),
-                targets: &targets,
+                targets: &background_targets,
             }),
             multiview_mask: None,
             cache: None,
@@ -443,6 +483,7 @@ pub fn encode(
     targets: &Targets,
     atlas: &ShadowAtlas,
     env: &EnvTexture,
+    gbuffer: Option<&super::gbuffer::GBuffer>,
     timestamps: Option<&mut Timestamps>,
 ) {
     let vp = p.variants[variant.index()]
@@ -472,21 +513,29 @@ pub fn encode(
         let k = t.pass("direct");
         (&*t, k)
     });
+    let gviews = gbuffer.filter(|_| variant.gbuffer).map(|g| {
+        let (p, n) = g.views();
+        (p, n, g.geometric.create_view(&Default::default()))
+    });
+    let mut attachments = vec![
+        clear(&dv),
+        clear(&sv),
+        Some(wgpu::RenderPassColorAttachment {
+            view: &cv,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                store: wgpu::StoreOp::Store,
+            },
+        }),
+    ];
+    if let Some((p, n, g)) = &gviews {
+        attachments.extend([clear(p), clear(n), clear(g)]);
+    }
     let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("direct"),
-        color_attachments: &[
-            clear(&dv),
-            clear(&sv),
-            Some(wgpu::RenderPassColorAttachment {
-                view: &cv,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            }),
-        ],
+        color_attachments: &attachments,
         depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
             view: &depth,
             depth_ops: Some(wgpu::Operations {

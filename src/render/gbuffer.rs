@@ -2,6 +2,9 @@
 //! world position and shading normal, flagged where it is a receiver seen from its front, and its
 //! geometric normal. The passes that gather caustics per pixel read it: `csl` (caustic spot
 //! lights), `transport` (illumination volumes), `pinhole` (reflector samples) and the others.
+//! Where the adapter's render passes take the six float4 attachments
+//! ([`super::direct::GBUFFER_IN_DIRECT_BYTES`]), the direct pass writes it from its own fragments
+//! (`fs_main_gbuffer`) and this pass is not drawn: one raster of the geometry instead of two.
 
 use super::scene::{SceneBuffers, vertex_layout};
 use super::shaders;

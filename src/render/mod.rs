@@ -339,7 +339,7 @@ impl DeviceCache {
             }
         }
         if plan.needs_gbuffer() {
-            if self.gbuffer_pipeline.is_none() {
+            if !plan.gbuffer_in_direct && self.gbuffer_pipeline.is_none() {
                 self.gbuffer_pipeline = Some(gbuffer::GBufferPipeline::new(dev));
             }
             if self
@@ -362,6 +362,9 @@ pub struct Renderer {
     /// Entries a pixel of the transport pass's list ([`transport::LIST_ENTRIES_PER_PIXEL`]
     /// unless a test sets it).
     transport_list: u64,
+    /// False: the G-buffer in a pass of its own even where the direct pass could write it (a
+    /// test checks the two agree).
+    gbuffer_in_direct: bool,
 }
 
 /// How a frame is drawn: the pinhole pass's clusters a draw, and whether the transport
@@ -398,6 +401,7 @@ impl Renderer {
             cache,
             loop_budget: None,
             transport_list: transport::LIST_ENTRIES_PER_PIXEL,
+            gbuffer_in_direct: true,
         })
     }
 
@@ -544,6 +548,13 @@ impl Renderer {
         self.transport_list = per_pixel.unwrap_or(transport::LIST_ENTRIES_PER_PIXEL);
     }
 
+    /// With false, frames draw the G-buffer in a pass of its own, as on an adapter whose render
+    /// passes cannot take it beside the direct pass's layers (true: where they can, the direct
+    /// pass writes it). Tests compare the two.
+    pub fn set_gbuffer_in_direct(&mut self, allowed: bool) {
+        self.gbuffer_in_direct = allowed;
+    }
+
     /// Renders `world` with the caustics method `caustics`. A pinhole frame in which the
     /// adapter ended the loop over points early (llvmpipe's cap on loop iterations, when a
     /// draw's estimate of its iterations falls short) is drawn again with a quarter of the
@@ -631,12 +642,13 @@ impl Renderer {
         if h.generation != self.cache.generation {
             self.cache = Self::build(&self.ctx, &h)?;
         }
-        let plan = FramePlan::new(
+        let mut plan = FramePlan::new(
             world,
             opts,
             caustics,
             &DeviceLimits::of(&self.ctx, &h.device),
         )?;
+        plan.gbuffer_in_direct &= self.gbuffer_in_direct;
         let (width, height) = (plan.width, plan.height);
         let csl_params = csl::pack_params(plan.csl.as_ref().map_or(&[], |c| &c.csls[..]));
 
@@ -714,11 +726,16 @@ impl Renderer {
                 targets,
                 atlas,
                 env,
+                c.gbuffer.as_ref(),
                 ts.as_mut(),
             );
-            if let (true, Some(gp), Some(gb)) =
-                (plan.needs_gbuffer(), &c.gbuffer_pipeline, &c.gbuffer)
-            {
+            // The G-buffer in a pass of its own where the direct pass could not write it.
+            if let (true, false, Some(gp), Some(gb)) = (
+                plan.needs_gbuffer(),
+                plan.gbuffer_in_direct,
+                &c.gbuffer_pipeline,
+                &c.gbuffer,
+            ) {
                 gbuffer::encode(dev, &mut enc, gp, gb, scene, &frame.globals, ts.as_mut());
             }
             if let (true, Some(cp), Some(cs), Some((_, images)), Some(gb)) = (

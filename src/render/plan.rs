@@ -28,6 +28,8 @@ pub struct DeviceLimits {
     pub max_storage_binding: u64,
     /// Whether a 32-bit float target can be blended into (method `transport`'s volume pass).
     pub float32_blendable: bool,
+    /// Bytes a sample of a render pass's colour attachments may take.
+    pub max_color_attachment_bytes: u32,
 }
 
 impl DeviceLimits {
@@ -39,6 +41,9 @@ impl DeviceLimits {
             max_texture_array_layers: l.max_texture_array_layers,
             max_storage_binding: l.max_storage_buffer_binding_size,
             float32_blendable: ctx.features().contains(wgpu::Features::FLOAT32_BLENDABLE),
+            max_color_attachment_bytes: l
+                .max_color_attachment_bytes_per_sample
+                .min(l.max_color_attachments * 16),
         }
     }
 
@@ -93,6 +98,9 @@ pub struct FramePlan<'a> {
     /// Whether the scene has a glossy material (the CSL passes are compiled without the glossy
     /// BRDF otherwise).
     pub glossy: bool,
+    /// Whether the direct pass writes the G-buffer, where the frame needs one and the adapter's
+    /// attachments take it ([`super::direct::GBUFFER_IN_DIRECT_BYTES`]); else a pass of its own.
+    pub gbuffer_in_direct: bool,
 }
 
 impl<'a> FramePlan<'a> {
@@ -325,6 +333,8 @@ impl<'a> FramePlan<'a> {
                 .materials
                 .iter()
                 .any(|m| matches!(m, crate::scene::Material::Glossy { .. })),
+            gbuffer_in_direct: dev.max_color_attachment_bytes
+                >= super::direct::GBUFFER_IN_DIRECT_BYTES,
         })
     }
 
@@ -334,6 +344,7 @@ impl<'a> FramePlan<'a> {
             env_map: self.globals.env_map_scale[3] > 0.5,
             medium: self.globals.medium_half[0] > 0.0,
             glossy: self.glossy,
+            gbuffer: self.gbuffer_in_direct && self.needs_gbuffer(),
         }
     }
 
@@ -369,6 +380,7 @@ mod tests {
             max_texture_array_layers: 256,
             max_storage_binding: 128 << 20,
             float32_blendable: true,
+            max_color_attachment_bytes: 128,
         }
     }
 

@@ -220,3 +220,68 @@ fn csl_images_kept_between_frames_follow_the_layer() {
     assert!(frame(&mut r, &c) == want_b, "c after a: no key");
     assert!(frame(&mut r, &a) == want_a, "a after c");
 }
+
+/// The G-buffer the direct pass writes beside its layers (where the adapter's render passes
+/// take it, as lavapipe's do) is the one the G-buffer pass of its own draws: the CSL layer over
+/// either is the same, with and without glossy receivers (two direct pipelines), with an
+/// occluding wall.
+#[test]
+fn the_gbuffer_from_the_direct_pass_is_the_gbuffer_pass_s() {
+    use caustica::methods::{ArtifactStore, csl};
+    use caustica::render::{CslLayer, RenderOptions};
+    let params =
+        csl::BakeParams::parse(&serde_json::json!({"preset": "fast", "grid": 128}), "").unwrap();
+    for glossy in [false, true] {
+        let world = sphere_scene(true, glossy);
+        let (dir, irradiance) = scenes::directional_light(&world);
+        let sets =
+            csl::sets_for_render(&world, &params, dir, &ArtifactStore::none(), &|_| true).unwrap();
+        let layer = CslLayer::new(&world, &[(sets[0].object, &*sets[0].set)], irradiance);
+        let ctx = gpu::context();
+        let mut r = caustica::render::Renderer::new(ctx.clone()).unwrap();
+        let mut frame = |in_direct: bool| {
+            r.set_gbuffer_in_direct(in_direct);
+            let out = r
+                .render_csl(&world, &RenderOptions::default(), Some(&layer))
+                .unwrap();
+            let gbuffer_pass = out.timings.iter().any(|(n, _)| n == "gpu:gbuffer");
+            let timed = out.timings.iter().any(|(n, _)| n.starts_with("gpu:"));
+            (
+                out.caustics.expect("caustics layer"),
+                timed.then_some(gbuffer_pass),
+            )
+        };
+        let l = ctx.device().limits();
+        let fits = l.max_color_attachments >= 6
+            && l.max_color_attachment_bytes_per_sample
+                >= caustica::render::direct::GBUFFER_IN_DIRECT_BYTES;
+        let (merged, merged_pass) = frame(true);
+        let (separate, separate_pass) = frame(false);
+        assert_ne!(
+            separate_pass,
+            Some(false),
+            "the G-buffer pass is drawn when asked for"
+        );
+        assert_ne!(
+            merged_pass,
+            Some(fits),
+            "a G-buffer pass exactly where the direct pass cannot write the G-buffer"
+        );
+        let peak = separate
+            .pixels
+            .iter()
+            .map(|p| p.max_element())
+            .fold(0.0, f32::max);
+        assert!(peak > 0.0, "the frame has a caustic");
+        let worst = merged
+            .pixels
+            .iter()
+            .zip(&separate.pixels)
+            .map(|(a, b)| (*a - *b).abs().max_element())
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst <= 1e-6 * peak,
+            "glossy {glossy}: differs by up to {worst} (peak {peak})"
+        );
+    }
+}
