@@ -1,7 +1,8 @@
 //! The direct pass (`shaders/direct.wgsl`): one forward pass over the scene after the shadow
 //! pass, writing the `direct` and `specular` HDR layers and clearing `caustics` (see the shader
 //! for what each holds; the caustics methods' passes write that layer afterwards), then the
-//! visible environment behind everything.
+//! visible environment behind everything. For a frame whose caustics pass reads a G-buffer it
+//! writes that too, where the adapter allows ([`Variant::gbuffer`]).
 
 use super::csl::GpuCsl;
 use super::lights::{GpuLight, LightPlan};
