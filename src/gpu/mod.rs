@@ -424,27 +424,7 @@ impl GpuContext {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("readback"),
                 });
-            enc.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &buffer,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(padded as u32),
-                        rows_per_image: Some(ht),
-                    },
-                },
-                wgpu::Extent3d {
-                    width: w,
-                    height: ht,
-                    depth_or_array_layers: 1,
-                },
-            );
+            encode_texture_copy(&mut enc, texture, &buffer, padded as u32);
             h.queue.submit([enc.finish()]);
             buffer
         })?;
@@ -550,6 +530,37 @@ impl GpuContext {
         buffer.unmap();
         Ok(bytes)
     }
+}
+
+/// Records a copy of the whole of 2D `texture` (one mip level) into `buffer` from its start,
+/// rows `padded` bytes apart (a multiple of 256).
+pub fn encode_texture_copy(
+    enc: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    buffer: &wgpu::Buffer,
+    padded: u32,
+) {
+    enc.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(texture.height()),
+            },
+        },
+        wgpu::Extent3d {
+            width: texture.width(),
+            height: texture.height(),
+            depth_or_array_layers: 1,
+        },
+    );
 }
 
 impl std::fmt::Debug for GpuContext {

@@ -1009,27 +1009,7 @@ impl Staging {
 
     /// Copies `texture` (Rgba32Float, this size) into buffer `k`.
     fn copy(&self, enc: &mut wgpu::CommandEncoder, k: usize, texture: &wgpu::Texture) {
-        enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &self.buffers[k],
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(self.padded as u32),
-                    rows_per_image: Some(self.height),
-                },
-            },
-            wgpu::Extent3d {
-                width: self.width,
-                height: self.height,
-                depth_or_array_layers: 1,
-            },
-        );
+        crate::gpu::encode_texture_copy(enc, texture, &self.buffers[k], self.padded as u32);
     }
 
     /// The frame in a buffer's mapped `bytes`, and how many of its pixels have an alpha above
