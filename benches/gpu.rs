@@ -1,14 +1,14 @@
 //! GPU frame time: the direct renderer (shadow maps + direct/specular layers + readback) at
 //! 800×600 on the glass-sphere scene (the same frame again, whose shadow maps the renderer
-//! keeps, and a frame whose light turned, which draws them), and the same frame with the CSL caustics layer evaluated
-//! per pixel (method `csl`, a paper-settings bake of the sphere made once before timing), and
-//! at 640×480 the transport-table caustics (method `transport`: per frame the illumination
-//! volumes and view refraction on the CPU, then the G-buffer and volume passes; a paper-settings
-//! table baked once before timing), and at 512×512 the pinhole caustics of the mirror ring under
-//! the sun-and-sky map (method `pinhole`, default strategy and filtering: the points chosen on
-//! the CPU, then the G-buffer and the pinhole pass) with 1 000 and 10 000 points, on
-//! whatever adapter `GpuContext` picks (`CAUSTICA_BACKEND` / `CAUSTICA_ADAPTER` choose). The
-//! adapter name is printed: quote it with the median.
+//! keeps, and a frame whose light turned, which draws them), and the same frame with the CSL
+//! caustics layer evaluated per pixel (method `csl`, a paper-settings bake of the sphere made
+//! once before timing), and at 640×480 the transport-table caustics (method `transport`: per
+//! frame the illumination volumes and view refraction on the CPU, then the volume passes over
+//! the G-buffer; a paper-settings table baked once before timing), and at 512×512 the pinhole
+//! caustics of the mirror ring under the sun-and-sky map (method `pinhole`, default strategy
+//! and filtering: the points chosen on the CPU, then the pinhole pass over the G-buffer) with
+//! 1 000 and 10 000 points, on whatever adapter `GpuContext` picks (`CAUSTICA_BACKEND` /
+//! `CAUSTICA_ADAPTER` choose). The adapter name is printed: quote it with the median.
 
 use caustica::gpu::{GpuConfig, GpuContext};
 use caustica::render::{RenderOptions, Renderer};

@@ -6,11 +6,10 @@
 // × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
 // the reflected and (first-interface) refracted directions, or, under method transport, the
 // reflected environment plus what the vertices' refracted viewing rays see (the `view`
-// attribute, interpolated). Specular objects are 0 in `direct`,
-// receivers 0 in `specular`. `caustics` is cleared by this pass (rgb 0, alpha 1) and written by
-// no fragment of it; the caustics methods' passes write it afterwards (method csl: csl.wgsl).
-// Surfaces are one-sided like Mitsuba's BSDFs: seen from
-// the back, or lit from behind, they get nothing.
+// attribute, interpolated). Specular objects are 0 in `direct`, receivers 0 in `specular`.
+// `caustics` is cleared by this pass (rgb 0, alpha 1) and written by no fragment of it; the
+// caustics methods' passes write it afterwards (method csl: csl.wgsl). Surfaces are one-sided
+// like Mitsuba's BSDFs: seen from the back, or lit from behind, they get nothing.
 
 #include "shadow_lookup.inc.wgsl"
 
