@@ -91,7 +91,49 @@ fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -
     var out: VsOut;
     out.volume = ii;
     out.clip = hull_outline(corners, vi, 1.5, g.view_proj, g.viewport.xy);
+    // At the depth of the volume's farthest corner (the outline's w is 1, or 0 when the vertex
+    // is degenerate): the depth test drops the pixels whose receiver lies farther than that
+    // (fs_cull_depth).
+    var far = 0.0;
+    for (var k = 0u; k < 6u; k++) {
+        let c = g.view_proj * vec4<f32>(corners[k], 1.0);
+        if c.w > NEAR_W {
+            far = max(far, c.z / c.w);
+        }
+    }
+    out.clip.z = clamp(far, 0.0, 1.0) * out.clip.w;
     return out;
+}
+
+// A triangle over the whole target.
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((vi << 1u) & 2u), f32(vi & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+// The culling depth of the select draw: per pixel, the depth of its receiver point moved
+// towards the eye along the view axis by twice its footprint's reach (and 10⁻⁴ of its
+// distance for rounding); 1 where the pixel has no receiver. A volume whose cross-section
+// passes the cheap tests at a receiver point p holds p within that reach of its hull, so p is
+// no farther along the view axis than the hull's farthest corner plus the reach: the volume's
+// outline, drawn at that corner's depth with the test greater-or-equal, keeps every such
+// pixel and drops those whose receiver lies behind the whole volume (most of a long hull's
+// outline).
+@fragment
+fn fs_cull_depth(@builtin(position) frag: vec4<f32>) -> @builtin(frag_depth) f32 {
+    let gp = textureLoad(gbuf_position, vec2<u32>(frag.xy), 0);
+    if gp.w <= 0.0 {
+        return 1.0;
+    }
+    let centre = g.inv_view_proj * vec4<f32>(0.0, 0.0, 1.0, 1.0);
+    let axis = normalize(centre.xyz / centre.w - g.eye.xyz);
+    let moved = gp.xyz - axis * (2.0 * gp.w + 1e-4 * (1.0 + length(gp.xyz - g.eye.xyz)));
+    let c = g.view_proj * vec4<f32>(moved, 1.0);
+    if c.w <= NEAR_W {
+        return 0.0;
+    }
+    return clamp(c.z / c.w, 0.0, 1.0);
 }
 
 // The viewing ray through pixel position `xy` (pixels, y down).
@@ -332,8 +374,10 @@ fn fs_volume(in: VsOut) -> @location(0) vec4<f32> {
 }
 
 // The cheap tests only; a volume that passes is appended to the list. Writes no colour (the
-// pipeline's write mask is empty).
-@fragment
+// pipeline's write mask is empty). The depth test runs before it (forced: the shader appends
+// to the list), so pixels it drops cost nothing; without the feature the attribute is removed
+// (render/transport `select_source`) and the depth test has no effect on the list.
+@fragment @early_depth_test(force)
 fn fs_select(in: VsOut) -> @location(0) vec4<f32> {
     let texel = vec2<u32>(in.clip.xy);
     let gp = textureLoad(gbuf_position, texel, 0);

@@ -130,7 +130,8 @@ pub struct GpuContext {
 /// Features used when the adapter has them.
 const WANTED_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
     .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
-    .union(wgpu::Features::FLOAT32_BLENDABLE);
+    .union(wgpu::Features::FLOAT32_BLENDABLE)
+    .union(wgpu::Features::SHADER_EARLY_DEPTH_TEST);
 
 fn type_rank(t: wgpu::DeviceType) -> u32 {
     match t {

@@ -289,7 +289,7 @@ impl DeviceCache {
                 .get_or_insert_with(|| transport::TransportPipelines::new(dev))
                 .fit(
                     dev,
-                    u64::from(size.0) * u64::from(size.1),
+                    size,
                     transport_list,
                     l.volumes.len() as u64,
                     dev.limits().max_storage_buffer_binding_size,
@@ -362,6 +362,9 @@ pub struct Renderer {
     /// Entries a pixel of the transport pass's list ([`transport::LIST_ENTRIES_PER_PIXEL`]
     /// unless a test sets it).
     transport_list: u64,
+    /// Whether the transport pass culls its volumes' outlines by depth (see
+    /// [`Renderer::set_transport_cull`]).
+    transport_cull: bool,
     /// False: the G-buffer in a pass of its own even where the direct pass could write it (a
     /// test checks the two agree).
     gbuffer_in_direct: bool,
@@ -401,6 +404,7 @@ impl Renderer {
             cache,
             loop_budget: None,
             transport_list: transport::LIST_ENTRIES_PER_PIXEL,
+            transport_cull: true,
             gbuffer_in_direct: true,
         })
     }
@@ -548,6 +552,13 @@ impl Renderer {
         self.transport_list = per_pixel.unwrap_or(transport::LIST_ENTRIES_PER_PIXEL);
     }
 
+    /// With false, the transport pass draws its volumes without the culling depth (every pixel
+    /// of their outlines runs the select or blend shader), as before the cull; tests check
+    /// that the cull drops no light.
+    pub fn set_transport_cull(&mut self, cull: bool) {
+        self.transport_cull = cull;
+    }
+
     /// With false, frames draw the G-buffer in a pass of its own, as on an adapter whose render
     /// passes cannot take it beside the direct pass's layers (true: where they can, the direct
     /// pass writes it). Tests compare the two.
@@ -654,7 +665,7 @@ impl Renderer {
 
         // Prepare: the resources kept between frames, then this frame's buffers.
         let dev = &h.device;
-        let transport_list = self.transport_list;
+        let (transport_list, transport_cull) = (self.transport_list, self.transport_cull);
         let c = &mut self.cache;
         let mut ts = self.ctx.scoped(dev, || {
             c.fit(dev, &h.queue, &plan, transport_list);
@@ -809,6 +820,7 @@ impl Renderer {
                     vb,
                     l.volumes.len() as u32,
                     attempt.transport_blended,
+                    transport_cull,
                     targets,
                     ts.as_mut(),
                 );
@@ -1110,16 +1122,23 @@ fn caustics_pass<'e>(
         let k = t.pass(name);
         (&*t, k)
     });
-    caustics_pass_timed(enc, view, name, ts.map(|(t, k)| t.writes(k, true, true)))
+    caustics_pass_timed(
+        enc,
+        view,
+        name,
+        ts.map(|(t, k)| t.writes(k, true, true)),
+        None,
+    )
 }
 
 /// [`caustics_pass`] with the timestamp writes given (a pass timed together with the ones after
-/// it writes only its beginning).
+/// it writes only its beginning) and an optional depth attachment.
 fn caustics_pass_timed<'e>(
     enc: &'e mut wgpu::CommandEncoder,
     view: &wgpu::TextureView,
     name: &'static str,
     timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
 ) -> wgpu::RenderPass<'e> {
     enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(name),
@@ -1132,7 +1151,7 @@ fn caustics_pass_timed<'e>(
                 store: wgpu::StoreOp::Store,
             },
         })],
-        depth_stencil_attachment: None,
+        depth_stencil_attachment: depth,
         timestamp_writes,
         occlusion_query_set: None,
         multiview_mask: None,

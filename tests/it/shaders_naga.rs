@@ -77,3 +77,22 @@ fn embedded_shaders_match_the_files() {
         "every shader file is embedded in render::shaders::FILES"
     );
 }
+
+/// The transport shader a device without `SHADER_EARLY_DEPTH_TEST` gets validates without that
+/// capability, and no longer forces the test; with the feature it is the file as written.
+#[test]
+fn the_transport_shader_without_early_depth_tests_validates_without_them() {
+    use caustica::render::transport::select_source;
+    let without = select_source(wgpu::Features::empty());
+    assert!(!without.contains("early_depth_test"));
+    let module = naga::front::wgsl::parse_str(&without).map_err(|e| e.emit_to_string(&without));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all() - naga::valid::Capabilities::EARLY_DEPTH_TEST,
+    )
+    .validate(&module.unwrap())
+    .unwrap();
+    let with = select_source(wgpu::Features::SHADER_EARLY_DEPTH_TEST);
+    assert!(with.contains("@early_depth_test(force)"));
+    assert_eq!(with, caustica::render::shaders::source("transport.wgsl"));
+}

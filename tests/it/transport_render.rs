@@ -536,3 +536,51 @@ fn an_overflowing_list_draws_the_frame_again_by_blending() {
     let total: f64 = listed.pixels.iter().map(|p| p.x as f64).sum();
     assert!(total > 0.0, "the caustic is there");
 }
+
+/// The depth cull of the volumes' outlines drops only pixels that receive nothing from them:
+/// the listed frame is the same bit for bit with and without it (its sums are exact), and so
+/// is the blended one to rounding; under the canonical point light, whose volumes run long
+/// and slanted from the glass to the floor, and from a camera low over the floor.
+#[test]
+fn the_depth_cull_of_the_volumes_drops_no_light() {
+    for (name, edit) in [
+        ("glass-sphere-point", None),
+        (
+            "glass-sphere-directional",
+            Some(("\"eye\": [0, 3.2, 3.2]", "\"eye\": [2.4, 0.6, 2.2]")),
+        ),
+    ] {
+        let world = sphere_scene(name, 24, |s| match edit {
+            Some((a, b)) => {
+                assert!(s.contains(a), "{name}: {a}");
+                s.replace(a, b)
+            }
+            None => s,
+        });
+        let table = bake(&world, 6, 12);
+        let (_, layer) = cpu_caustics(&world, &table);
+        let mut r = gpu::renderer();
+        let mut frame = |cull: bool, blended: bool| {
+            r.set_transport_cull(cull);
+            r.set_transport_list(blended.then_some(0));
+            r.render_transport(&world, &Default::default(), &layer)
+                .unwrap()
+                .caustics
+                .unwrap()
+        };
+        let (culled, all) = (frame(true, false), frame(false, false));
+        let total: f64 = culled.pixels.iter().map(|p| p.x as f64).sum();
+        assert!(total > 0.0, "{name}: the caustic is there");
+        assert!(
+            culled.pixels == all.pixels,
+            "{name}: the listed frame changed with the cull: {:?}",
+            compare::compare(&culled, &all, &floor_mask(&world))
+        );
+        let (culled, all) = (frame(true, true), frame(false, true));
+        let c = compare::compare(&culled, &all, &floor_mask(&world));
+        assert!(
+            c.rel_l1 < 1e-6 && (c.flux_ratio - 1.0).abs() < 1e-6,
+            "{name}: blended {c:?}"
+        );
+    }
+}

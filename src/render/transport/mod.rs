@@ -171,7 +171,7 @@ pub const LIST_ENTRIES_PER_PIXEL: u64 = 16;
 
 /// The list and the sums of a frame size.
 struct Lists {
-    pixels: u64,
+    size: (u32, u32),
     per_pixel: u64,
     capacity: u64,
     /// `ListState`: the count and the dispatch of `evaluate`.
@@ -181,6 +181,8 @@ struct Lists {
     args: wgpu::Buffer,
     entries: wgpu::Buffer,
     sums: wgpu::Buffer,
+    /// The culling depth of the volume draws (`fs_cull_depth`).
+    depth: wgpu::Texture,
 }
 
 /// The volume pipelines, created once per device: the select draw and the evaluate and
@@ -189,6 +191,7 @@ struct Lists {
 pub struct TransportPipelines {
     pub volume: wgpu::RenderPipeline,
     select: wgpu::RenderPipeline,
+    cull_depth: wgpu::RenderPipeline,
     list_args: wgpu::ComputePipeline,
     evaluate: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
@@ -214,6 +217,22 @@ fn list_capacity(pixels: u64, per_pixel: u64, volumes: u64, max_binding: u64) ->
 
 /// Vertices drawn per volume or beam (`HULL_VERTICES` of hull.inc.wgsl).
 pub const HULL_VERTICES: u32 = 12;
+
+/// The format of the volume draws' culling depth.
+const CULL_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// transport.wgsl for a device with `features`: as written (`fs_select` forces the depth test
+/// before it runs) where the device has `SHADER_EARLY_DEPTH_TEST`, else without that attribute
+/// (the depth test then comes after the shader, whose appends it cannot stop: the same list,
+/// without the saving).
+pub fn select_source(features: wgpu::Features) -> String {
+    let src = shaders::source("transport.wgsl");
+    if features.contains(wgpu::Features::SHADER_EARLY_DEPTH_TEST) {
+        src
+    } else {
+        src.replace("@early_depth_test(force)", "")
+    }
+}
 
 impl TransportPipelines {
     pub fn new(device: &wgpu::Device) -> TransportPipelines {
@@ -256,13 +275,10 @@ impl TransportPipelines {
                 },
             )],
         });
-        let module = |name: &str| {
-            device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(name),
-                source: wgpu::ShaderSource::Wgsl(shaders::source(name).into()),
-            })
-        };
-        let tmod = module("transport.wgsl");
+        let tmod = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("transport.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(select_source(device.features()).into()),
+        });
         let layout = |l: &wgpu::BindGroupLayout| {
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: None,
@@ -299,7 +315,15 @@ impl TransportPipelines {
                     buffers: &[],
                 },
                 primitive,
-                depth_stencil: None,
+                // Drawn at the volume's farthest depth: kept where the receiver is no farther
+                // (fs_cull_depth).
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: CULL_DEPTH_FORMAT,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &tmod,
@@ -327,6 +351,33 @@ impl TransportPipelines {
             None,
             wgpu::ColorWrites::empty(),
         );
+        let cull_depth = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("transport cull depth"),
+            layout: Some(&volume_pl),
+            vertex: wgpu::VertexState {
+                module: &tmod,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: CULL_DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &tmod,
+                entry_point: Some("fs_cull_depth"),
+                compilation_options: Default::default(),
+                targets: &[],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
         let compute_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: None,
             bind_group_layouts: &[Some(&volume_layout), Some(&output_layout)],
@@ -345,6 +396,7 @@ impl TransportPipelines {
         TransportPipelines {
             volume,
             select,
+            cull_depth,
             list_args: compute("list_args"),
             evaluate: compute("evaluate"),
             resolve: compute("resolve"),
@@ -355,21 +407,24 @@ impl TransportPipelines {
     }
 
     /// Makes the list (`per_pixel` entries a pixel, and as many a volume up to
-    /// [`LIST_ENTRIES_PER_VOLUME`], for `volumes` volumes) and sums for frames of `pixels`
-    /// pixels (kept while they are the same and the list is long enough), no buffer over
-    /// `max_binding` bytes.
+    /// [`LIST_ENTRIES_PER_VOLUME`], for `volumes` volumes), the sums and the culling depth for
+    /// frames of `size` (kept while they are the same and the list is long enough), no buffer
+    /// over `max_binding` bytes.
     pub fn fit(
         &mut self,
         device: &wgpu::Device,
-        pixels: u64,
+        size: (u32, u32),
         per_pixel: u64,
         volumes: u64,
         max_binding: u64,
     ) {
+        let pixels = u64::from(size.0) * u64::from(size.1);
         let capacity = list_capacity(pixels, per_pixel, volumes, max_binding);
-        if self.lists.as_ref().is_some_and(|l| {
-            (l.pixels, l.per_pixel) == (pixels, per_pixel) && l.capacity >= capacity
-        }) {
+        if self
+            .lists
+            .as_ref()
+            .is_some_and(|l| (l.size, l.per_pixel) == (size, per_pixel) && l.capacity >= capacity)
+        {
             return;
         }
         drop(self.lists.take());
@@ -384,7 +439,7 @@ impl TransportPipelines {
         let storage = wgpu::BufferUsages::STORAGE;
         let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         self.lists = Some(Lists {
-            pixels,
+            size,
             per_pixel,
             capacity,
             state: buffer("transport list state", 16, storage | copy),
@@ -398,6 +453,13 @@ impl TransportPipelines {
                 "transport sums",
                 pixels * 24,
                 storage | wgpu::BufferUsages::COPY_DST,
+            ),
+            depth: super::texture_2d(
+                device,
+                "transport cull depth",
+                size,
+                CULL_DEPTH_FORMAT,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
             ),
         });
     }
@@ -451,7 +513,9 @@ pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> VolumeBuffer
 }
 
 /// Encodes the volume pass over the G-buffer `gbuf` (drawn before it, after the direct pass,
-/// which cleared the caustics layer); `globals` is the frame's camera uniform.
+/// which cleared the caustics layer); `globals` is the frame's camera uniform. `blended`: every
+/// covered fragment evaluated and blended instead of listed; `cull`: the outlines culled by
+/// the culling depth (else it is cleared to 0 and keeps every pixel).
 #[allow(clippy::too_many_arguments)]
 pub fn encode(
     device: &wgpu::Device,
@@ -464,6 +528,7 @@ pub fn encode(
     volumes: &VolumeBuffers,
     count: u32,
     blended: bool,
+    cull: bool,
     targets: &Targets,
     timestamps: Option<&mut Timestamps>,
 ) {
@@ -523,8 +588,50 @@ pub fn encode(
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
+    let dv = lists.depth.create_view(&Default::default());
+    // One timed pass from the culling depth to the layer.
+    let ts = timestamps.map(|t| {
+        let k = t.pass("transport");
+        (&*t, k)
+    });
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("transport cull depth"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &dv,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(if cull { 1.0 } else { 0.0 }),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: ts.map(|(t, k)| t.writes(k, true, false)),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if count > 0 && cull {
+            pass.set_pipeline(&p.cull_depth);
+            pass.set_bind_group(0, &vbg, &[]);
+            pass.draw(0..3, 0..1);
+        }
+    }
+    let depth = wgpu::RenderPassDepthStencilAttachment {
+        view: &dv,
+        depth_ops: Some(wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Discard,
+        }),
+        stencil_ops: None,
+    };
     if blended {
-        let mut pass = super::caustics_pass(enc, &cv, "transport", timestamps);
+        let mut pass = super::caustics_pass_timed(
+            enc,
+            &cv,
+            "transport",
+            ts.map(|(t, k)| t.writes(k, false, true)),
+            Some(depth),
+        );
         if count > 0 {
             pass.set_pipeline(&p.volume);
             pass.set_bind_group(0, &vbg, &[]);
@@ -534,17 +641,8 @@ pub fn encode(
     }
     enc.clear_buffer(&lists.state, 0, None);
     enc.clear_buffer(&lists.sums, 0, None);
-    let ts = timestamps.map(|t| {
-        let k = t.pass("transport");
-        (&*t, k)
-    });
     {
-        let mut pass = super::caustics_pass_timed(
-            enc,
-            &cv,
-            "transport select",
-            ts.map(|(t, k)| t.writes(k, true, false)),
-        );
+        let mut pass = super::caustics_pass_timed(enc, &cv, "transport select", None, Some(depth));
         if count > 0 {
             pass.set_pipeline(&p.select);
             pass.set_bind_group(0, &vbg, &[]);
