@@ -1,7 +1,9 @@
 // The screen-space outline of a convex body given by six corners (a transport illumination
 // volume, a caustic beam): the convex hull of the corners projected, grown by `margin` pixels,
 // drawn as a fan of at most four triangles (HULL_VERTICES vertices; those past the polygon
-// degenerate). Every pixel whose centre ray meets the body is covered exactly once.
+// degenerate). Every pixel whose centre ray meets the body is covered exactly once. The polygon
+// can be made once per body (hull_polygon, e.g. in a compute pass) and its fan's vertices
+// read from it (hull_fan_vertex), or both per vertex (hull_outline).
 
 // Vertices drawn per body.
 const HULL_VERTICES: u32 = 12u;
@@ -13,9 +15,41 @@ fn hull_cross(a: vec2<f32>, b: vec2<f32>) -> f32 {
     return a.x * b.y - a.y * b.x;
 }
 
+// An outline: `n` points (0 when nothing is drawn, else 3 to 6) counter-clockwise, in pixels
+// (y up, like NDC).
+struct HullPolygon {
+    p: array<vec2<f32>, 6>,
+    n: u32,
+}
+
 // Clip-space position of vertex `vi` of the outline of `corners` (world space) seen through
 // `view_proj` on a target of `viewport` pixels.
 fn hull_outline(corners: array<vec3<f32>, 6>, vi: u32, margin: f32, view_proj: mat4x4<f32>, viewport: vec2<f32>) -> vec4<f32> {
+    return hull_fan_vertex(hull_polygon(corners, margin, view_proj, viewport), vi, viewport);
+}
+
+// Clip-space position of vertex `vi` of the fan of `poly` on a target of `viewport` pixels:
+// fan triangle t = vi / 3 uses (0, t + 1, t + 2); triangles past the polygon are degenerate.
+fn hull_fan_vertex(poly: HullPolygon, vi: u32, viewport: vec2<f32>) -> vec4<f32> {
+    let t = vi / 3u;
+    let corner = vi % 3u;
+    var idx = 0u;
+    if corner == 1u {
+        idx = t + 1u;
+    } else if corner == 2u {
+        idx = t + 2u;
+    }
+    if t + 2u >= poly.n {
+        return vec4<f32>(0.0, 0.0, 0.0, 0.0);
+    }
+    return vec4<f32>(poly.p[idx] / (0.5 * viewport) - 1.0, 0.0, 1.0);
+}
+
+// The outline of `corners` (world space) seen through `view_proj` on a target of `viewport`
+// pixels, grown by `margin` pixels.
+fn hull_polygon(corners: array<vec3<f32>, 6>, margin: f32, view_proj: mat4x4<f32>, viewport: vec2<f32>) -> HullPolygon {
+    var out: HullPolygon;
+    out.n = 0u;
     // Pixel coordinates of the corners (y up, like NDC).
     var pts: array<vec2<f32>, 6>;
     var clip: array<vec4<f32>, 6>;
@@ -55,15 +89,17 @@ fn hull_outline(corners: array<vec3<f32>, 6>, vi: u32, margin: f32, view_proj: m
                 hi = max(hi, q);
             }
         }
-        if vi >= 6u || lo.x > hi.x {
-            return vec4<f32>(0.0, 0.0, 0.0, 0.0);
+        if lo.x > hi.x {
+            return out;
         }
         lo = max(lo - vec2<f32>(margin), vec2<f32>(-1.0));
         hi = min(hi + vec2<f32>(margin), viewport + vec2<f32>(1.0));
-        var rect = array<vec2<f32>, 6>(
-            lo, vec2<f32>(hi.x, lo.y), hi, lo, hi, vec2<f32>(lo.x, hi.y),
-        );
-        return vec4<f32>(rect[vi] / half - 1.0, 0.0, 1.0);
+        out.p[0] = lo;
+        out.p[1] = vec2<f32>(hi.x, lo.y);
+        out.p[2] = hi;
+        out.p[3] = vec2<f32>(lo.x, hi.y);
+        out.n = 4u;
+        return out;
     }
     // Sort by x, then y (insertion sort of six), then Andrew's monotone chain.
     for (var i = 1u; i < 6u; i++) {
@@ -131,17 +167,7 @@ fn hull_outline(corners: array<vec3<f32>, 6>, vi: u32, margin: f32, view_proj: m
             grown[k] = cur + off;
         }
     }
-    // Fan triangle t = vi / 3 uses (0, t + 1, t + 2); triangles past the polygon are degenerate.
-    let t = vi / 3u;
-    let corner = vi % 3u;
-    var idx = 0u;
-    if corner == 1u {
-        idx = t + 1u;
-    } else if corner == 2u {
-        idx = t + 2u;
-    }
-    if t + 2u >= n {
-        return vec4<f32>(0.0, 0.0, 0.0, 0.0);
-    }
-    return vec4<f32>(grown[idx] / half - 1.0, 0.0, 1.0);
+    out.p = grown;
+    out.n = n;
+    return out;
 }

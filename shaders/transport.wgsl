@@ -1,14 +1,15 @@
 // Transport-table caustics (Iwasaki et al. 2005 §5.2) over arbitrary receivers: one instance per
-// illumination volume (bake/transport/eval.rs builds them per frame on the CPU), drawn as the
-// screen rectangle its six corners project to; every covered pixel reads its receiver point and
-// normal from the G-buffer (gbuffer.wgsl), intersects the volume's three exit rays with the
-// receiver's tangent plane (the cross-section S_p of Eq. 2), and adds the volume's light
-// averaged over the pixel's footprint on that plane: S · Σ bᵢFᵢ · |S_p ∩ footprint| /
-// (|S_p| · |footprint|), b at the overlap's centroid (Sutherland-Hodgman clip of the
-// triangle by the footprint quadrilateral). The arriving ray there is shaded with the
+// illumination volume (render/transport/volumes.rs builds them per frame on the CPU), drawn as
+// the outline its six corners project to (made once a volume by `outline`, hull.inc.wgsl) at
+// the depth of its farthest corner over a culling depth of the receivers (`fs_cull_depth`);
+// every covered pixel reads its receiver point and normal from the G-buffer (gbuffer.wgsl),
+// intersects the volume's three exit rays with the receiver's tangent plane (the cross-section
+// S_p of Eq. 2), and adds the volume's light averaged over the pixel's footprint on that plane:
+// S · Σ bᵢFᵢ · |S_p ∩ footprint| / (|S_p| · |footprint|), b at the overlap's centroid (the
+// overlap of the triangle and the footprint quadrilateral from its boundary, clip_overlap). The arriving ray there is shaded with the
 // receiver's BRDF and dropped when an occluder (occlusion.inc.wgsl: everything but the caustic
 // objects) lies between the receiver and where it left the object. Mirrors
-// `Volume::arrival` with a footprint and `eval::render_caustics`.
+// `Volume::arrival` with a footprint and `volumes::render_caustics`.
 //
 // Two ways to sum the volumes into the caustics layer. llvmpipe runs every branch of a shader
 // under a mask, discarded fragments included, so a fragment that fails the cheap tests would
@@ -80,20 +81,49 @@ struct VsOut {
     @location(0) @interpolate(flat) volume: u32,
 }
 
+// A volume's outline on screen (hull.inc.wgsl's polygon, two points a vec4) and its depth:
+// `info.x` the polygon's point count, `info.y` the depth of its farthest corner.
+struct Outline {
+    p01: vec4<f32>,
+    p23: vec4<f32>,
+    p45: vec4<f32>,
+    info: vec4<f32>,
+}
+@group(0) @binding(17) var<storage, read> outlines: array<Outline>;
+
 @vertex
 fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -> VsOut {
-    let v = volumes[ii];
+    let o = outlines[ii];
+    var poly: HullPolygon;
+    poly.p = array<vec2<f32>, 6>(o.p01.xy, o.p01.zw, o.p23.xy, o.p23.zw, o.p45.xy, o.p45.zw);
+    poly.n = u32(o.info.x);
+    var out: VsOut;
+    out.volume = ii;
+    out.clip = hull_fan_vertex(poly, vi, g.viewport.xy);
+    // At the depth of the volume's farthest corner (the outline's w is 1, or 0 when the vertex
+    // is degenerate): the depth test drops the pixels whose receiver lies farther than that
+    // (fs_cull_depth).
+    out.clip.z = o.info.y * out.clip.w;
+    return out;
+}
+
+// The outlines of the frame's volumes, one invocation a volume (made once instead of once per
+// vertex of its fan). Its bind group holds g, volumes and this.
+@group(0) @binding(18) var<storage, read_write> outlines_out: array<Outline>;
+
+@compute @workgroup_size(64, 1, 1)
+fn outline(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.y * groups.x * 64u + gid.x;
+    if i >= arrayLength(&volumes) {
+        return;
+    }
+    let v = volumes[i];
     let len = v.e1.w;
     var corners = array<vec3<f32>, 6>(
         v.e0.xyz, v.e1.xyz, v.e2.xyz,
         v.e0.xyz + v.d0.xyz * len, v.e1.xyz + v.d1.xyz * len, v.e2.xyz + v.d2.xyz * len,
     );
-    var out: VsOut;
-    out.volume = ii;
-    out.clip = hull_outline(corners, vi, 1.5, g.view_proj, g.viewport.xy);
-    // At the depth of the volume's farthest corner (the outline's w is 1, or 0 when the vertex
-    // is degenerate): the depth test drops the pixels whose receiver lies farther than that
-    // (fs_cull_depth).
+    let poly = hull_polygon(corners, 1.5, g.view_proj, g.viewport.xy);
     var far = 0.0;
     for (var k = 0u; k < 6u; k++) {
         let c = g.view_proj * vec4<f32>(corners[k], 1.0);
@@ -101,8 +131,12 @@ fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -
             far = max(far, c.z / c.w);
         }
     }
-    out.clip.z = clamp(far, 0.0, 1.0) * out.clip.w;
-    return out;
+    var o: Outline;
+    o.p01 = vec4<f32>(poly.p[0], poly.p[1]);
+    o.p23 = vec4<f32>(poly.p[2], poly.p[3]);
+    o.p45 = vec4<f32>(poly.p[4], poly.p[5]);
+    o.info = vec4<f32>(f32(poly.n), clamp(far, 0.0, 1.0), 0.0, 0.0);
+    outlines_out[i] = o;
 }
 
 // A triangle over the whole target.
@@ -148,57 +182,86 @@ struct Overlap {
     c: vec4<f32>,
 }
 
-// Area and centroid of triangle t ∩ convex quad f (counter-clockwise), 2D.
-fn clip_overlap(t0: vec2<f32>, t1: vec2<f32>, t2: vec2<f32>, f: array<vec2<f32>, 4>) -> Overlap {
-    var a: array<vec2<f32>, 8>;
-    var b: array<vec2<f32>, 8>;
-    a[0] = t0;
-    a[1] = t1;
-    a[2] = t2;
-    var n = 3u;
+// The parameter range `r` of a segment cut to where d(t) = da + t (db - da) >= 0 (its part
+// inside a half-plane, da and db its ends' signed distances to the edge); empty (x >= y) when
+// none is.
+fn clip_range(r: vec2<f32>, da: f32, db: f32) -> vec2<f32> {
+    if da < 0.0 && db < 0.0 {
+        return vec2<f32>(1.0, 0.0);
+    }
+    var out = r;
+    if da < 0.0 {
+        out.x = max(out.x, da / (da - db));
+    } else if db < 0.0 {
+        out.y = min(out.y, da / (da - db));
+    }
+    return out;
+}
+
+// The part r of segment a→b as a boundary piece p→q of an overlap: x = cross(p, q) (twice its
+// signed area about the origin), yz = (p + q)·cross(p, q) (six times that triangle's first
+// moment).
+fn boundary_piece(a: vec2<f32>, b: vec2<f32>, r: vec2<f32>) -> vec3<f32> {
+    if r.x >= r.y {
+        return vec3<f32>(0.0);
+    }
+    let p = a + (b - a) * r.x;
+    let q = a + (b - a) * r.y;
+    let c = cross2(p, q);
+    return vec3<f32>(c, (p + q) * c);
+}
+
+fn side(p: vec2<f32>, r: vec2<f32>, x: vec2<f32>) -> f32 {
+    return cross2(r - p, x - p);
+}
+
+// Triangle edge a→b within quad f0..f3.
+fn edge_in_quad(a: vec2<f32>, b: vec2<f32>, f0: vec2<f32>, f1: vec2<f32>, f2: vec2<f32>, f3: vec2<f32>) -> vec3<f32> {
+    var r = vec2<f32>(0.0, 1.0);
+    r = clip_range(r, side(f0, f1, a), side(f0, f1, b));
+    r = clip_range(r, side(f1, f2, a), side(f1, f2, b));
+    r = clip_range(r, side(f2, f3, a), side(f2, f3, b));
+    r = clip_range(r, side(f3, f0, a), side(f3, f0, b));
+    return boundary_piece(a, b, r);
+}
+
+// Quad edge a→b within triangle t0 t1 t2.
+fn edge_in_triangle(a: vec2<f32>, b: vec2<f32>, t0: vec2<f32>, t1: vec2<f32>, t2: vec2<f32>) -> vec3<f32> {
+    var r = vec2<f32>(0.0, 1.0);
+    r = clip_range(r, side(t0, t1, a), side(t0, t1, b));
+    r = clip_range(r, side(t1, t2, a), side(t1, t2, b));
+    r = clip_range(r, side(t2, t0, a), side(t2, t0, b));
+    return boundary_piece(a, b, r);
+}
+
+// Area and centroid of triangle t ∩ convex quad f (f counter-clockwise, t either way), 2D.
+// The overlap's boundary is the part of each polygon's edges inside the other, so its area and
+// first moment are sums over those pieces (Green's theorem): seven segments clipped against
+// three or four half-planes each, in straight-line code without arrays (llvmpipe spills
+// arrays indexed at run time, which a polygon clipper needs).
+fn clip_overlap(t0: vec2<f32>, t1_in: vec2<f32>, t2_in: vec2<f32>, f: array<vec2<f32>, 4>) -> Overlap {
     var out: Overlap;
     out.c = vec4<f32>(0.0);
-    for (var e = 0u; e < 4u; e++) {
-        let p0 = f[e];
-        let edge = f[(e + 1u) % 4u] - p0;
-        var m = 0u;
-        for (var k = 0u; k < n; k++) {
-            let cur = a[k];
-            let prev = a[(k + n - 1u) % n];
-            let dc = cross2(edge, cur - p0);
-            let dp = cross2(edge, prev - p0);
-            if (dc >= 0.0) != (dp >= 0.0) {
-                b[m] = prev + (cur - prev) * (dp / (dp - dc));
-                m += 1u;
-            }
-            if dc >= 0.0 {
-                b[m] = cur;
-                m += 1u;
-            }
-        }
-        n = m;
-        if n < 3u {
-            return out;
-        }
-        for (var k = 0u; k < n; k++) {
-            a[k] = b[k];
-        }
+    // Counter-clockwise.
+    var t1 = t1_in;
+    var t2 = t2_in;
+    if cross2(t1 - t0, t2 - t0) < 0.0 {
+        t1 = t2_in;
+        t2 = t1_in;
     }
-    var area = 0.0;
-    var c = vec2<f32>(0.0);
-    for (var k = 0u; k < n; k++) {
-        let p = a[k];
-        let r = a[(k + 1u) % n];
-        let cr = cross2(p, r);
-        area += cr;
-        c += (p + r) * cr;
-    }
-    area = 0.5 * area;
-    if abs(area) <= 0.0 {
+    let f0 = f[0];
+    let f1 = f[1];
+    let f2 = f[2];
+    let f3 = f[3];
+    let sum = edge_in_quad(t0, t1, f0, f1, f2, f3) + edge_in_quad(t1, t2, f0, f1, f2, f3)
+        + edge_in_quad(t2, t0, f0, f1, f2, f3) + edge_in_triangle(f0, f1, t0, t1, t2)
+        + edge_in_triangle(f1, f2, t0, t1, t2) + edge_in_triangle(f2, f3, t0, t1, t2)
+        + edge_in_triangle(f3, f0, t0, t1, t2);
+    let area = 0.5 * sum.x;
+    if area <= 0.0 {
         return out;
     }
-    c = c / (6.0 * area);
-    out.c = vec4<f32>(c, abs(area), 1.0);
+    out.c = vec4<f32>(sum.yz / (6.0 * area), area, 1.0);
     return out;
 }
 

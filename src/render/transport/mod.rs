@@ -192,6 +192,8 @@ pub struct TransportPipelines {
     pub volume: wgpu::RenderPipeline,
     select: wgpu::RenderPipeline,
     cull_depth: wgpu::RenderPipeline,
+    outline: wgpu::ComputePipeline,
+    outline_layout: wgpu::BindGroupLayout,
     list_args: wgpu::ComputePipeline,
     evaluate: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
@@ -217,6 +219,9 @@ fn list_capacity(pixels: u64, per_pixel: u64, volumes: u64, max_binding: u64) ->
 
 /// Vertices drawn per volume or beam (`HULL_VERTICES` of hull.inc.wgsl).
 pub const HULL_VERTICES: u32 = 12;
+
+/// Bytes of a volume's `Outline` (transport.wgsl).
+const OUTLINE_BYTES: u64 = 64;
 
 /// The format of the volume draws' culling depth.
 const CULL_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -261,6 +266,15 @@ impl TransportPipelines {
                 entry(14, frag, rw),
                 entry(15, frag, rw),
                 entry(16, frag, uniform),
+                entry(17, wgpu::ShaderStages::VERTEX, storage),
+            ],
+        });
+        let outline_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("transport outlines"),
+            entries: &[
+                entry(0, cs, uniform),
+                entry(12, cs, storage),
+                entry(18, cs, rw),
             ],
         });
         let output_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -393,8 +407,18 @@ impl TransportPipelines {
                 cache: None,
             })
         };
+        let outline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("outline"),
+            layout: Some(&layout(&outline_layout)),
+            module: &tmod,
+            entry_point: Some("outline"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
         TransportPipelines {
             volume,
+            outline,
+            outline_layout,
             select,
             cull_depth,
             list_args: compute("list_args"),
@@ -466,9 +490,11 @@ impl TransportPipelines {
 }
 
 /// The volumes buffer of a frame (never empty: a zero volume that covers nothing when there is
-/// none, so the binding stays valid) and the uniform of the list's sums.
+/// none, so the binding stays valid), their outlines (`Outline` of transport.wgsl, written by
+/// its `outline` pass) and the uniform of the list's sums.
 pub struct VolumeBuffers {
     pub volumes: wgpu::Buffer,
+    outlines: wgpu::Buffer,
     /// `ListParams` of transport.wgsl: the fixed-point sums' unit.
     params: wgpu::Buffer,
 }
@@ -504,6 +530,12 @@ pub fn upload_volumes(device: &wgpu::Device, volumes: &[Volume]) -> VolumeBuffer
             bytemuck::cast_slice(&packed),
             wgpu::BufferUsages::STORAGE,
         ),
+        outlines: device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("transport outlines"),
+            size: packed.len() as u64 * OUTLINE_BYTES,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        }),
         params: init(
             "transport list params",
             bytemuck::cast_slice(&[sums_unit(volumes), 0.0, 0.0, 0.0]),
@@ -585,15 +617,49 @@ pub fn encode(
                 binding: 16,
                 resource: volumes.params.as_entire_binding(),
             },
+            wgpu::BindGroupEntry {
+                binding: 17,
+                resource: volumes.outlines.as_entire_binding(),
+            },
+        ],
+    });
+    let outline_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("transport outlines"),
+        layout: &p.outline_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 12,
+                resource: volumes.volumes.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 18,
+                resource: volumes.outlines.as_entire_binding(),
+            },
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
     let dv = lists.depth.create_view(&Default::default());
-    // One timed pass from the culling depth to the layer.
+    // One timed pass from the outlines to the layer.
     let ts = timestamps.map(|t| {
         let k = t.pass("transport");
         (&*t, k)
     });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("transport outlines"),
+            timestamp_writes: ts.map(|(t, k)| t.compute_writes(k, true, false)),
+        });
+        if count > 0 {
+            pass.set_pipeline(&p.outline);
+            pass.set_bind_group(0, &outline_bg, &[]);
+            let groups = count.div_ceil(64);
+            pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+        }
+    }
     {
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("transport cull depth"),
@@ -606,7 +672,7 @@ pub fn encode(
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: ts.map(|(t, k)| t.writes(k, true, false)),
+            timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
         });
