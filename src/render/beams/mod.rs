@@ -758,7 +758,7 @@ impl BeamsLayer {
         if !stop.go() {
             return None;
         }
-        let accel = Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
+        let accel = Accel::shared_fast(world, |_| true);
         let (lo, hi) = world.bounds_with_media();
         let (lo, hi) = (lo - 1e-3, hi + 1e-3);
         let span = (hi - lo).length() + 1.0;

@@ -471,11 +471,7 @@ impl PinholeLayer {
         if !srcs.is_empty() {
             // The BVH build cannot be interrupted: asked right before and after it.
             check()?;
-            let accel = crate::trace::Accel::build_with(
-                world,
-                |_| true,
-                obvhs::BvhBuildParams::fast_build(),
-            );
+            let accel = crate::trace::Accel::shared_fast(world, |_| true);
             for (k, s) in samples.iter().enumerate() {
                 if k.is_multiple_of(SAMPLES_PER_CHECK) {
                     check()?;

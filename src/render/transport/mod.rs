@@ -87,11 +87,7 @@ impl TransportLayer {
         };
         let sources: Vec<Source> = volumes::sources(&world.lights, line_points);
         let caustic_objects: Vec<usize> = tables.iter().map(|t| t.0).collect();
-        let blockers = crate::trace::Accel::build_with(
-            world,
-            |i| !caustic_objects.contains(&i),
-            obvhs::BvhBuildParams::fast_build(),
-        );
+        let blockers = crate::trace::Accel::shared_fast(world, |i| !caustic_objects.contains(&i));
         let mut layer = TransportLayer {
             caustic_objects: caustic_objects.clone(),
             ..Default::default()
@@ -120,8 +116,7 @@ impl TransportLayer {
             volumes::check_volume_count(layer.volumes.len(), &sources)?;
         }
         // Viewing rays through each object see the others' caustics too.
-        let scene =
-            crate::trace::Accel::build_with(world, |_| true, obvhs::BvhBuildParams::fast_build());
+        let scene = crate::trace::Accel::shared_fast(world, |_| true);
         for &(oi, table) in tables {
             let view = view::view_refraction(
                 world,

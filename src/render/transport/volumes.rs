@@ -1211,7 +1211,7 @@ pub fn build_reflection_volumes(
     let stop = Stop::new(keep_going);
     // The BVH build cannot be interrupted: asked right before and after it.
     stop.check()?;
-    let own = Accel::build_with(world, |i| i == oi, obvhs::BvhBuildParams::fast_build());
+    let own = Accel::shared_fast(world, |i| i == oi);
     let (lo, hi) = world.bounds();
     let scale = lo.abs().max(hi.abs()).max_element().max(1.0);
     let mut stats = VolumeStats {
