@@ -148,12 +148,13 @@ fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32>
 
 // The culling depth of the select draw: per pixel, the depth of its receiver point moved
 // towards the eye along the view axis by twice its footprint's reach (and 10⁻⁴ of its
-// distance for rounding); 1 where the pixel has no receiver. A volume whose cross-section
-// passes the cheap tests at a receiver point p holds p within that reach of its hull, so p is
-// no farther along the view axis than the hull's farthest corner plus the reach: the volume's
+// distance for rounding); 1 where the pixel has no receiver. A volume can light the pixel only
+// where its cross-section overlaps the footprint, whose corners all lie within the reach of
+// the receiver point p: a point of the volume's hull is then within that reach of p, so p is
+// no farther along the view axis than the hull's farthest corner plus the reach. The volume's
 // outline, drawn at that corner's depth with the test greater-or-equal, keeps every such
 // pixel and drops those whose receiver lies behind the whole volume (most of a long hull's
-// outline).
+// outline): the frame's sums are the same with and without the cull.
 @fragment
 fn fs_cull_depth(@builtin(position) frag: vec4<f32>) -> @builtin(frag_depth) f32 {
     let gp = textureLoad(gbuf_position, vec2<u32>(frag.xy), 0);
