@@ -317,8 +317,8 @@ impl Job for RenderJob {
     /// targets, layers and readback, which lavapipe keeps in host memory: measured 190 for
     /// `direct`, 278 for `photons`, 341 for `beams` at 640×480 to 1280×960), 256 bytes a
     /// triangle, 16 MiB, and the photon buffers of `photons` (320 MiB), the beams of `beams`
-    /// (256 MiB) and the list of (pixel, volume) pairs and sums of `transport` (152 bytes a
-    /// pixel).
+    /// (256 MiB) and the list of (pixel, volume) pairs, sums and culling depth of `transport`
+    /// (156 bytes a pixel).
     fn memory(&self) -> u64 {
         let c = &self.world.camera;
         let frames = self.times.as_ref().map_or(1, |t| t.len() as u64);

@@ -197,9 +197,9 @@ pub struct TransportPipelines {
     lists: Option<Lists>,
 }
 
-/// Bytes a pixel of the list (at most) and the sums take; a volume's entries add
-/// [`LIST_ENTRIES_PER_VOLUME`] × 8 more.
-pub const LIST_BYTES_PER_PIXEL: u64 = LIST_ENTRIES_PER_PIXEL * 8 + 24;
+/// Bytes a pixel of the list (at most), the sums and the culling depth take; a volume's
+/// entries add [`LIST_ENTRIES_PER_VOLUME`] × 8 more, and its outline 64.
+pub const LIST_BYTES_PER_PIXEL: u64 = LIST_ENTRIES_PER_PIXEL * 8 + 24 + 4;
 
 /// Entries of the list per illumination volume besides those per pixel: in a small image every
 /// volume still covers a pixel or a few (the canonical sphere's 34.7k volumes overflowed 16
