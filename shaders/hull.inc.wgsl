@@ -31,6 +31,14 @@ fn hull_outline(corners: array<vec3<f32>, 6>, vi: u32, margin: f32, view_proj: m
 // Clip-space position of vertex `vi` of the fan of `poly` on a target of `viewport` pixels:
 // fan triangle t = vi / 3 uses (0, t + 1, t + 2); triangles past the polygon are degenerate.
 fn hull_fan_vertex(poly: HullPolygon, vi: u32, viewport: vec2<f32>) -> vec4<f32> {
+    if vi / 3u + 2u >= poly.n {
+        return vec4<f32>(0.0, 0.0, 0.0, 0.0);
+    }
+    return vec4<f32>(poly.p[fan_index(vi)] / (0.5 * viewport) - 1.0, 0.0, 1.0);
+}
+
+// The polygon point of fan vertex `vi`.
+fn fan_index(vi: u32) -> u32 {
     let t = vi / 3u;
     let corner = vi % 3u;
     var idx = 0u;
@@ -39,10 +47,7 @@ fn hull_fan_vertex(poly: HullPolygon, vi: u32, viewport: vec2<f32>) -> vec4<f32>
     } else if corner == 2u {
         idx = t + 2u;
     }
-    if t + 2u >= poly.n {
-        return vec4<f32>(0.0, 0.0, 0.0, 0.0);
-    }
-    return vec4<f32>(poly.p[idx] / (0.5 * viewport) - 1.0, 0.0, 1.0);
+    return idx;
 }
 
 // The outline of `corners` (world space) seen through `view_proj` on a target of `viewport`

@@ -1,15 +1,16 @@
 // Transport-table caustics (Iwasaki et al. 2005 §5.2) over arbitrary receivers: one instance per
 // illumination volume (render/transport/volumes.rs builds them per frame on the CPU), drawn as
-// the outline its six corners project to (made once a volume by `outline`, hull.inc.wgsl) at
-// the depth of its farthest corner over a culling depth of the receivers (`fs_cull_depth`);
-// every covered pixel reads its receiver point and normal from the G-buffer (gbuffer.wgsl),
-// intersects the volume's three exit rays with the receiver's tangent plane (the cross-section
-// S_p of Eq. 2), and adds the volume's light averaged over the pixel's footprint on that plane:
-// S · Σ bᵢFᵢ · |S_p ∩ footprint| / (|S_p| · |footprint|), b at the overlap's centroid (the
-// overlap of the triangle and the footprint quadrilateral from its boundary, clip_overlap). The arriving ray there is shaded with the
-// receiver's BRDF and dropped when an occluder (occlusion.inc.wgsl: everything but the caustic
-// objects) lies between the receiver and where it left the object. Mirrors
-// `Volume::arrival` with a footprint and `volumes::render_caustics`.
+// the outline its six corners project to (made once a volume by `outline`, hull.inc.wgsl) at a
+// depth no point of the volume lies behind, over a culling depth of the receivers
+// (`fs_cull_depth`); every covered pixel reads its receiver point and normal from the G-buffer
+// (gbuffer.wgsl), intersects the volume's three exit rays with the receiver's tangent plane
+// (the cross-section S_p of Eq. 2), and adds the volume's light averaged over the pixel's
+// footprint on that plane: S · Σ bᵢFᵢ · |S_p ∩ footprint| / (|S_p| · |footprint|), b at the
+// overlap's centroid (the overlap of the triangle and the footprint quadrilateral from its
+// boundary, clip_overlap). The arriving ray there is shaded with the receiver's BRDF and
+// dropped when an occluder (occlusion.inc.wgsl: everything but the caustic objects) lies
+// between the receiver and where it left the object. Mirrors `Volume::arrival` with a
+// footprint and `volumes::render_caustics`.
 //
 // Two ways to sum the volumes into the caustics layer. llvmpipe runs every branch of a shader
 // under a mask, discarded fragments included, so a fragment that fails the cheap tests would
@@ -81,8 +82,9 @@ struct VsOut {
     @location(0) @interpolate(flat) volume: u32,
 }
 
-// A volume's outline on screen (hull.inc.wgsl's polygon, two points a vec4) and its depth:
-// `info.x` the polygon's point count, `info.y` the depth of its farthest corner.
+// A volume's outline on screen (hull.inc.wgsl's polygon, two points a vec4) and its depth
+// bound: `info.x` the polygon's point count, and the plane depth = y + z·px + w·py over the
+// screen (px, py: pixels, y up) that no point of the volume lies behind (see `outline`).
 struct Outline {
     p01: vec4<f32>,
     p23: vec4<f32>,
@@ -100,10 +102,11 @@ fn vs_volume(@builtin(vertex_index) vi: u32, @builtin(instance_index) ii: u32) -
     var out: VsOut;
     out.volume = ii;
     out.clip = hull_fan_vertex(poly, vi, g.viewport.xy);
-    // At the depth of the volume's farthest corner (the outline's w is 1, or 0 when the vertex
-    // is degenerate): the depth test drops the pixels whose receiver lies farther than that
-    // (fs_cull_depth).
-    out.clip.z = o.info.y * out.clip.w;
+    // At the volume's depth bound (the outline's w is 1, or 0 when the vertex is degenerate):
+    // the depth test drops the pixels whose receiver lies farther than that (fs_cull_depth).
+    let px = poly.p[min(fan_index(vi), 5u)];
+    let bound = o.info.y + o.info.z * px.x + o.info.w * px.y;
+    out.clip.z = clamp(bound, 0.0, 1.0) * out.clip.w;
     return out;
 }
 
@@ -124,18 +127,74 @@ fn outline(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         v.e0.xyz + v.d0.xyz * len, v.e1.xyz + v.d1.xyz * len, v.e2.xyz + v.d2.xyz * len,
     );
     let poly = hull_polygon(corners, 1.5, g.view_proj, g.viewport.xy);
+    // The corners on screen: pixels (y up) and depth.
+    var q: array<vec3<f32>, 6>;
     var far = 0.0;
+    var behind = false;
     for (var k = 0u; k < 6u; k++) {
         let c = g.view_proj * vec4<f32>(corners[k], 1.0);
         if c.w > NEAR_W {
             far = max(far, c.z / c.w);
+            q[k] = vec3<f32>((c.xy / c.w + 1.0) * 0.5 * g.viewport.xy, c.z / c.w);
+        } else {
+            behind = true;
+        }
+    }
+    // The depth bound: a plane over the screen with every corner on its near side, so the
+    // whole volume (their convex hull, convex on screen too while no corner is behind the eye)
+    // is; raised by what it climbs over half a pixel, because the light a pixel receives
+    // comes from a point of the volume within its square, not at its centre. Of the planes
+    // through three corners (lifted to clear the others) and the flat one at the farthest
+    // corner, the one lowest at the outline's centre: over a long volume seen from the side
+    // that is its back face, which lies far nearer than its farthest corner. Where the chosen
+    // plane passes depth 1 within the outline (clamping it there would lower it), or a corner
+    // is behind the eye, the flat one.
+    var plane = vec3<f32>(clamp(far, 0.0, 1.0), 0.0, 0.0);
+    if !behind && poly.n >= 3u {
+        var centre = vec2<f32>(0.0);
+        for (var k = 0u; k < 6u; k++) {
+            if k < poly.n {
+                centre += poly.p[k];
+            }
+        }
+        centre /= f32(poly.n);
+        var best = plane.x;
+        for (var i0 = 0u; i0 < 4u; i0++) {
+            for (var i1 = i0 + 1u; i1 < 5u; i1++) {
+                for (var i2 = i1 + 1u; i2 < 6u; i2++) {
+                    let d1 = q[i1] - q[i0];
+                    let d2 = q[i2] - q[i0];
+                    let det = d1.x * d2.y - d1.y * d2.x;
+                    if abs(det) < 1e-3 {
+                        continue;
+                    }
+                    let a = (d1.z * d2.y - d2.z * d1.y) / det;
+                    let b = (d1.x * d2.z - d2.x * d1.z) / det;
+                    var c = -3.0e38;
+                    for (var m = 0u; m < 6u; m++) {
+                        c = max(c, q[m].z - a * q[m].x - b * q[m].y);
+                    }
+                    c += 0.75 * (abs(a) + abs(b)) + 1e-6;
+                    let at = c + a * centre.x + b * centre.y;
+                    var top = -3.0e38;
+                    for (var k = 0u; k < 6u; k++) {
+                        if k < poly.n {
+                            top = max(top, c + a * poly.p[k].x + b * poly.p[k].y);
+                        }
+                    }
+                    if at < best && top <= 1.0 {
+                        best = at;
+                        plane = vec3<f32>(c, a, b);
+                    }
+                }
+            }
         }
     }
     var o: Outline;
     o.p01 = vec4<f32>(poly.p[0], poly.p[1]);
     o.p23 = vec4<f32>(poly.p[2], poly.p[3]);
     o.p45 = vec4<f32>(poly.p[4], poly.p[5]);
-    o.info = vec4<f32>(f32(poly.n), clamp(far, 0.0, 1.0), 0.0, 0.0);
+    o.info = vec4<f32>(f32(poly.n), plane);
     outlines_out[i] = o;
 }
 
@@ -150,10 +209,11 @@ fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32>
 // towards the eye along the view axis by twice its footprint's reach (and 10⁻⁴ of its
 // distance for rounding); 1 where the pixel has no receiver. A volume can light the pixel only
 // where its cross-section overlaps the footprint, whose corners all lie within the reach of
-// the receiver point p: a point of the volume's hull is then within that reach of p, so p is
-// no farther along the view axis than the hull's farthest corner plus the reach. The volume's
-// outline, drawn at that corner's depth with the test greater-or-equal, keeps every such
-// pixel and drops those whose receiver lies behind the whole volume (most of a long hull's
+// the receiver point p, and within the pixel's square on screen: that point of the volume's
+// hull lies no farther than the volume's depth bound there (`outline`: a plane on screen, lifted
+// by half a pixel's climb), and p no farther along the view axis than that point plus the reach.
+// The volume's outline, drawn at its bound with the test greater-or-equal, keeps every such
+// pixel and drops those whose receiver lies behind the volume (most of a long hull's
 // outline): the frame's sums are the same with and without the cull.
 @fragment
 fn fs_cull_depth(@builtin(position) frag: vec4<f32>) -> @builtin(frag_depth) f32 {
