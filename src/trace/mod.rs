@@ -18,8 +18,8 @@ use obvhs::{
 };
 use std::time::Duration;
 
-/// Triangles the trees [`Accel::shared_fast`] keeps hold at most in all (about 100 bytes each);
-/// a larger tree is kept alone.
+/// Triangles the trees [`Accel::shared_fast`] keeps hold at most in all; a larger tree is kept
+/// alone.
 pub const SHARED_TRIANGLES: usize = 1 << 20;
 
 /// Offset applied along the geometric normal when a ray leaves a surface, metres.
@@ -601,6 +601,16 @@ fn normal_xform(nm: Mat4, n: Vec3) -> Vec3A {
 mod tests {
     use super::*;
 
+    /// The world of scene JSON `json` (no assets).
+    fn world_of(json: &str) -> World {
+        resolve(
+            &parse_scene(json.as_bytes()).unwrap(),
+            &MapSource::default(),
+            &Default::default(),
+        )
+        .unwrap()
+    }
+
     /// A shared tree serves the same scene again (the same `Arc`), and is built anew for
     /// another transform, another set of objects, or meshes of the same content in other
     /// allocations; it finds what a fresh build finds; a scene whose meshes are gone leaves
@@ -615,14 +625,7 @@ mod tests {
                          "segments": 24}, "material": "d"},
                         {"name": "floor", "shape": {"type": "plane", "size": [4, 4]},
                          "material": "d"}]}"#;
-        let load = || {
-            resolve(
-                &parse_scene(json.as_bytes()).unwrap(),
-                &MapSource::default(),
-                &Default::default(),
-            )
-            .unwrap()
-        };
+        let load = || world_of(json);
         let world = load();
         let a = Accel::shared_fast(&world, |_| true);
         assert!(
@@ -670,12 +673,7 @@ mod tests {
             "materials": {"d": {"type": "diffuse", "albedo": 0.5}},
             "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
                          "segments": 320}, "material": "d"}]}"#;
-        let world = resolve(
-            &parse_scene(json.as_bytes()).unwrap(),
-            &MapSource::default(),
-            &Default::default(),
-        )
-        .unwrap();
+        let world = world_of(json);
         let accel = Accel::build_with(&world, |_| true, BvhBuildParams::fast_build());
         assert!(accel.triangle_count() > 2 * CONVEX_CHUNK);
         let asked = crate::cancel::assert_cancels(
@@ -720,12 +718,7 @@ mod tests {
                 {"name": "ball", "shape": {"type": "sphere", "radius": 0.5, "segments": 64},
                  "material": "d", "transform": {"translation": [0, 1, 0]}}
             ]}"#;
-        resolve(
-            &parse_scene(json.as_bytes()).unwrap(),
-            &MapSource::default(),
-            &Default::default(),
-        )
-        .unwrap()
+        world_of(json)
     }
 
     #[test]
@@ -798,12 +791,7 @@ mod tests {
                 {"name": "pair2", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": "d",
                  "transform": {"translation": [1, 0, 0]}}
             ]}"#;
-        let world = resolve(
-            &parse_scene(json.as_bytes()).unwrap(),
-            &MapSource::default(),
-            &Default::default(),
-        )
-        .unwrap();
+        let world = world_of(json);
         let only = |names: &[&str]| {
             Accel::build_with(
                 &world,

@@ -164,7 +164,7 @@ impl TransportLayer {
 /// is 4.8 a receiver pixel, with a tail of a few thousand in a few pixels.
 pub const LIST_ENTRIES_PER_PIXEL: u64 = 16;
 
-/// The list and the sums of a frame size.
+/// The list, the sums and the culling depth of a frame size.
 struct Lists {
     size: (u32, u32),
     per_pixel: u64,
@@ -220,6 +220,20 @@ const OUTLINE_BYTES: u64 = 64;
 
 /// The format of the volume draws' culling depth.
 const CULL_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The culling depth's state in a volume pipeline: written (`fs_cull_depth`) or tested.
+fn cull_depth_state(
+    write: bool,
+    compare: wgpu::CompareFunction,
+) -> Option<wgpu::DepthStencilState> {
+    Some(wgpu::DepthStencilState {
+        format: CULL_DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: wgpu::StencilState::default(),
+        bias: wgpu::DepthBiasState::default(),
+    })
+}
 
 /// transport.wgsl for a device with `features`: as written (`fs_select` forces the depth test
 /// before it runs) where the device has `SHADER_EARLY_DEPTH_TEST`, else without that attribute
@@ -324,15 +338,9 @@ impl TransportPipelines {
                     buffers: &[],
                 },
                 primitive,
-                // Drawn at the volume's farthest depth: kept where the receiver is no farther
+                // Drawn at the volume's depth bound: kept where the receiver is no farther
                 // (fs_cull_depth).
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: CULL_DEPTH_FORMAT,
-                    depth_write_enabled: Some(false),
-                    depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
+                depth_stencil: cull_depth_state(false, wgpu::CompareFunction::GreaterEqual),
                 multisample: wgpu::MultisampleState::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &tmod,
@@ -370,13 +378,7 @@ impl TransportPipelines {
                 buffers: &[],
             },
             primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: CULL_DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
+            depth_stencil: cull_depth_state(true, wgpu::CompareFunction::Always),
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &tmod,
