@@ -397,6 +397,110 @@ impl Mesh {
             |(lo, hi), p| (lo.min(*p), hi.max(*p)),
         )
     }
+
+    /// Whether the mesh is the closed, outward-wound boundary of solids: with vertices closer
+    /// than a millionth of its diagonal taken as one (a sphere's seam, split normals), every
+    /// edge of a triangle of non-zero size is crossed by exactly one other triangle, in the
+    /// opposite direction, and every connected piece encloses a positive volume (counter-
+    /// clockwise seen from outside, glTF's front faces). Seen from a point outside, such a
+    /// mesh shows only front faces; its back faces are hidden behind them, so a raster pass may
+    /// cull them. False for open or non-manifold meshes, inconsistent or inward winding (a hollow
+    /// shell's inner wall included), or indices out of range.
+    pub fn is_closed_outward(&self) -> bool {
+        let n = self.positions.len();
+        if self.indices.is_empty() || self.indices.iter().flatten().any(|&i| i as usize >= n) {
+            return false;
+        }
+        let (lo, hi) = self.bounds();
+        let tol = (hi - lo).length() * 1e-6;
+        if !tol.is_finite() || tol <= 0.0 {
+            return false;
+        }
+        let id = weld(&self.positions, tol);
+        // Directed edges of the triangles that did not collapse; closed and consistently wound
+        // when the set of edges equals the set of reversed edges and no edge repeats.
+        let tris: Vec<[u32; 3]> = self
+            .indices
+            .iter()
+            .map(|t| t.map(|i| id[i as usize]))
+            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+            .collect();
+        if tris.is_empty() {
+            return false;
+        }
+        let mut edges: Vec<(u32, u32)> = tris
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .collect();
+        let mut reversed: Vec<(u32, u32)> = edges.iter().map(|&(a, b)| (b, a)).collect();
+        edges.sort_unstable();
+        reversed.sort_unstable();
+        if edges.windows(2).any(|w| w[0] == w[1]) || edges != reversed {
+            return false;
+        }
+        // Connected pieces (union-find over the welded vertices), each of positive volume.
+        let mut parent: Vec<u32> = (0..n as u32).collect();
+        fn root(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                let g = parent[parent[i as usize] as usize];
+                parent[i as usize] = g;
+                i = g;
+            }
+            i
+        }
+        for t in &tris {
+            let a = root(&mut parent, t[0]);
+            for &v in &t[1..] {
+                let b = root(&mut parent, v);
+                parent[b as usize] = a;
+            }
+        }
+        let mut volume: std::collections::HashMap<u32, f64> = std::collections::HashMap::new();
+        for t in &tris {
+            let [a, b, c] = t.map(|i| (self.positions[i as usize] - lo).as_dvec3());
+            *volume.entry(root(&mut parent, t[0])).or_default() += a.dot(b.cross(c)) / 6.0;
+        }
+        let scale = f64::from((hi - lo).length()).powi(3) * 1e-12;
+        volume.values().all(|&v| v > scale)
+    }
+}
+
+/// Each position's representative after welding: the index of the first earlier position within
+/// `tol` of it (Euclidean; itself when there is none), found in the 27 grid cells of side `tol`
+/// around it (cells counted from the lowest corner, so far-off meshes do not overflow them).
+/// Vertices split for normals, seams and poles come out as one.
+pub fn weld(positions: &[Vec3], tol: f32) -> Vec<u32> {
+    let tol = tol.max(f32::MIN_POSITIVE);
+    let lo = positions.iter().fold(Vec3::MAX, |lo, p| lo.min(*p));
+    let cell = |p: Vec3| ((p - lo) / tol).floor().as_ivec3();
+    let mut grid: std::collections::HashMap<glam::IVec3, Vec<u32>> =
+        std::collections::HashMap::new();
+    let mut weld = Vec::with_capacity(positions.len());
+    for (i, p) in positions.iter().enumerate() {
+        let c = cell(*p);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for &j in grid
+                        .get(&(c + glam::IVec3::new(dx, dy, dz)))
+                        .into_iter()
+                        .flatten()
+                    {
+                        if positions[j as usize].distance(*p) <= tol {
+                            found = Some(j);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        weld.push(found.unwrap_or_else(|| {
+            grid.entry(c).or_default().push(i as u32);
+            i as u32
+        }));
+    }
+    weld
 }
 
 /// Part of an object drawn with one material; mesh in the object's local frame.
@@ -551,6 +655,70 @@ impl World {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Closed solids (the sphere with its split seam, a box, a torus, a capped cylinder, two
+    /// spheres apart) are found
+    /// closed and outward; an open plane, a sphere with a hole, one turned inside out, a hollow
+    /// shell (its inner wall wound inwards) and a sphere with a triangle doubled are not.
+    #[test]
+    fn closed_outward_meshes_are_told_from_the_others() {
+        use super::super::shapes;
+        let sphere = shapes::sphere(0.5, 32);
+        let joined = |a: &Mesh, b: &Mesh| {
+            let mut m = a.clone();
+            let base = m.positions.len() as u32;
+            m.positions.extend(&b.positions);
+            m.normals.extend(&b.normals);
+            m.indices
+                .extend(b.indices.iter().map(|t| t.map(|i| i + base)));
+            m
+        };
+        let inside_out = |m: &Mesh| Mesh {
+            indices: m.indices.iter().map(|t| [t[0], t[2], t[1]]).collect(),
+            ..m.clone()
+        };
+        let moved = sphere.transformed(Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)));
+        let inner = inside_out(&shapes::sphere(0.3, 32));
+        for (name, mesh, want) in [
+            ("sphere", sphere.clone(), true),
+            ("box", shapes::cuboid(Vec3::new(1.0, 2.0, 0.5)), true),
+            ("torus", shapes::torus(1.0, 0.25, 24), true),
+            ("cylinder", shapes::cylinder(0.5, 1.0, 24), true),
+            ("two spheres", joined(&sphere, &moved), true),
+            ("plane", shapes::plane(2.0, 2.0), false),
+            (
+                "sphere with a hole",
+                {
+                    let mut m = sphere.clone();
+                    m.indices.remove(100);
+                    m
+                },
+                false,
+            ),
+            ("inside out", inside_out(&sphere), false),
+            ("shell", joined(&sphere, &inner), false),
+            (
+                "doubled triangle",
+                {
+                    let mut m = sphere.clone();
+                    m.indices.push(m.indices[100]);
+                    m
+                },
+                false,
+            ),
+            (
+                "index out of range",
+                {
+                    let mut m = sphere.clone();
+                    m.indices[0][0] = 1 << 30;
+                    m
+                },
+                false,
+            ),
+        ] {
+            assert_eq!(mesh.is_closed_outward(), want, "{name}");
+        }
+    }
 
     #[test]
     fn ray_dir_and_project_are_inverse() {

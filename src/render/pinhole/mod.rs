@@ -169,34 +169,7 @@ pub fn is_open(positions: &[Vec3], indices: &[[u32; 3]]) -> bool {
             (lo.min(*p), hi.max(*p))
         });
     let tol = (hi - lo).length().max(f32::MIN_POSITIVE) * 1e-5;
-    let cell = |p: Vec3| (p / tol).floor().as_ivec3();
-    // Weld: each position to the first earlier one within tol (found in its 27 cells).
-    let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
-    let mut weld = Vec::with_capacity(positions.len());
-    for (i, p) in positions.iter().enumerate() {
-        let c = cell(*p);
-        let mut found = None;
-        'search: for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    for &j in grid
-                        .get(&(c + glam::IVec3::new(dx, dy, dz)))
-                        .into_iter()
-                        .flatten()
-                    {
-                        if positions[j as usize].distance(*p) <= tol {
-                            found = Some(j);
-                            break 'search;
-                        }
-                    }
-                }
-            }
-        }
-        weld.push(found.unwrap_or_else(|| {
-            grid.entry(c).or_default().push(i as u32);
-            i as u32
-        }));
-    }
+    let weld = crate::scene::world::weld(positions, tol);
     let mut uses: HashMap<(u32, u32), i32> = HashMap::with_capacity(indices.len() * 2);
     for t in indices {
         let w = t.map(|i| weld.get(i as usize).copied().unwrap_or(i));
