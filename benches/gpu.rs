@@ -83,6 +83,13 @@ fn bench_direct(c: &mut Criterion) {
     g.bench_function("direct_frame_800x600_glass_sphere", |b| {
         b.iter(|| renderer.render(&world, &opts).expect("render"))
     });
+    // The same without culling the back faces of closed objects (the sphere's), to compare
+    // side by side with the above.
+    renderer.set_back_face_cull(false);
+    g.bench_function("direct_frame_800x600_glass_sphere_back_faces_drawn", |b| {
+        b.iter(|| renderer.render(&world, &opts).expect("render"))
+    });
+    renderer.set_back_face_cull(true);
     // The light turns a little every frame: the shadow maps are drawn every frame.
     let mut turning = world.clone();
     let mut k = 0u32;

@@ -69,6 +69,8 @@ pub const GBUFFER_IN_DIRECT_BYTES: u32 = 6 * 16;
 /// The main and background pipelines of one [`Variant`].
 struct VariantPipelines {
     main: wgpu::RenderPipeline,
+    /// `main` culling back faces.
+    culled: wgpu::RenderPipeline,
     background: wgpu::RenderPipeline,
 }
 
@@ -238,35 +240,44 @@ impl DirectPipelines {
                 bias,
             })
         };
-        let main = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("direct"),
-            layout: Some(main_pl),
-            vertex: wgpu::VertexState {
-                module: direct_mod,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout())],
-            },
-            primitive,
-            depth_stencil: depth(
-                true,
-                wgpu::CompareFunction::Less,
-                wgpu::DepthBiasState::default(),
-            ),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: direct_mod,
-                entry_point: Some(if variant.gbuffer {
-                    "fs_main_gbuffer"
-                } else {
-                    "fs_main"
+        // The main pipeline, and the same culling back faces for closed objects seen from
+        // outside (`ObjectDraw::back_faces_hidden`).
+        let main_with = |label, cull_mode| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(main_pl),
+                vertex: wgpu::VertexState {
+                    module: direct_mod,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(vertex_layout())],
+                },
+                primitive: wgpu::PrimitiveState {
+                    cull_mode,
+                    ..primitive
+                },
+                depth_stencil: depth(
+                    true,
+                    wgpu::CompareFunction::Less,
+                    wgpu::DepthBiasState::default(),
+                ),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: direct_mod,
+                    entry_point: Some(if variant.gbuffer {
+                        "fs_main_gbuffer"
+                    } else {
+                        "fs_main"
+                    }),
+                    compilation_options: options(),
+                    targets: &main_targets,
                 }),
-                compilation_options: options(),
-                targets: &main_targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let main = main_with("direct", None);
+        let culled = main_with("direct, back faces culled", Some(wgpu::Face::Back));
         let background = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("background"),
             layout: Some(main_pl),
@@ -292,7 +303,11 @@ impl DirectPipelines {
             multiview_mask: None,
             cache: None,
         });
-        self.variants[variant.index()] = Some(VariantPipelines { main, background });
+        self.variants[variant.index()] = Some(VariantPipelines {
+            main,
+            culled,
+            background,
+        });
     }
 }
 
@@ -485,6 +500,7 @@ pub fn encode(
     atlas: &ShadowAtlas,
     env: &EnvTexture,
     gbuffer: Option<&super::gbuffer::GBuffer>,
+    (view_proj, cull_back_faces): (glam::Mat4, bool),
     timestamps: Option<&mut Timestamps>,
 ) {
     let vp = p.variants[variant.index()]
@@ -551,10 +567,23 @@ pub fn encode(
     });
     pass.set_bind_group(0, &bg, &[]);
     if let Some((vb, ib)) = scene.geometry() {
-        pass.set_pipeline(&vp.main);
         pass.set_vertex_buffer(0, vb.slice(..));
         pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..scene.index_count, 0, 0..1);
+        // Runs of objects drawn alike: closed objects the camera sees from outside without
+        // their back faces (hidden behind their front faces: the same image, half the
+        // triangles rasterised), the others whole.
+        let mut runs: Vec<(std::ops::Range<u32>, bool)> = Vec::new();
+        for d in &scene.draws {
+            let cull = cull_back_faces && d.back_faces_hidden(view_proj);
+            match runs.last_mut() {
+                Some((r, c)) if *c == cull && r.end == d.first => r.end = d.first + d.count,
+                _ => runs.push((d.first..d.first + d.count, cull)),
+            }
+        }
+        for (range, cull) in runs {
+            pass.set_pipeline(if cull { &vp.culled } else { &vp.main });
+            pass.draw_indexed(range, 0, 0..1);
+        }
     }
     pass.set_pipeline(&vp.background);
     pass.draw(0..3, 0..1);

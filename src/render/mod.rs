@@ -365,6 +365,9 @@ pub struct Renderer {
     /// Whether the transport pass culls its volumes' outlines by depth (see
     /// [`Renderer::set_transport_cull`]).
     transport_cull: bool,
+    /// Whether the direct pass culls the back faces of closed objects seen from outside (see
+    /// [`Renderer::set_back_face_cull`]).
+    back_face_cull: bool,
     /// False: the G-buffer in a pass of its own even where the direct pass could write it (a
     /// test checks the two agree).
     gbuffer_in_direct: bool,
@@ -405,6 +408,7 @@ impl Renderer {
             loop_budget: None,
             transport_list: transport::LIST_ENTRIES_PER_PIXEL,
             transport_cull: true,
+            back_face_cull: true,
             gbuffer_in_direct: true,
         })
     }
@@ -557,6 +561,13 @@ impl Renderer {
     /// that the cull drops no light.
     pub fn set_transport_cull(&mut self, cull: bool) {
         self.transport_cull = cull;
+    }
+
+    /// With false, the direct pass draws every object's back faces, as before the cull of the
+    /// closed objects' (hidden behind their front faces when seen from outside); tests check
+    /// that the cull changes no pixel.
+    pub fn set_back_face_cull(&mut self, cull: bool) {
+        self.back_face_cull = cull;
     }
 
     /// With false, frames draw the G-buffer in a pass of its own, as on an adapter whose render
@@ -738,6 +749,10 @@ impl Renderer {
                 atlas,
                 env,
                 c.gbuffer.as_ref(),
+                (
+                    glam::Mat4::from_cols_array(&plan.globals.view_proj),
+                    self.back_face_cull,
+                ),
                 ts.as_mut(),
             );
             // The G-buffer in a pass of its own where the direct pass could not write it.

@@ -729,3 +729,90 @@ fn frames_after_other_scenes_are_those_of_a_fresh_renderer() {
     same(&plain.0, &want_a, "a after transport");
     assert!(t_specular != plain.1, "the view through the glass shows");
 }
+
+/// The direct pass culls the back faces of closed objects the camera sees from outside: no
+/// pixel of any layer changes, whether the objects are glass, diffuse, mirrored by their
+/// transform or open (the floor), and a camera inside a closed room (whose walls it sees from
+/// their back) sees the same room as without the cull, not through its walls.
+#[test]
+fn culling_the_back_faces_of_closed_objects_changes_no_pixel() {
+    let mut outside = world(
+        Material::Diffuse {
+            albedo: Vec3::splat(0.7),
+        },
+        &[(Vec3::new(0.6, 0.5, 0.0), 0.5)],
+        vec![
+            Light::Point {
+                position: Vec3::new(-1.0, 3.0, 1.0),
+                intensity: Vec3::splat(6.0),
+            },
+            // A sky: the background and the walls' insides differ.
+            Light::Environment {
+                map: None,
+                radiance: Vec3::splat(0.3),
+            },
+        ],
+    );
+    outside.materials.push(Material::Dielectric {
+        ior: 1.5,
+        absorption: Vec3::ZERO,
+    });
+    // Glass, and a box mirrored by its transform (its winding turned over).
+    outside.objects.push(object(
+        "glass",
+        shapes::sphere(0.4, 48),
+        2,
+        Mat4::from_translation(Vec3::new(-0.7, 0.4, 0.3)),
+    ));
+    outside.objects.push(object(
+        "box",
+        shapes::cuboid(Vec3::new(0.6, 0.8, 0.4)),
+        1,
+        Mat4::from_translation(Vec3::new(0.0, 0.4, -1.0))
+            * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+    ));
+    // A closed room around the camera, lit inside: seen from within, its walls are back faces
+    // (black, one-sided) where a cull would show the sky through them.
+    let mut inside = outside.clone();
+    inside.objects.push(object(
+        "room",
+        shapes::cuboid(Vec3::new(12.0, 12.0, 12.0)),
+        0,
+        Mat4::IDENTITY,
+    ));
+    for (name, w) in [("outside", &outside), ("inside a room", &inside)] {
+        let mut r = gpu::renderer();
+        let mut frame = |cull: bool| {
+            r.set_back_face_cull(cull);
+            let out = r.render(w, &RenderOptions::default()).expect("render");
+            (out.direct, out.specular)
+        };
+        let (culled, all) = (frame(true), frame(false));
+        let lit = all
+            .0
+            .pixels
+            .iter()
+            .filter(|p| p.max_element() > 0.0)
+            .count();
+        assert!(
+            lit > (W * H / 2) as usize,
+            "{name}: the frame is lit ({lit} pixels)"
+        );
+        assert!(
+            all.1.pixels.iter().any(|p| p.max_element() > 0.0),
+            "{name}: the glass shows"
+        );
+        for (layer, a, b) in [
+            ("direct", &culled.0, &all.0),
+            ("specular", &culled.1, &all.1),
+        ] {
+            let differ = a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .filter(|(a, b)| a != b)
+                .count();
+            assert_eq!(differ, 0, "{name}: {layer} pixels changed by the cull");
+        }
+    }
+}
