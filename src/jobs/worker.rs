@@ -302,10 +302,13 @@ impl JobSystem {
             .map(|(_, d)| ms(*d))
             .sum();
         self.metrics.gpu_time(gpu_ms / 1e3);
+        let t = Instant::now();
         let r = self
             .store
             .write_artifact(id, a.ext, &a.bytes)
             .and_then(|stored| {
+                // The artifact's atomic write (file, fsync, rename, fsync of the folder).
+                timings.push(("store".to_string(), ms(t.elapsed())));
                 self.store.finish(
                     id,
                     JobState::Succeeded,

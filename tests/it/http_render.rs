@@ -53,7 +53,9 @@ async fn reference_render_matches_the_library_and_puts_the_caustic_there() {
     assert_eq!(r.status(), 200);
     assert_eq!(r.headers()["content-type"], "image/png");
     let timing = r.headers()["server-timing"].to_str().unwrap().to_string();
-    for stage in ["queue", "bvh", "photons", "camera", "encode", "request"] {
+    for stage in [
+        "accept", "queue", "bvh", "photons", "camera", "encode", "store", "respond", "request",
+    ] {
         assert!(timing.contains(&format!("{stage};dur=")), "{timing}");
     }
     let loc = r.headers()["location"].to_str().unwrap().to_string();

@@ -83,10 +83,13 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
         let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
     })?;
     let loc = format!("/v1/renders/{id}");
+    // Reading the body, the scene, the quota and the job's submission.
+    let accept = t0.elapsed();
     let done = match (&h, wait) {
         (Some(h), true) => wait_terminal(&st, h, st.cfg.render_wait).await,
         _ => false,
     };
+    let t_done = std::time::Instant::now();
     let r = load_job(&st, &id, JobKind::Render, &p)?;
     if !done && !matches!(r.state, JobState::Succeeded | JobState::Failed) {
         let v = view(r, h.as_deref());
@@ -101,7 +104,13 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
         return Err(AppError::failed_render(&id, code, err).instance(loc));
     }
     let mut resp = artifact_response(&st, &r)?;
-    let v = server_timing(&r.timings, Some(t0.elapsed()));
+    // Around the job's own stages: its acceptance, and the record and image read back once it
+    // finished.
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    let mut timings = vec![("accept".to_string(), ms(accept))];
+    timings.extend(r.timings.iter().cloned());
+    timings.push(("respond".to_string(), ms(t_done.elapsed())));
+    let v = server_timing(&timings, Some(t0.elapsed()));
     if let Ok(v) = HeaderValue::from_str(&v) {
         resp.headers_mut().insert("server-timing", v);
     }
