@@ -657,9 +657,9 @@ mod tests {
     use super::*;
 
     /// Closed solids (the sphere with its split seam, a box, a torus, a capped cylinder, two
-    /// spheres apart) are found
-    /// closed and outward; an open plane, a sphere with a hole, one turned inside out, a hollow
-    /// shell (its inner wall wound inwards) and a sphere with a triangle doubled are not.
+    /// spheres apart) are found closed and outward; an open plane, a sphere with a hole, one
+    /// turned inside out, a hollow shell (its inner wall wound inwards) and a sphere with a
+    /// triangle doubled are not.
     #[test]
     fn closed_outward_meshes_are_told_from_the_others() {
         use super::super::shapes;
