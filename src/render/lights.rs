@@ -69,7 +69,8 @@ fn v4(v: Vec3) -> [f32; 4] {
     [v.x, v.y, v.z, 0.0]
 }
 
-fn corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+/// The eight corners of the box [lo, hi].
+pub(super) fn corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     std::array::from_fn(|i| {
         Vec3::new(
             if i & 1 == 0 { lo.x } else { hi.x },

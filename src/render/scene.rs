@@ -105,12 +105,7 @@ impl ObjectDraw {
     /// outside it and no front face is clipped away to show a back face behind it.
     pub fn back_faces_hidden(&self, view_proj: Mat4) -> bool {
         self.closed_bounds.is_some_and(|(lo, hi)| {
-            (0..8).all(|i| {
-                let c = glam::Vec3::new(
-                    if i & 1 == 0 { lo.x } else { hi.x },
-                    if i & 2 == 0 { lo.y } else { hi.y },
-                    if i & 4 == 0 { lo.z } else { hi.z },
-                );
+            super::lights::corners(lo, hi).iter().all(|c| {
                 let p = view_proj * c.extend(1.0);
                 p.w > 0.0 && p.z > 0.0
             })
@@ -119,10 +114,9 @@ impl ObjectDraw {
 }
 
 /// Whether `mesh` is closed and wound outwards, remembered while it lives: a scene is packed
-/// again whenever an object moves, and the check welds and sorts every edge (tens of
-/// milliseconds for a 100k-triangle mesh). Sound for the reason
-/// [`crate::bake::memo_by_meshes`] gives; a memo of its own, so that a scene of many meshes
-/// does not push the bake hashes out of that one.
+/// again whenever an object moves, and the check welds and sorts every edge. Sound for the
+/// reason [`crate::bake::memo_by_meshes`] gives; a memo of its own, so that a scene of many
+/// meshes does not push the bake hashes out of that one.
 fn closed_outward(mesh: &Arc<Mesh>) -> bool {
     use std::sync::{Mutex, Weak};
     /// Meshes remembered at most (the oldest forgotten first).
