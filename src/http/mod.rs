@@ -28,17 +28,22 @@ use tracing::Level;
 
 /// Every route served, as (method, path template): checked against `api/openapi.yaml`.
 pub const ROUTES: &[(&str, &str)] = &[
+    ("GET", "/v1/scenes"),
     ("POST", "/v1/scenes"),
     ("GET", "/v1/scenes/{id}"),
     ("DELETE", "/v1/scenes/{id}"),
+    ("GET", "/v1/bakes"),
     ("POST", "/v1/bakes"),
     ("GET", "/v1/bakes/{id}"),
     ("DELETE", "/v1/bakes/{id}"),
     ("GET", "/v1/bakes/{id}/artifact"),
+    ("GET", "/v1/bakes/{id}/events"),
+    ("GET", "/v1/renders"),
     ("POST", "/v1/renders"),
     ("GET", "/v1/renders/{id}"),
     ("DELETE", "/v1/renders/{id}"),
     ("GET", "/v1/renders/{id}/image"),
+    ("GET", "/v1/renders/{id}/events"),
     ("GET", "/healthz"),
     ("GET", "/readyz"),
     ("GET", "/metrics"),
@@ -205,14 +210,16 @@ fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
 pub fn app(state: AppState) -> Router {
     use routes::*;
     Router::new()
-        .route("/v1/scenes", axum::routing::post(post_scene))
+        .route("/v1/scenes", get(list_scenes).post(post_scene))
         .route("/v1/scenes/{id}", get(get_scene).delete(delete_scene))
-        .route("/v1/bakes", axum::routing::post(post_bake))
+        .route("/v1/bakes", get(list_bakes).post(post_bake))
         .route("/v1/bakes/{id}", get(get_bake).delete(delete_bake))
         .route("/v1/bakes/{id}/artifact", get(get_bake_artifact))
-        .route("/v1/renders", axum::routing::post(post_render))
+        .route("/v1/bakes/{id}/events", get(bake_events))
+        .route("/v1/renders", get(list_renders).post(post_render))
         .route("/v1/renders/{id}", get(get_render).delete(delete_render))
         .route("/v1/renders/{id}/image", get(get_render_image))
+        .route("/v1/renders/{id}/events", get(render_events))
         .route("/healthz", get(healthz))
         .route("/readyz", get(readyz))
         .route("/metrics", get(metrics))

@@ -44,6 +44,9 @@ pub struct JobHandle {
     cancel: AtomicBool,
     live: Mutex<(f32, String)>,
     state: tokio::sync::watch::Sender<JobState>,
+    /// Marked changed when the progress moves by half a per cent or the stage changes (what
+    /// live progress streams wait on).
+    progressed: tokio::sync::watch::Sender<()>,
     /// When it was put in the queue (for the queue-wait timing).
     enqueued: Instant,
 }
@@ -55,6 +58,7 @@ impl JobHandle {
             cancel: AtomicBool::new(false),
             live: Mutex::new((0.0, String::new())),
             state: tokio::sync::watch::Sender::new(JobState::Queued),
+            progressed: tokio::sync::watch::Sender::new(()),
             enqueued: Instant::now(),
         })
     }
@@ -71,6 +75,32 @@ impl JobHandle {
     /// A receiver that sees every state change.
     pub fn subscribe(&self) -> tokio::sync::watch::Receiver<JobState> {
         self.state.subscribe()
+    }
+
+    /// A receiver that is marked changed when the progress moves visibly (half a per cent) or
+    /// the stage changes.
+    pub fn subscribe_progress(&self) -> tokio::sync::watch::Receiver<()> {
+        self.progressed.subscribe()
+    }
+
+    /// Records progress `f` (0..1, never lowered) and `stage`; wakes the progress receivers
+    /// when either changed visibly.
+    pub(crate) fn report(&self, f: f32, stage: &str) {
+        let moved = {
+            let mut l = self.live.lock().unwrap_or_else(|e| e.into_inner());
+            let step = |p: f32| (p * 200.0).floor() as i32;
+            let before = step(l.0);
+            l.0 = l.0.max(f);
+            let mut moved = step(l.0) != before;
+            if l.1 != stage {
+                l.1 = stage.to_string();
+                moved = true;
+            }
+            moved
+        };
+        if moved {
+            self.progressed.send_replace(());
+        }
     }
 
     pub fn request_cancel(&self) {

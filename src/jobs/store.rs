@@ -92,6 +92,21 @@ const MIGRATIONS: &[&str] = &[
 "#,
 ];
 
+/// Which jobs [`Store::list_jobs`] returns.
+#[derive(Clone, Debug)]
+pub struct JobFilter {
+    pub kind: JobKind,
+    /// Only jobs this key holds; `None`: every job.
+    pub owner: Option<String>,
+    pub state: Option<JobState>,
+    pub method: Option<Method>,
+    /// Created at or after (ms since the epoch).
+    pub created_since: Option<i64>,
+    /// Only jobs with a lower sequence number (the cursor of the previous page).
+    pub before_seq: Option<i64>,
+    pub limit: usize,
+}
+
 /// What a hold is on: a scene or a job.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Held {
@@ -390,6 +405,80 @@ impl Store {
             )
             .optional()?;
         r.transpose()
+    }
+
+    /// One page of jobs, newest first: those of `f.kind` that `f.owner` holds (every one when
+    /// `None`: an admin), filtered, with sequence numbers below `f.before_seq`; each with its
+    /// sequence number (the next page's cursor). A record that cannot be read is left out
+    /// (logged; `unfinished_jobs` quarantines such rows at start).
+    pub fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
+                    timings, info, error, artifact_type, artifact_path, created_at,
+                    started_at, finished_at, artifact_len, artifact_sha256, seq
+             FROM jobs j
+             WHERE kind = ?1
+               AND (?2 IS NULL OR EXISTS (SELECT 1 FROM holds h
+                                          WHERE h.kind = 'job' AND h.id = j.id AND h.owner = ?2))
+               AND (?3 IS NULL OR state = ?3)
+               AND (?4 IS NULL OR method = ?4)
+               AND (?5 IS NULL OR created_at >= ?5)
+               AND (?6 IS NULL OR seq < ?6)
+             ORDER BY seq DESC
+             LIMIT ?7",
+        )?;
+        let rows = st.query_map(
+            params![
+                f.kind.as_str(),
+                f.owner,
+                f.state.map(|s| s.as_str()),
+                f.method.map(|m| m.name()),
+                f.created_since,
+                f.before_seq,
+                f.limit as i64
+            ],
+            |r| Ok((r.get::<_, i64>(19)?, row_to_record(r)?)),
+        )?;
+        let mut out = Vec::new();
+        for row in rows {
+            let (seq, rec) = row?;
+            match rec {
+                Ok(rec) => out.push((seq, rec)),
+                Err(e) => {
+                    tracing::error!(seq, error = %e, "unreadable job record left out of a list")
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// One page of scenes, newest first: those `owner` holds (every one when `None`),
+    /// created at or after `created_since`, stored before row `before` (the cursor); each as
+    /// (row, id, name, created_at).
+    pub fn list_scenes(
+        &self,
+        owner: Option<&str>,
+        created_since: Option<i64>,
+        before: Option<i64>,
+        limit: usize,
+    ) -> Result<Vec<(i64, String, String, i64)>, StoreError> {
+        let c = self.conn();
+        let mut st = c.prepare(
+            "SELECT rowid, id, COALESCE(json_extract(CAST(scene_json AS TEXT), '$.name'), ''),
+                    created_at
+             FROM scenes s
+             WHERE (?1 IS NULL OR EXISTS (SELECT 1 FROM holds h
+                                          WHERE h.kind = 'scene' AND h.id = s.id AND h.owner = ?1))
+               AND (?2 IS NULL OR created_at >= ?2)
+               AND (?3 IS NULL OR rowid < ?3)
+             ORDER BY rowid DESC
+             LIMIT ?4",
+        )?;
+        let rows = st.query_map(params![owner, created_since, before, limit as i64], |r| {
+            Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?))
+        })?;
+        Ok(rows.collect::<Result<Vec<_>, _>>()?)
     }
 
     /// Jobs left queued or running by a previous process, oldest first. A record that cannot

@@ -59,13 +59,7 @@ impl JobCtx<'_> {
     /// Reports progress (0..1) and the current stage; persisted at most a few times a second.
     pub fn progress(&self, fraction: f32, stage: &str) {
         let f = fraction.clamp(0.0, 1.0);
-        {
-            let mut l = self.handle.live.lock().unwrap_or_else(|e| e.into_inner());
-            l.0 = l.0.max(f);
-            if l.1 != stage {
-                l.1 = stage.to_string();
-            }
-        }
+        self.handle.report(f, stage);
         let mut last = self.last_store.lock().unwrap_or_else(|e| e.into_inner());
         if last.elapsed() > Duration::from_millis(250) {
             *last = Instant::now();

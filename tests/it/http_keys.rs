@@ -111,6 +111,29 @@ async fn each_key_sees_its_own_and_shares_what_both_asked_for() {
     problem(bob.get(&render).await, 404).await;
     problem(bob.get(&format!("{render}/image")).await, 404).await;
     assert_eq!(root.get(&format!("{render}/image")).await.status(), 200);
+    // Lists show a key what it holds (the admin: everything).
+    let listed = |v: serde_json::Value| -> Vec<String> {
+        v["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| format!("/v1/renders/{}", i["id"].as_str().unwrap()))
+            .collect()
+    };
+    let list = |who: &'static str| {
+        let srv = &srv;
+        async move {
+            let r = As(srv, who).get("/v1/renders").await;
+            assert_eq!(r.status(), 200);
+            listed(r.json().await.unwrap())
+        }
+    };
+    assert_eq!(list(ALICE).await, vec![render.clone()]);
+    assert!(list(BOB).await.is_empty());
+    assert_eq!(list(ROOT).await, vec![render.clone()]);
+    let scenes: serde_json::Value = bob.get("/v1/scenes").await.json().await.unwrap();
+    assert_eq!(scenes["items"][0]["id"], scene.as_str(), "{scenes}");
+    problem(As(&srv, "ck_nobody").get("/v1/scenes").await, 401).await;
 
     // A bake both asked for is one job; bob's DELETE drops his hold only.
     let r = alice.post("/v1/bakes", &long_bake(1)).await;

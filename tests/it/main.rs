@@ -14,6 +14,7 @@ mod csl_quality;
 mod gltf_import;
 mod gpu_direct;
 mod gpu_vs_reference;
+mod http_api;
 mod http_bad_input;
 mod http_bakes;
 mod http_concurrency;

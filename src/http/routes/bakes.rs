@@ -1,6 +1,8 @@
 //! `POST /v1/bakes`, `GET`/`DELETE /v1/bakes/{id}`, `GET /v1/bakes/{id}/artifact`.
 
-use super::jobs::{JobView, artifact_response, cancel_job, job_view, load_job, not_finished};
+use super::jobs::{
+    JobView, accepted, cancel_job, job_view, load_job, not_finished, serve_artifact,
+};
 use super::scenes::scene_ref;
 use super::{blocking, json_body, principal};
 use crate::http::auth::Principal;
@@ -10,8 +12,8 @@ use crate::jobs::store::Held;
 use crate::jobs::{JobKind, JobSpec, JobState};
 use crate::methods::Method;
 use axum::extract::{Path, Request, State};
-use axum::http::{StatusCode, header};
-use axum::response::{IntoResponse, Response};
+use axum::http::StatusCode;
+use axum::response::Response;
 use axum::{Extension, Json};
 
 #[derive(serde::Deserialize)]
@@ -110,7 +112,7 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     }
     let v = job_view(&st, &id, JobKind::Bake, &p)?;
     let loc = format!("/v1/bakes/{id}");
-    Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response())
+    Ok(accepted(loc, v))
 }
 
 pub async fn get_bake(
@@ -133,10 +135,11 @@ pub async fn get_bake_artifact(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
     Path(id): Path<String>,
+    headers: axum::http::HeaderMap,
 ) -> Result<Response, AppError> {
     let r = load_job(&st, &id, JobKind::Bake, &p)?;
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Bake, &id, r.state));
     }
-    artifact_response(&st, &r)
+    serve_artifact(&st, &r, &headers)
 }

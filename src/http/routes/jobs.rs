@@ -6,7 +6,8 @@ use crate::http::{AppError, AppState};
 use crate::jobs::store::{Held, JobRecord};
 use crate::jobs::{JobHandle, JobKind, JobState};
 use crate::methods::Method;
-use axum::http::{HeaderValue, StatusCode, header};
+use axum::body::Bytes;
+use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use std::sync::Arc;
@@ -25,6 +26,10 @@ pub struct JobView {
     pub state: JobState,
     pub progress: f32,
     pub stage: String,
+    /// While running: milliseconds it may still take, from its progress so far (its time
+    /// running × (1 − progress) / progress); absent before 1 % of progress and otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eta_ms: Option<i64>,
     /// Stage → milliseconds, in order.
     pub timings: Vec<Timing>,
     pub info: serde_json::Value,
@@ -57,7 +62,12 @@ pub(super) fn view(r: JobRecord, live: Option<&JobHandle>) -> JobView {
         JobKind::Bake => format!("/v1/bakes/{}/artifact", r.id),
         JobKind::Render => format!("/v1/renders/{}/image", r.id),
     });
+    let eta_ms = match (state, r.started_at) {
+        (JobState::Running, Some(t0)) => eta(crate::jobs::store::now_ms() - t0, progress),
+        _ => None,
+    };
     JobView {
+        eta_ms,
         timings: r
             .timings
             .into_iter()
@@ -79,6 +89,34 @@ pub(super) fn view(r: JobRecord, live: Option<&JobHandle>) -> JobView {
         started_at: r.started_at,
         finished_at: r.finished_at,
     }
+}
+
+/// What remains of a job that has run `elapsed_ms` and got `progress` (0..1) of the way, if
+/// it got far enough to tell.
+fn eta(elapsed_ms: i64, progress: f32) -> Option<i64> {
+    (0.01..1.0).contains(&progress).then(|| {
+        let p = f64::from(progress);
+        (elapsed_ms.max(0) as f64 * (1.0 - p) / p).round() as i64
+    })
+}
+
+/// `202 Accepted` with the job, its `Location`, and while it is not finished `Retry-After`:
+/// its ETA within 1..=10 s, else 1 s for a render and 2 s for a bake.
+pub(super) fn accepted(loc: String, v: JobView) -> Response {
+    let mut resp = (StatusCode::ACCEPTED, [(header::LOCATION, loc)]).into_response();
+    if !v.state.is_terminal() {
+        let fallback = match v.kind {
+            JobKind::Render => 1,
+            JobKind::Bake => 2,
+        };
+        let secs = v
+            .eta_ms
+            .map_or(fallback, |ms| ((ms + 999) / 1000).clamp(1, 10));
+        resp.headers_mut()
+            .insert(header::RETRY_AFTER, HeaderValue::from(secs));
+    }
+    let (parts, _) = resp.into_parts();
+    (parts, axum::Json(v)).into_response()
 }
 
 /// Job `id` of `kind`, if `p` may see it (an admin, or one who holds it; 404 otherwise, as
@@ -181,25 +219,160 @@ pub(super) fn not_finished(kind: JobKind, id: &str, state: JobState) -> AppError
     )
 }
 
+/// The artifact of succeeded job `r` as the whole body, with its type, `ETag` (its SHA-256)
+/// and caching headers. Its bytes are checked against the stored length and hash first.
 pub(super) fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError> {
+    let (ty, bytes) = artifact_bytes(st, r)?;
+    let mut resp = ([(header::CONTENT_TYPE, ty)], bytes).into_response();
+    cache_headers(resp.headers_mut(), r);
+    Ok(resp)
+}
+
+/// The artifact's media type and its checked bytes.
+fn artifact_bytes(st: &AppState, r: &JobRecord) -> Result<(String, Bytes), AppError> {
     let Some(ty) = &r.artifact_type else {
         return Err(AppError::internal("succeeded job without an artifact"));
     };
     let bytes = st.jobs.artifact(r).map_err(|e| AppError::artifact(r, e))?;
-    let mut resp = (
-        [
-            (header::CONTENT_TYPE, ty.clone()),
-            (
-                header::CACHE_CONTROL,
-                "public, max-age=31536000, immutable".into(),
-            ),
-        ],
-        bytes,
-    )
-        .into_response();
-    if let Ok(v) = HeaderValue::from_str(&server_timing(&r.timings, None)) {
-        resp.headers_mut().insert("server-timing", v);
+    Ok((ty.clone(), Bytes::from(bytes)))
+}
+
+/// `ETag`, `Cache-Control` (artifacts never change) and `Accept-Ranges`.
+fn cache_headers(h: &mut HeaderMap, r: &JobRecord) {
+    if let Some(tag) = etag(r).and_then(|t| HeaderValue::from_str(&t).ok()) {
+        h.insert(header::ETAG, tag);
     }
+    h.insert(
+        header::CACHE_CONTROL,
+        HeaderValue::from_static("public, max-age=31536000, immutable"),
+    );
+    h.insert(header::ACCEPT_RANGES, HeaderValue::from_static("bytes"));
+}
+
+fn etag(r: &JobRecord) -> Option<String> {
+    r.artifact_sha256.as_ref().map(|h| format!("\"{h}\""))
+}
+
+/// Whether an `If-None-Match` value matches entity tag `tag` (weak comparison: `W/` ignored).
+fn none_match(value: &str, tag: &str) -> bool {
+    value
+        .split(',')
+        .map(str::trim)
+        .any(|t| t == "*" || t.strip_prefix("W/").unwrap_or(t) == tag)
+}
+
+/// What a `Range` header asks of a body of `len` bytes.
+#[derive(Debug, PartialEq)]
+enum RangeAsk {
+    /// No usable range (absent, malformed, several, or not bytes): the whole body.
+    Whole,
+    /// Bytes `start..=end`.
+    Part(u64, u64),
+    /// A single byte range that lies wholly past the end.
+    Unsatisfiable,
+}
+
+fn range_ask(value: &str, len: u64) -> RangeAsk {
+    let Some(spec) = value.trim().strip_prefix("bytes=") else {
+        return RangeAsk::Whole;
+    };
+    if spec.contains(',') {
+        return RangeAsk::Whole;
+    }
+    let Some((a, b)) = spec.trim().split_once('-') else {
+        return RangeAsk::Whole;
+    };
+    let num = |s: &str| -> Option<u64> {
+        (!s.is_empty() && s.bytes().all(|c| c.is_ascii_digit()))
+            .then(|| s.parse().ok())
+            .flatten()
+    };
+    match (a.trim(), b.trim()) {
+        ("", n) => match num(n) {
+            Some(0) => RangeAsk::Unsatisfiable,
+            Some(_) if len == 0 => RangeAsk::Unsatisfiable,
+            Some(n) => RangeAsk::Part(len.saturating_sub(n), len - 1),
+            None => RangeAsk::Whole,
+        },
+        (a, "") => match num(a) {
+            Some(a) if a >= len => RangeAsk::Unsatisfiable,
+            Some(a) => RangeAsk::Part(a, len - 1),
+            None => RangeAsk::Whole,
+        },
+        (a, b) => match (num(a), num(b)) {
+            (Some(a), Some(b)) if a <= b => {
+                if a >= len {
+                    RangeAsk::Unsatisfiable
+                } else {
+                    RangeAsk::Part(a, b.min(len - 1))
+                }
+            }
+            _ => RangeAsk::Whole,
+        },
+    }
+}
+
+/// `GET` of an artifact: `304` when `If-None-Match` names its ETag (without reading it), one
+/// byte range as `206` (`If-Range` honoured; several ranges get the whole body), `416` past
+/// its end, else `200` with the whole body.
+pub(super) fn serve_artifact(
+    st: &AppState,
+    r: &JobRecord,
+    req: &HeaderMap,
+) -> Result<Response, AppError> {
+    let tag = etag(r);
+    let header_str = |name: header::HeaderName| req.get(name).and_then(|v| v.to_str().ok());
+    if let (Some(tag), Some(v)) = (&tag, header_str(header::IF_NONE_MATCH))
+        && none_match(v, tag)
+    {
+        // Served from the client's copy: counts as a use for the least-recently-served eviction.
+        if let Err(e) = st.jobs.store.touch(&r.id) {
+            tracing::warn!(job = %r.id, error = %e, "last use not recorded");
+        }
+        let mut resp = StatusCode::NOT_MODIFIED.into_response();
+        cache_headers(resp.headers_mut(), r);
+        return Ok(resp);
+    }
+    let (ty, bytes) = artifact_bytes(st, r)?;
+    let range_applies = match header_str(header::IF_RANGE) {
+        None => true,
+        Some(v) => tag.as_deref() == Some(v.trim()),
+    };
+    let len = bytes.len() as u64;
+    let ask = header_str(header::RANGE)
+        .filter(|_| range_applies)
+        .map_or(RangeAsk::Whole, |v| range_ask(v, len));
+    let mut resp = match ask {
+        RangeAsk::Whole => ([(header::CONTENT_TYPE, ty)], bytes).into_response(),
+        RangeAsk::Unsatisfiable => {
+            let mut e = AppError::new(
+                StatusCode::RANGE_NOT_SATISFIABLE,
+                "range-not-satisfiable",
+                "Range not satisfiable",
+                format!("the artifact has {len} bytes; the range asked for lies past its end"),
+            )
+            .into_response();
+            if let Ok(v) = HeaderValue::from_str(&format!("bytes */{len}")) {
+                e.headers_mut().insert(header::CONTENT_RANGE, v);
+            }
+            return Ok(e);
+        }
+        RangeAsk::Part(a, b) => {
+            let range = format!("bytes {a}-{b}/{len}");
+            let part = bytes.slice(a as usize..=b as usize);
+            let mut resp = (
+                StatusCode::PARTIAL_CONTENT,
+                [(header::CONTENT_TYPE, ty)],
+                part,
+            )
+                .into_response();
+            if let Ok(v) = HeaderValue::from_str(&range) {
+                resp.headers_mut().insert(header::CONTENT_RANGE, v);
+            }
+            resp
+        }
+    };
+    cache_headers(resp.headers_mut(), r);
     Ok(resp)
 }
 
@@ -224,4 +397,53 @@ pub fn server_timing(timings: &[(String, f64)], request: Option<Duration>) -> St
         parts.push(format!("request;dur={:.3}", d.as_secs_f64() * 1e3));
     }
     parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{RangeAsk, eta, none_match, range_ask};
+
+    #[test]
+    fn byte_ranges_follow_rfc_9110() {
+        use RangeAsk::*;
+        let cases = [
+            ("bytes=0-9", 100, Part(0, 9)),
+            ("bytes=90-", 100, Part(90, 99)),
+            ("bytes=-10", 100, Part(90, 99)),
+            ("bytes=-500", 100, Part(0, 99)),
+            ("bytes=50-500", 100, Part(50, 99)),
+            ("bytes=99-99", 100, Part(99, 99)),
+            ("bytes=100-", 100, Unsatisfiable),
+            ("bytes=100-200", 100, Unsatisfiable),
+            ("bytes=-0", 100, Unsatisfiable),
+            ("bytes=9-0", 100, Whole),
+            ("bytes=0-1,5-6", 100, Whole),
+            ("items=0-1", 100, Whole),
+            ("bytes=a-b", 100, Whole),
+            ("bytes=-", 100, Whole),
+            ("bytes=+1-2", 100, Whole),
+        ];
+        for (v, len, want) in cases {
+            assert_eq!(range_ask(v, len), want, "{v}");
+        }
+    }
+
+    #[test]
+    fn if_none_match_compares_weakly_and_takes_lists() {
+        let tag = "\"abc\"";
+        assert!(none_match("\"abc\"", tag));
+        assert!(none_match("W/\"abc\"", tag));
+        assert!(none_match("\"x\", \"abc\"", tag));
+        assert!(none_match("*", tag));
+        assert!(!none_match("\"abcd\"", tag));
+        assert!(!none_match("abc", tag));
+    }
+
+    #[test]
+    fn the_eta_scales_the_time_so_far_by_what_is_left() {
+        assert_eq!(eta(1000, 0.25), Some(3000));
+        assert_eq!(eta(1000, 0.5), Some(1000));
+        assert_eq!(eta(1000, 0.005), None);
+        assert_eq!(eta(1000, 1.0), None);
+    }
 }

@@ -3,13 +3,17 @@
 //! endpoints ([`ops`]). The request helpers shared by the handlers are here.
 
 pub mod bakes;
+pub mod events;
 pub mod jobs;
+pub mod lists;
 pub mod ops;
 pub mod renders;
 pub mod scenes;
 
 pub use bakes::{delete_bake, get_bake, get_bake_artifact, post_bake};
+pub use events::{bake_events, render_events};
 pub use jobs::{JobView, Timing, server_timing};
+pub use lists::{list_bakes, list_renders, list_scenes};
 pub use ops::{healthz, method_not_allowed, metrics, not_found, openapi_json, readyz};
 pub use renders::{delete_render, get_render, get_render_image, post_render};
 pub use scenes::{delete_scene, get_scene, post_scene};

@@ -2,8 +2,8 @@
 //! `GET /v1/renders/{id}/image`.
 
 use super::jobs::{
-    JobView, artifact_response, cancel_job, job_view, load_job, not_finished, server_timing, view,
-    wait_terminal,
+    JobView, accepted, artifact_response, cancel_job, job_view, load_job, not_finished,
+    serve_artifact, server_timing, view, wait_terminal,
 };
 use super::scenes::scene_ref;
 use super::{blocking, json_body, principal};
@@ -14,8 +14,8 @@ use crate::jobs::store::Held;
 use crate::jobs::{JobKind, JobSpec, JobState};
 use crate::methods::Method;
 use axum::extract::{Path, Request, State};
-use axum::http::{HeaderValue, StatusCode, header};
-use axum::response::{IntoResponse, Response};
+use axum::http::{HeaderValue, header};
+use axum::response::Response;
 use axum::{Extension, Json};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -93,7 +93,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     let r = load_job(&st, &id, JobKind::Render, &p)?;
     if !done && !matches!(r.state, JobState::Succeeded | JobState::Failed) {
         let v = view(r, h.as_deref());
-        return Ok((StatusCode::ACCEPTED, [(header::LOCATION, loc)], Json(v)).into_response());
+        return Ok(accepted(loc, v));
     }
     if r.state != JobState::Succeeded {
         let code = match r.state {
@@ -145,10 +145,11 @@ pub async fn get_render_image(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
     Path(id): Path<String>,
+    headers: axum::http::HeaderMap,
 ) -> Result<Response, AppError> {
     let r = load_job(&st, &id, JobKind::Render, &p)?;
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Render, &id, r.state));
     }
-    artifact_response(&st, &r)
+    serve_artifact(&st, &r, &headers)
 }

@@ -1,0 +1,340 @@
+//! What integrators expect of the API beyond single jobs (issue: the API): lists with pages and
+//! filters, live progress as server-sent events, `Retry-After` and an ETA on accepted jobs,
+//! and results served with `ETag`, `If-None-Match` and byte ranges.
+
+use crate::support::scenes::{long_bake, scene_sized};
+use crate::support::server::*;
+use futures_util::StreamExt;
+use std::time::Duration;
+
+fn render(seed: u64) -> serde_json::Value {
+    serde_json::json!({"scene": scene_sized(8, 8), "method": "reference", "photons": 2000,
+                       "spp": 1, "seed": seed})
+}
+
+fn ids(v: &serde_json::Value) -> Vec<String> {
+    v["items"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no items: {v}"))
+        .iter()
+        .map(|i| i["id"].as_str().unwrap().to_string())
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn lists_page_newest_first_and_filter() {
+    let srv = Server::start("api-lists", |_, _| {}).await;
+    let mut made = Vec::new();
+    for seed in 0..3 {
+        let r = srv.post_json("/v1/renders", &render(seed)).await;
+        assert_eq!(r.status(), 200);
+        let loc = r.headers()["location"].to_str().unwrap().to_string();
+        made.push(loc.trim_start_matches("/v1/renders/").to_string());
+    }
+    // A bake, to be canceled below.
+    let r = srv.post_json("/v1/bakes", &long_bake(7)).await;
+    assert_eq!(r.status(), 202);
+    let bake = r.headers()["location"].to_str().unwrap().to_string();
+
+    // Newest first, two a page, then the rest without a next token.
+    let (s, p1) = srv.get_json("/v1/renders?page_size=2").await;
+    assert_eq!(s, 200, "{p1}");
+    assert_eq!(ids(&p1), vec![made[2].clone(), made[1].clone()]);
+    assert_eq!(p1["items"][0]["state"], "succeeded");
+    assert_eq!(p1["items"][0]["kind"], "render");
+    let token = p1["next_page_token"].as_str().unwrap();
+    let (_, p2) = srv
+        .get_json(&format!("/v1/renders?page_size=2&page_token={token}"))
+        .await;
+    assert_eq!(ids(&p2), vec![made[0].clone()]);
+    assert!(p2["next_page_token"].is_null(), "{p2}");
+    // The default page holds all three.
+    let (_, all) = srv.get_json("/v1/renders").await;
+    assert_eq!(ids(&all).len(), 3);
+
+    // Filters: state, method, creation time.
+    let (_, v) = srv.get_json("/v1/renders?state=failed").await;
+    assert!(ids(&v).is_empty(), "{v}");
+    let (_, v) = srv
+        .get_json("/v1/renders?state=succeeded&method=reference")
+        .await;
+    assert_eq!(ids(&v).len(), 3);
+    let (_, v) = srv.get_json("/v1/renders?method=direct").await;
+    assert!(ids(&v).is_empty(), "{v}");
+    // Since the middle one's creation: it and the ones after it (the same millisecond too).
+    let since = all["items"][1]["created_at"].as_i64().unwrap();
+    let want: Vec<String> = all["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|i| i["created_at"].as_i64().unwrap() >= since)
+        .map(|i| i["id"].as_str().unwrap().to_string())
+        .collect();
+    assert!(want.len() >= 2 && want[..2] == made[1..].iter().rev().cloned().collect::<Vec<_>>());
+    let (_, v) = srv
+        .get_json(&format!("/v1/renders?created_since={since}"))
+        .await;
+    assert_eq!(ids(&v), want);
+    let newest = all["items"][0]["created_at"].as_i64().unwrap();
+    let (_, v) = srv
+        .get_json(&format!("/v1/renders?created_since={}", newest + 1))
+        .await;
+    assert!(ids(&v).is_empty(), "{v}");
+
+    // Bakes are listed apart from renders.
+    let (_, v) = srv.get_json("/v1/bakes").await;
+    assert_eq!(
+        ids(&v),
+        vec![bake.trim_start_matches("/v1/bakes/").to_string()]
+    );
+    let (_, v) = srv.get_json("/v1/bakes?state=succeeded").await;
+    assert!(ids(&v).is_empty(), "{v}");
+    let r = srv.client.delete(srv.url(&bake)).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let (_, v) = srv.get_json("/v1/bakes?state=canceled").await;
+    assert_eq!(ids(&v).len(), 1, "{v}");
+
+    // Scenes: the one scene every job used, with its name.
+    let (_, v) = srv.get_json("/v1/scenes").await;
+    assert_eq!(ids(&v).len(), 1, "{v}");
+    assert_eq!(v["items"][0]["name"], scene_sized(8, 8)["name"]);
+    assert!(v["items"][0]["created_at"].as_i64().unwrap() > 0);
+
+    // Bad queries name the parameter.
+    for (q, field) in [
+        ("/v1/renders?page_size=0", "page_size"),
+        ("/v1/renders?page_size=101", "page_size"),
+        ("/v1/renders?page_token=xyz", "page_token"),
+        ("/v1/renders?state=done", "state"),
+        ("/v1/bakes?method=fastest", "method"),
+        ("/v1/renders?created_since=-1", "created_since"),
+        ("/v1/renders?sort=asc", "sort"),
+        ("/v1/scenes?state=queued", "state"),
+    ] {
+        let r = srv.client.get(srv.url(q)).send().await.unwrap();
+        let p = problem(r, 422).await;
+        assert_eq!(p["field"], field, "{q}: {p}");
+    }
+    srv.stop().await;
+}
+
+/// Reads server-sent events (name, JSON data) from a response until `until` says stop or the
+/// stream ends; at most `limit` for the lot.
+async fn read_events(
+    r: reqwest::Response,
+    limit: Duration,
+    mut until: impl FnMut(&str, &serde_json::Value) -> bool,
+) -> (Vec<(String, serde_json::Value)>, bool) {
+    let mut stream = r.bytes_stream();
+    let mut buf = String::new();
+    let mut out = Vec::new();
+    let read = async {
+        while let Some(chunk) = stream.next().await {
+            buf.push_str(std::str::from_utf8(&chunk.unwrap()).unwrap());
+            while let Some(end) = buf.find("\n\n") {
+                let block: String = buf.drain(..end + 2).collect();
+                let mut name = String::new();
+                let mut data = String::new();
+                for line in block.lines() {
+                    if let Some(v) = line.strip_prefix("event:") {
+                        name = v.trim().to_string();
+                    } else if let Some(v) = line.strip_prefix("data:") {
+                        data.push_str(v.trim());
+                    }
+                }
+                if name.is_empty() {
+                    continue; // a keep-alive comment
+                }
+                let v: serde_json::Value = serde_json::from_str(&data).unwrap();
+                let stop = until(&name, &v);
+                out.push((name, v));
+                if stop {
+                    return false;
+                }
+            }
+        }
+        true
+    };
+    let ended = tokio::time::timeout(limit, read)
+        .await
+        .expect("events within the limit");
+    (out, ended)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn progress_streams_live_and_the_stream_ends_with_the_job() {
+    let srv = Server::start("api-events", |j, _| j.cpu_workers = 1).await;
+    let r = srv.post_json("/v1/bakes", &long_bake(3)).await;
+    assert_eq!(r.status(), 202);
+    let retry: u64 = r.headers()["retry-after"]
+        .to_str()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((1..=10).contains(&retry), "{retry}");
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+
+    let ev = srv
+        .client
+        .get(srv.url(&format!("{loc}/events")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(ev.status(), 200);
+    assert_eq!(ev.headers()["content-type"], "text/event-stream");
+    // Until the progress has risen twice while running.
+    let mut rises = 0;
+    let mut last = -1.0;
+    let (seen, ended) = read_events(ev, Duration::from_secs(120), |name, v| {
+        assert_eq!(name, "progress", "{v}");
+        let p = v["progress"].as_f64().unwrap();
+        if v["state"] == "running" && p > last && last >= 0.0 {
+            rises += 1;
+        }
+        if v["state"] == "running" {
+            last = p;
+        }
+        rises >= 2
+    })
+    .await;
+    assert!(!ended);
+    let first = &seen[0].1;
+    assert_eq!(first["id"], loc.trim_start_matches("/v1/bakes/"), "{first}");
+    let running = seen.last().unwrap();
+    assert!(running.1["stage"].as_str().is_some_and(|s| !s.is_empty()));
+    // The job says the same, with an ETA once it got far enough.
+    let (_, job) = srv.get_json(&loc).await;
+    assert_eq!(job["state"], "running");
+    if job["progress"].as_f64().unwrap() >= 0.01 {
+        assert!(job["eta_ms"].as_i64().unwrap() >= 0, "{job}");
+    }
+
+    // A second stream sees the cancel and ends with the canceled job.
+    let ev = srv
+        .client
+        .get(srv.url(&format!("{loc}/events")))
+        .send()
+        .await
+        .unwrap();
+    let r = srv.client.delete(srv.url(&loc)).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let (seen, ended) = read_events(ev, Duration::from_secs(60), |_, _| false).await;
+    assert!(ended, "the stream ends after `done`");
+    let (name, last) = seen.last().unwrap();
+    assert_eq!(name, "done");
+    assert_eq!(last["state"], "canceled", "{last}");
+    assert!(seen[..seen.len() - 1].iter().all(|(n, _)| n == "progress"));
+
+    // A finished job's stream is its `done` event alone.
+    let r = srv.post_json("/v1/renders", &render(1)).await;
+    assert_eq!(r.status(), 200);
+    let render_loc = r.headers()["location"].to_str().unwrap().to_string();
+    let ev = srv
+        .client
+        .get(srv.url(&format!("{render_loc}/events")))
+        .send()
+        .await
+        .unwrap();
+    let (seen, ended) = read_events(ev, Duration::from_secs(30), |_, _| false).await;
+    assert!(ended);
+    assert_eq!(seen.len(), 1, "{seen:?}");
+    assert_eq!(seen[0].0, "done");
+    assert_eq!(seen[0].1["state"], "succeeded");
+    assert_eq!(seen[0].1["artifact"], format!("{render_loc}/image"));
+    // Unknown jobs are 404 problems, as for the job itself.
+    let r = srv
+        .client
+        .get(srv.url("/v1/renders/rn_0123456789abcdef0123456789abcdef/events"))
+        .send()
+        .await
+        .unwrap();
+    problem(r, 404).await;
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn results_are_served_with_etags_and_byte_ranges() {
+    let srv = Server::start("api-ranges", |_, _| {}).await;
+    let r = srv.post_json("/v1/renders", &render(5)).await;
+    assert_eq!(r.status(), 200);
+    let etag = r.headers()["etag"].to_str().unwrap().to_string();
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let whole = r.bytes().await.unwrap();
+    let image = format!("{loc}/image");
+    let get = |headers: Vec<(&'static str, String)>| {
+        let mut b = srv.client.get(srv.url(&image));
+        for (k, v) in headers {
+            b = b.header(k, v);
+        }
+        b.send()
+    };
+
+    // The ETag is the image's SHA-256, the same on the POST and the GET.
+    let r = get(vec![]).await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["etag"].to_str().unwrap(), etag);
+    assert_eq!(r.headers()["accept-ranges"], "bytes");
+    assert!(
+        r.headers().get("server-timing").is_none(),
+        "only the POST did the work"
+    );
+    let body = r.bytes().await.unwrap();
+    assert_eq!(body, whole);
+    let sha = caustica::jobs::scenes::sha256_hex(&body);
+    assert_eq!(etag, format!("\"{sha}\""));
+
+    // If-None-Match: 304 without a body; another tag: the image.
+    let r = get(vec![("if-none-match", format!("\"x\", {etag}"))])
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 304);
+    assert_eq!(r.headers()["etag"].to_str().unwrap(), etag);
+    assert!(r.bytes().await.unwrap().is_empty());
+    let r = get(vec![("if-none-match", "\"other\"".into())])
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+
+    // Ranges.
+    let len = whole.len();
+    let r = get(vec![("range", "bytes=0-7".into())]).await.unwrap();
+    assert_eq!(r.status(), 206);
+    assert_eq!(
+        r.headers()["content-range"].to_str().unwrap(),
+        format!("bytes 0-7/{len}")
+    );
+    assert_eq!(r.headers()["content-type"], "image/png");
+    assert_eq!(r.bytes().await.unwrap(), whole.slice(0..8));
+    let r = get(vec![("range", "bytes=-5".into())]).await.unwrap();
+    assert_eq!(r.status(), 206);
+    assert_eq!(r.bytes().await.unwrap(), whole.slice(len - 5..));
+    let r = get(vec![("range", format!("bytes={}-", len - 3))])
+        .await
+        .unwrap();
+    assert_eq!(r.bytes().await.unwrap(), whole.slice(len - 3..));
+    let r = get(vec![("range", format!("bytes={len}-"))]).await.unwrap();
+    assert_eq!(
+        r.headers()["content-range"].to_str().unwrap(),
+        format!("bytes */{len}")
+    );
+    problem(r, 416).await;
+    // Several ranges, or an If-Range that no longer matches: the whole image.
+    let r = get(vec![("range", "bytes=0-1,4-5".into())]).await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.bytes().await.unwrap(), whole);
+    let r = get(vec![
+        ("range", "bytes=0-1".into()),
+        ("if-range", "\"stale\"".into()),
+    ])
+    .await
+    .unwrap();
+    assert_eq!(r.status(), 200);
+    let r = get(vec![
+        ("range", "bytes=0-1".into()),
+        ("if-range", etag.clone()),
+    ])
+    .await
+    .unwrap();
+    assert_eq!(r.status(), 206);
+    srv.stop().await;
+}
