@@ -9,8 +9,9 @@ use crate::scene::SceneError;
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 
-/// Base of the problem type URIs; each type is documented in `api/openapi.yaml`.
-pub const TYPE_BASE: &str = "https://caustica.invalid/problems/";
+/// Base of the problem type URIs: a reference relative to the server, whose page at
+/// `/problems/{type}` documents the type ([`super::problems`]).
+pub const TYPE_BASE: &str = "/problems/";
 
 /// An error answer; boxed so that `Result<_, AppError>` stays small.
 #[derive(Debug)]
@@ -37,6 +38,10 @@ impl AppError {
         title: &'static str,
         detail: impl Into<String>,
     ) -> Self {
+        debug_assert!(
+            super::problems::find(kind).is_some_and(|d| d.status.contains(&status.as_u16())),
+            "problem type '{kind}' with status {status} is not documented in http::problems"
+        );
         AppError(Box::new(Problem {
             status,
             kind,

@@ -7,6 +7,7 @@
 
 pub mod auth;
 pub mod error;
+pub mod problems;
 pub mod routes;
 pub mod server;
 pub mod wire;
@@ -48,6 +49,8 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/readyz"),
     ("GET", "/metrics"),
     ("GET", "/openapi.json"),
+    ("GET", "/problems"),
+    ("GET", "/problems/{type}"),
 ];
 
 /// HTTP settings.
@@ -79,6 +82,9 @@ pub struct HttpConfig {
     /// Most queued or running jobs one user key may hold (admin keys and a server without
     /// keys: no quota); past it `429`.
     pub max_jobs_per_key: usize,
+    /// Origins whose web pages may call the API (CORS; `*`: any); empty, the default: no CORS
+    /// headers, so browsers refuse cross-origin calls.
+    pub cors_origins: Vec<String>,
 }
 
 impl Default for HttpConfig {
@@ -95,6 +101,7 @@ impl Default for HttpConfig {
             shutdown_grace: Duration::from_secs(20),
             keys: auth::Keys::default(),
             max_jobs_per_key: 32,
+            cors_origins: Vec::new(),
         }
     }
 }
@@ -103,8 +110,9 @@ impl HttpConfig {
     /// Overrides from the environment: `CAUSTICA_MAX_BODY`, `CAUSTICA_MAX_JSON_BODY` (bytes),
     /// `CAUSTICA_BODY_TIMEOUT_S`, `CAUSTICA_HEADER_TIMEOUT_S`, `CAUSTICA_MAX_CONNECTIONS`,
     /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`, `CAUSTICA_MAX_JOBS_PER_KEY`,
-    /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`. An unparsable or out-of-range
-    /// value is an error naming it.
+    /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`, `CAUSTICA_CORS_ORIGINS` (a
+    /// comma-separated list of origins, `https://host[:port]`, or `*`). An unparsable or
+    /// out-of-range value is an error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
         use crate::jobs::env_num;
         if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY", 1024.0, 4e9, true)? {
@@ -141,8 +149,90 @@ impl HttpConfig {
         if let Some(v) = env_num(get, "CAUSTICA_SHUTDOWN_GRACE_S", 0.0, 86400.0, false)? {
             self.shutdown_grace = Duration::from_secs_f64(v);
         }
+        if let Some(v) = get("CAUSTICA_CORS_ORIGINS") {
+            self.cors_origins =
+                parse_origins(&v).map_err(|e| format!("CAUSTICA_CORS_ORIGINS: {e}"))?;
+        }
         Ok(())
     }
+}
+
+/// A CORS allow-list: origins (`http://` or `https://`, a host, an optional port, nothing
+/// after) separated by commas, or `*` alone.
+fn parse_origins(v: &str) -> Result<Vec<String>, String> {
+    let list: Vec<String> = v
+        .split(',')
+        .map(|o| o.trim().to_string())
+        .filter(|o| !o.is_empty())
+        .collect();
+    if list.iter().any(|o| o == "*") {
+        return if list.len() == 1 {
+            Ok(list)
+        } else {
+            Err("'*' allows every origin and cannot be listed with others".into())
+        };
+    }
+    for o in &list {
+        let rest = o
+            .strip_prefix("https://")
+            .or_else(|| o.strip_prefix("http://"))
+            .ok_or_else(|| {
+                format!("'{o}' is not an origin: it must start with http:// or https://")
+            })?;
+        let ok = !rest.is_empty()
+            && rest
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b"-.:[]".contains(&b));
+        if !ok {
+            return Err(format!(
+                "'{o}' is not an origin: a scheme, a host and an optional port, with no path \
+                 (no trailing '/')"
+            ));
+        }
+    }
+    Ok(list)
+}
+
+/// The CORS layer for `origins` (none: no layer). Preflights are answered before the key check
+/// (browsers send them without credentials); what a page may send and read back is what the
+/// API uses: keys, idempotency keys, conditional and range requests; `Location`,
+/// `Retry-After`, `ETag`, `Content-Range`, `Server-Timing`.
+fn cors(origins: &[String]) -> Option<tower_http::cors::CorsLayer> {
+    use axum::http::{HeaderName, Method, header};
+    use tower_http::cors::{AllowOrigin, CorsLayer};
+    if origins.is_empty() {
+        return None;
+    }
+    let allow = if origins.iter().any(|o| o == "*") {
+        AllowOrigin::any()
+    } else {
+        AllowOrigin::list(
+            origins
+                .iter()
+                .filter_map(|o| axum::http::HeaderValue::from_str(o).ok()),
+        )
+    };
+    Some(
+        CorsLayer::new()
+            .allow_origin(allow)
+            .allow_methods([Method::GET, Method::POST, Method::DELETE])
+            .allow_headers([
+                header::CONTENT_TYPE,
+                header::AUTHORIZATION,
+                header::RANGE,
+                header::IF_NONE_MATCH,
+                header::IF_RANGE,
+                HeaderName::from_static("idempotency-key"),
+            ])
+            .expose_headers([
+                header::LOCATION,
+                header::RETRY_AFTER,
+                header::ETAG,
+                header::CONTENT_RANGE,
+                HeaderName::from_static("server-timing"),
+            ])
+            .max_age(Duration::from_secs(600)),
+    )
 }
 
 /// What every handler sees.
@@ -209,7 +299,8 @@ fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
 /// The application: every route, the body limit, request logging and metrics.
 pub fn app(state: AppState) -> Router {
     use routes::*;
-    Router::new()
+    let cors = cors(&state.cfg.cors_origins);
+    let router = Router::new()
         .route("/v1/scenes", get(list_scenes).post(post_scene))
         .route("/v1/scenes/{id}", get(get_scene).delete(delete_scene))
         .route("/v1/bakes", get(list_bakes).post(post_bake))
@@ -224,6 +315,8 @@ pub fn app(state: AppState) -> Router {
         .route("/readyz", get(readyz))
         .route("/metrics", get(metrics))
         .route("/openapi.json", get(openapi_json))
+        .route("/problems", get(problems::index))
+        .route("/problems/{type}", get(problems::show))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(
@@ -233,7 +326,13 @@ pub fn app(state: AppState) -> Router {
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::authenticate,
-        ))
+        ));
+    // Outside the key check: a preflight carries no key.
+    let router = match cors {
+        Some(c) => router.layer(c),
+        None => router,
+    };
+    router
         .layer(axum::middleware::from_fn(server::limit_head))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
@@ -275,4 +374,38 @@ pub async fn serve(
         .map_err(std::io::Error::other)?;
     tracing::info!("stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{HttpConfig, parse_origins};
+
+    #[test]
+    fn cors_origins_are_checked_when_read() {
+        assert_eq!(
+            parse_origins("https://a.example, http://localhost:5173,").unwrap(),
+            vec!["https://a.example", "http://localhost:5173"]
+        );
+        assert_eq!(parse_origins("*").unwrap(), vec!["*"]);
+        assert!(parse_origins("").unwrap().is_empty());
+        for bad in [
+            "a.example",
+            "https://a.example/",
+            "https://a.example/app",
+            "*,https://a.example",
+            "ftp://a",
+            "https://",
+        ] {
+            assert!(parse_origins(bad).is_err(), "{bad}");
+        }
+        let mut c = HttpConfig::default();
+        let e = c
+            .apply_env(&|k| (k == "CAUSTICA_CORS_ORIGINS").then(|| "example.com".to_string()))
+            .unwrap_err();
+        assert!(
+            e.contains("CAUSTICA_CORS_ORIGINS") && e.contains("example.com"),
+            "{e}"
+        );
+        assert!(c.cors_origins.is_empty());
+    }
 }

@@ -338,3 +338,201 @@ async fn results_are_served_with_etags_and_byte_ranges() {
     assert_eq!(r.status(), 206);
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cors_is_off_by_default_and_follows_the_allow_list() {
+    use caustica::http::auth::{Keys, hash_key};
+    const VIEWER: &str = "https://viewer.example";
+    let preflight = |srv: &Server, origin: &str| {
+        srv.client
+            .request(reqwest::Method::OPTIONS, srv.url("/v1/renders"))
+            .header("origin", origin)
+            .header("access-control-request-method", "POST")
+            .header(
+                "access-control-request-headers",
+                "content-type,authorization",
+            )
+            .send()
+    };
+    let acao = |r: &reqwest::Response| {
+        r.headers()
+            .get("access-control-allow-origin")
+            .map(|v| v.to_str().unwrap().to_string())
+    };
+
+    // Off: no CORS headers, and a preflight is a method the route does not have.
+    let srv = Server::start("api-cors-off", |_, _| {}).await;
+    let r = preflight(&srv, VIEWER).await.unwrap();
+    assert_eq!(acao(&r), None);
+    problem(r, 405).await;
+    let r = srv
+        .client
+        .get(srv.url("/healthz"))
+        .header("origin", VIEWER)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(acao(&r), None);
+    srv.stop().await;
+
+    // On, with keys: the preflight needs no key; the real request still does.
+    let srv = Server::start("api-cors-on", |_, h| {
+        let mut k = Keys::default();
+        k.parse(&format!("alice user {}", hash_key("ck_alice")), "test")
+            .unwrap();
+        h.keys = k;
+        h.cors_origins = vec![VIEWER.into()];
+    })
+    .await;
+    let r = preflight(&srv, VIEWER).await.unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    assert_eq!(acao(&r).as_deref(), Some(VIEWER));
+    let methods = r.headers()["access-control-allow-methods"]
+        .to_str()
+        .unwrap();
+    assert!(
+        methods.contains("POST") && methods.contains("DELETE"),
+        "{methods}"
+    );
+    let allowed = r.headers()["access-control-allow-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    assert!(
+        allowed.contains("authorization") && allowed.contains("range"),
+        "{allowed}"
+    );
+    let r = srv
+        .client
+        .get(srv.url("/v1/renders"))
+        .header("origin", VIEWER)
+        .bearer_auth("ck_alice")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(acao(&r).as_deref(), Some(VIEWER));
+    let exposed = r.headers()["access-control-expose-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    for h in [
+        "etag",
+        "location",
+        "retry-after",
+        "server-timing",
+        "content-range",
+    ] {
+        assert!(exposed.contains(h), "{exposed}");
+    }
+    let r = srv
+        .client
+        .get(srv.url("/v1/renders"))
+        .header("origin", VIEWER)
+        .send()
+        .await
+        .unwrap();
+    problem(r, 401).await;
+    // Another origin: no CORS headers (the browser refuses to hand over the answer).
+    let r = preflight(&srv, "https://elsewhere.example").await.unwrap();
+    assert_eq!(acao(&r), None);
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn accept_picks_the_image_format() {
+    let srv = Server::start("api-accept", |_, _| {}).await;
+    let post = |accept: &'static str, format: Option<&'static str>| {
+        let mut body = render(9);
+        if let Some(f) = format {
+            body["format"] = f.into();
+        }
+        srv.client
+            .post(srv.url("/v1/renders"))
+            .header("accept", accept)
+            .json(&body)
+            .send()
+    };
+    let r = post("image/x-exr", None).await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.headers()["content-type"], "image/x-exr");
+    let f = caustica::encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert_eq!((f.width, f.height), (8, 8));
+    let r = post("image/png;q=0.2, image/x-exr;q=0.1", None)
+        .await
+        .unwrap();
+    assert_eq!(r.headers()["content-type"], "image/png");
+    // No image type in Accept: the request decides (PNG by default).
+    let r = post("application/json, */*", None).await.unwrap();
+    assert_eq!(r.headers()["content-type"], "image/png");
+    // Impossible: 406 naming the Accept.
+    let p = problem(post("image/webp", None).await.unwrap(), 406).await;
+    assert!(p["detail"].as_str().unwrap().contains("image/webp"), "{p}");
+    let p = problem(post("image/png", Some("exr")).await.unwrap(), 406).await;
+    assert!(p["detail"].as_str().unwrap().contains("'exr'"), "{p}");
+    srv.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn problem_types_resolve_to_pages_the_server_serves() {
+    use caustica::http::problems::PROBLEMS;
+    let srv = Server::start("api-problems", |_, _| {}).await;
+    // A real problem's type, resolved against the request's URL, is a page about it.
+    let r = srv
+        .client
+        .get(srv.url("/v1/renders?page_size=0"))
+        .send()
+        .await
+        .unwrap();
+    let p = problem(r, 422).await;
+    let ty = p["type"].as_str().unwrap();
+    assert_eq!(ty, "/problems/invalid-request");
+    let page = srv.client.get(srv.url(ty)).send().await.unwrap();
+    assert_eq!(page.status(), 200);
+    assert_eq!(page.headers()["content-type"], "text/html; charset=utf-8");
+    let html = page.text().await.unwrap();
+    assert!(
+        html.contains("<h1>Invalid request</h1>") && html.contains("422"),
+        "{html}"
+    );
+    // The index links every type, and the spec lists every one.
+    let index = srv
+        .client
+        .get(srv.url("/problems"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    let spec = std::fs::read_to_string(crate::support::repo_path("api/openapi.yaml")).unwrap();
+    for d in PROBLEMS {
+        assert!(
+            index.contains(&format!("href=\"/problems/{}\"", d.slug)),
+            "{}",
+            d.slug
+        );
+        assert!(
+            spec.contains(d.slug),
+            "api/openapi.yaml does not name {}",
+            d.slug
+        );
+        let r = srv
+            .client
+            .get(srv.url(&format!("/problems/{}", d.slug)))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200, "{}", d.slug);
+    }
+    problem(
+        srv.client
+            .get(srv.url("/problems/no-such-problem"))
+            .send()
+            .await
+            .unwrap(),
+        404,
+    )
+    .await;
+    srv.stop().await;
+}

@@ -6,6 +6,7 @@ pub mod bakes;
 pub mod events;
 pub mod jobs;
 pub mod lists;
+pub mod negotiate;
 pub mod ops;
 pub mod renders;
 pub mod scenes;

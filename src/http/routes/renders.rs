@@ -43,10 +43,14 @@ fn render_id() -> String {
 pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
     let t0 = Instant::now();
     let p = principal(&req);
+    let headers = req.headers().clone();
     let body: serde_json::Value = json_body(&st, req).await?;
     let serde_json::Value::Object(mut o) = body else {
         return Err(AppError::invalid("body", "body: a JSON object"));
     };
+    if let Some(f) = super::negotiate::render_format(&headers, o.get("format"))? {
+        o.insert("format".into(), f.into());
+    }
     let scene = o
         .remove("scene")
         .ok_or_else(|| AppError::invalid("scene", "scene: required (a scene object or id)"))?;
