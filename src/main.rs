@@ -234,7 +234,7 @@ enum Cmd {
         /// CAUSTICA_BODY_TIMEOUT_S, CAUSTICA_HEADER_TIMEOUT_S, CAUSTICA_MAX_CONNECTIONS,
         /// CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT, CAUSTICA_MAX_JOBS_PER_KEY, CAUSTICA_RENDER_TTL_S,
         /// CAUSTICA_BAKE_TTL_S, CAUSTICA_MAX_RENDER_BYTES, CAUSTICA_JOB_MEMORY,
-        /// CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S.
+        /// CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S, CAUSTICA_CORS_ORIGINS.
         #[arg(long)]
         log_json: bool,
     },
@@ -313,7 +313,19 @@ enum BakeCmd {
     },
 }
 
-fn main() -> Result<()> {
+/// Errors are the user's to read: the message and its causes, no backtrace (even with
+/// `RUST_BACKTRACE=1`; a panic still prints one).
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
     let cli = Cli::parse();
     let json_logs = matches!(cli.cmd, Cmd::Serve { log_json: true, .. })
         || std::env::var("CAUSTICA_LOG_FORMAT").is_ok_and(|v| v.eq_ignore_ascii_case("json"));
@@ -539,8 +551,17 @@ fn main() -> Result<()> {
                     .map_err(|e| anyhow::anyhow!("--camera: {e}"))?;
             }
             let read = |p: &Path| -> Result<Frame> {
-                encode::decode_frame(&std::fs::read(p).with_context(|| p.display().to_string())?)
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
+                let bytes = std::fs::read(p).with_context(|| p.display().to_string())?;
+                // OpenEXR's magic number: only linear radiance compares meaningfully (a PNG
+                // is exposed, tone-mapped and quantised).
+                if !bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+                    bail!(
+                        "{}: not an OpenEXR image; compare needs linear radiance (render with \
+                         --out NAME.exr)",
+                        p.display()
+                    );
+                }
+                encode::decode_frame(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
             };
             let (fa, fb) = (read(&a)?, read(&b)?);
             let mut w = world.clone();
@@ -599,6 +620,8 @@ fn render(
         None if sequence_dir => false,
         _ => bail!("--out must end in .png or .exr: {}", out.display()),
     };
+    // A sequence's folder is made when its frames come; the folder it lies in must take it.
+    check_writable(out)?;
     let mut timings: Vec<(String, Duration)> = Vec::new();
     let t = Instant::now();
     let mut world = load(scene)?;
@@ -765,6 +788,7 @@ fn bake(
     params: &serde_json::Value,
     out: &Path,
 ) -> Result<()> {
+    check_writable(out)?;
     let world = std::sync::Arc::new(load(scene)?);
     let imp = method.imp();
     let params = imp
@@ -871,6 +895,25 @@ fn with_bar<T>(
     label: &str,
     f: impl FnOnce(&(dyn Fn(f32, &str) + Sync)) -> Result<T, MethodError>,
 ) -> Result<T> {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        // Logs and CI: a line when the stage changes or every tenth of the way.
+        let last = std::sync::Mutex::new((String::new(), -1i32));
+        let t = Instant::now();
+        let progress = |f: f32, stage: &str| {
+            let tenth = (f.clamp(0.0, 1.0) * 10.0).floor() as i32;
+            let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
+            if l.0 != stage || tenth > l.1 {
+                *l = (stage.to_string(), tenth);
+                eprintln!(
+                    "{label}: {stage} {:.0}% ({:.1} s)",
+                    f.clamp(0.0, 1.0) * 100.0,
+                    t.elapsed().as_secs_f64()
+                );
+            }
+        };
+        return f(&progress).map_err(cli_error);
+    }
     let bar = ProgressBar::new(1000);
     bar.set_style(
         ProgressStyle::with_template("{msg} [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
@@ -899,6 +942,30 @@ fn ext(p: &Path) -> Option<String> {
     p.extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
+}
+
+/// Refuses, before any work, an `--out` whose folder does not exist or cannot be written in
+/// (a file made and removed there says so), or that names a folder where a file is meant.
+fn check_writable(out: &Path) -> Result<()> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "--out {}: the folder {} does not exist",
+            out.display(),
+            dir.display()
+        );
+    }
+    if out.extension().is_some() && out.is_dir() {
+        bail!("--out {}: is a folder", out.display());
+    }
+    let probe = dir.join(format!(".caustica-write-check-{}", std::process::id()));
+    std::fs::File::create(&probe)
+        .with_context(|| format!("--out {}: cannot write in {}", out.display(), dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }
 
 fn layer_path(out: &Path, name: &str) -> PathBuf {

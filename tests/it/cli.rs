@@ -2,7 +2,7 @@
 //! the asked size in the format of the extension, with the right numbers in it.
 
 use crate::support::images::read_frame;
-use crate::support::{Cleanup, caustica, scenes, temp_dir};
+use crate::support::{Cleanup, caustica, caustica_command, scenes, temp_dir};
 
 #[test]
 fn render_writes_exr_and_png_of_the_asked_size() {
@@ -37,6 +37,13 @@ fn render_writes_exr_and_png_of_the_asked_size() {
     assert!(
         stderr.contains("photons") && stderr.contains("camera"),
         "timings: {stderr}"
+    );
+    // Without a terminal, progress comes as plain lines (method: stage, per cent, time).
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("reference: ") && l.contains("% (")),
+        "progress lines: {stderr}"
     );
     let f = read_frame(&exr);
     assert_eq!((f.width, f.height), (64, 48));
@@ -99,6 +106,54 @@ fn bad_inputs_fail_with_a_message_naming_the_problem() {
         dir.join("x.tiff").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains(".png or .exr"));
+
+    // An --out that cannot be written is refused before the render starts (a render that ran
+    // would print its progress lines: stderr is no terminal here), and a user's error prints
+    // no backtrace even when asked for them.
+    let scene = scenes::path("glass-sphere-directional");
+    let out = caustica_command()
+        .env("RUST_BACKTRACE", "1")
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            "reference",
+            "--photons",
+            "1000000000",
+            "--out",
+            dir.join("missing").join("x.exr").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("does not exist") && stderr.contains("missing"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("reference:"),
+        "the render started: {stderr}"
+    );
+    assert!(!stderr.to_lowercase().contains("backtrace"), "{stderr}");
+    assert!(stderr.starts_with("error: "), "{stderr}");
+
+    // compare takes linear EXRs only.
+    let png = dir.join("a.png");
+    std::fs::write(&png, b"\x89PNG\r\n\x1a\n").unwrap();
+    let out = caustica(&[
+        "compare",
+        png.to_str().unwrap(),
+        png.to_str().unwrap(),
+        "--scene",
+        scene.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("not an OpenEXR image") && stderr.contains("a.png"),
+        "{stderr}"
+    );
 }
 
 /// Without `--method`, `auto` picks from the scene and says which and why; a method's flag
