@@ -816,6 +816,21 @@ impl Store {
         Ok(())
     }
 
+    /// Points `key` at `job_id` for requests hashing to `request_hash`, replacing what it
+    /// pointed at (a job since deleted).
+    pub fn replace_idempotency(
+        &self,
+        key: &str,
+        request_hash: &str,
+        job_id: &str,
+    ) -> Result<(), StoreError> {
+        self.conn().execute(
+            "INSERT OR REPLACE INTO idempotency (key, request_hash, job_id) VALUES (?1, ?2, ?3)",
+            params![key, request_hash, job_id],
+        )?;
+        Ok(())
+    }
+
     /// Writes an artifact atomically (temporary file, fsync, rename, fsync of the folder); on
     /// an error (a full disk) the temporary file is removed and the error returned.
     pub fn write_artifact(

@@ -536,3 +536,49 @@ async fn problem_types_resolve_to_pages_the_server_serves() {
     .await;
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_idempotency_key_gives_the_same_render() {
+    let srv = Server::start("api-idempotent", |_, _| {}).await;
+    let post = |key: &'static str, body: serde_json::Value| {
+        srv.client
+            .post(srv.url("/v1/renders"))
+            .header("idempotency-key", key)
+            .json(&body)
+            .send()
+    };
+    let loc = |r: &reqwest::Response| r.headers()["location"].to_str().unwrap().to_string();
+    // Without waiting first, then again: the same render, now finished.
+    let mut quick = render(11);
+    quick["wait"] = false.into();
+    let r = post("k1", quick).await.unwrap();
+    assert_eq!(r.status(), 202);
+    let first = loc(&r);
+    let r = post("k1", render(11)).await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(loc(&r), first);
+    let image = r.bytes().await.unwrap();
+    let r = post("k1", render(11)).await.unwrap();
+    assert_eq!(loc(&r), first);
+    assert_eq!(r.bytes().await.unwrap(), image);
+    let (_, list) = srv.get_json("/v1/renders").await;
+    assert_eq!(ids(&list).len(), 1, "{list}");
+    // The key with another request: 422 naming the header.
+    let p = problem(post("k1", render(12)).await.unwrap(), 422).await;
+    assert_eq!(p["field"], "Idempotency-Key");
+    // Without the key, or with another: a new render.
+    let r = srv.post_json("/v1/renders", &render(11)).await;
+    assert_ne!(loc(&r), first);
+    let r = post("k2", render(11)).await.unwrap();
+    assert_ne!(loc(&r), first);
+    // Once the render is deleted, the key makes a new one.
+    let d = srv.client.delete(srv.url(&first)).send().await.unwrap();
+    assert_eq!(d.status(), 204);
+    let r = post("k1", render(11)).await.unwrap();
+    assert_eq!(r.status(), 200);
+    let again = loc(&r);
+    assert_ne!(again, first);
+    let r = post("k1", render(11)).await.unwrap();
+    assert_eq!(loc(&r), again);
+    srv.stop().await;
+}

@@ -4,7 +4,7 @@ use super::jobs::{
     JobView, accepted, cancel_job, job_view, load_job, not_finished, serve_artifact,
 };
 use super::scenes::scene_ref;
-use super::{blocking, json_body, principal};
+use super::{blocking, idempotency_key, idempotency_key_reused, json_body, principal};
 use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::sha256_hex;
@@ -12,7 +12,6 @@ use crate::jobs::store::Held;
 use crate::jobs::{JobKind, JobSpec, JobState};
 use crate::methods::Method;
 use axum::extract::{Path, Request, State};
-use axum::http::StatusCode;
 use axum::response::Response;
 use axum::{Extension, Json};
 
@@ -31,17 +30,7 @@ struct BakeRequest {
 
 pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Response, AppError> {
     let p = principal(&req);
-    let key = req
-        .headers()
-        .get("idempotency-key")
-        .map(|v| v.to_str().map(str::to_string))
-        .transpose()
-        .map_err(|_| AppError::bad_request("Idempotency-Key must be visible ASCII"))?;
-    if key.as_ref().is_some_and(|k| k.is_empty() || k.len() > 255) {
-        return Err(AppError::bad_request(
-            "Idempotency-Key must be 1..=255 characters",
-        ));
-    }
+    let key = idempotency_key(req.headers(), &p)?;
     let b: BakeRequest = json_body(&st, req).await?;
     let scene_id = match (&b.scene, &b.scene_id) {
         (Some(s), None) => scene_ref(&st, s, "scene", &p).await?,
@@ -68,26 +57,10 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     let spec_json = serde_json::to_vec(&spec).expect("spec serialises");
     let hash = sha256_hex(&spec_json);
     let mut id = format!("bk_{}", &hash[..32]);
-    // Each client's idempotency keys are its own.
-    let key = key.map(|k| {
-        if p.owner.is_empty() {
-            k
-        } else {
-            format!("{}\u{1f}{k}", p.owner)
-        }
-    });
     if let Some(k) = &key {
         match st.jobs.store.idempotency(k)? {
             Some((h, job)) if h == hash => id = job,
-            Some(_) => {
-                return Err(AppError::new(
-                    StatusCode::UNPROCESSABLE_ENTITY,
-                    "idempotency-key-reused",
-                    "Idempotency key reused",
-                    "Idempotency-Key was already used for a different request",
-                )
-                .field("Idempotency-Key"));
-            }
+            Some(_) => return Err(idempotency_key_reused()),
             None => {}
         }
     }

@@ -123,6 +123,42 @@ pub(super) async fn json_body<T: DeserializeOwned>(
     parse_json(&b)
 }
 
+/// The request's `Idempotency-Key` (1..=255 visible ASCII characters), in the namespace of
+/// the client's key (each client's idempotency keys are its own).
+pub(super) fn idempotency_key(
+    headers: &HeaderMap,
+    p: &Principal,
+) -> Result<Option<String>, AppError> {
+    let key = headers
+        .get("idempotency-key")
+        .map(|v| v.to_str().map(str::to_string))
+        .transpose()
+        .map_err(|_| AppError::bad_request("Idempotency-Key must be visible ASCII"))?;
+    if key.as_ref().is_some_and(|k| k.is_empty() || k.len() > 255) {
+        return Err(AppError::bad_request(
+            "Idempotency-Key must be 1..=255 characters",
+        ));
+    }
+    Ok(key.map(|k| {
+        if p.owner.is_empty() {
+            k
+        } else {
+            format!("{}\u{1f}{k}", p.owner)
+        }
+    }))
+}
+
+/// The answer to an `Idempotency-Key` first used with another request.
+pub(super) fn idempotency_key_reused() -> AppError {
+    AppError::new(
+        axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+        "idempotency-key-reused",
+        "Idempotency key reused",
+        "Idempotency-Key was already used for a different request",
+    )
+    .field("Idempotency-Key")
+}
+
 /// Runs blocking work (scene import, store reads) off the async threads.
 pub(super) async fn blocking<T: Send + 'static>(
     f: impl FnOnce() -> Result<T, AppError> + Send + 'static,

@@ -6,7 +6,7 @@ use super::jobs::{
     serve_artifact, server_timing, view, wait_terminal,
 };
 use super::scenes::scene_ref;
-use super::{blocking, json_body, principal};
+use super::{blocking, idempotency_key, idempotency_key_reused, json_body, principal};
 use crate::http::auth::Principal;
 use crate::http::{AppError, AppState};
 use crate::jobs::scenes::sha256_hex;
@@ -21,6 +21,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 static RENDER_SEQ: AtomicU64 = AtomicU64::new(0);
+
+/// Held while a render with an `Idempotency-Key` is looked up and submitted.
+static IDEMPOTENT_RENDERS: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
 
 fn render_id() -> String {
     use std::hash::{BuildHasher, Hasher};
@@ -44,6 +47,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     let t0 = Instant::now();
     let p = principal(&req);
     let headers = req.headers().clone();
+    let key = idempotency_key(&headers, &p)?;
     let body: serde_json::Value = json_body(&st, req).await?;
     let serde_json::Value::Object(mut o) = body else {
         return Err(AppError::invalid("body", "body: a JSON object"));
@@ -76,16 +80,44 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     if *st.shutdown.borrow() {
         return Err(crate::jobs::SubmitError::ShuttingDown.into());
     }
-    let id = render_id();
-    let jobs = st.jobs.clone();
-    let (id2, spec2) = (id.clone(), spec.clone());
-    crate::http::auth::check_quota(&st, &p)?;
-    // Held before it exists, so that it is never a job nobody holds.
-    st.jobs.store.hold(Held::Job, &id, &p.owner)?;
-    let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
-    let (h, _) = submitted.inspect_err(|_| {
-        let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
-    })?;
+    // With an Idempotency-Key: the render first made with it (while it exists), checked and
+    // submitted under one lock so that two such requests at once make one render.
+    let hash = sha256_hex(&serde_json::to_vec(&spec).expect("spec serialises"));
+    let _one_at_a_time = match &key {
+        Some(_) => Some(IDEMPOTENT_RENDERS.lock().await),
+        None => None,
+    };
+    let replay = match &key {
+        Some(k) => match st.jobs.store.idempotency(k)? {
+            Some((h, job)) if h == hash => st.jobs.store.get_job(&job)?.is_some().then_some(job),
+            Some(_) => return Err(idempotency_key_reused()),
+            None => None,
+        },
+        None => None,
+    };
+    let (id, h) = match replay {
+        Some(id) => {
+            let h = st.jobs.handle(&id);
+            (id, h)
+        }
+        None => {
+            let id = render_id();
+            let jobs = st.jobs.clone();
+            let (id2, spec2) = (id.clone(), spec.clone());
+            crate::http::auth::check_quota(&st, &p)?;
+            // Held before it exists, so that it is never a job nobody holds.
+            st.jobs.store.hold(Held::Job, &id, &p.owner)?;
+            let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
+            let (h, _) = submitted.inspect_err(|_| {
+                let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
+            })?;
+            if let Some(k) = &key {
+                st.jobs.store.replace_idempotency(k, &hash, &id)?;
+            }
+            (id, h)
+        }
+    };
+    drop(_one_at_a_time);
     let loc = format!("/v1/renders/{id}");
     // Reading the body, the scene, the quota and the job's submission.
     let accept = t0.elapsed();
