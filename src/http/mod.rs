@@ -296,6 +296,36 @@ fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
     AppError::internal("the server hit an internal error handling this request").into_response()
 }
 
+/// Which answers are gzipped for a client that accepts it: text (JSON, problems, pages,
+/// metrics), unless it declares a length of at most 1 KiB; never images, artifacts, byte
+/// ranges or event streams.
+fn compressible(
+    status: axum::http::StatusCode,
+    _: axum::http::Version,
+    h: &axum::http::HeaderMap,
+    _: &axum::http::Extensions,
+) -> bool {
+    use axum::http::header;
+    let ty = h
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("");
+    let text = [
+        "application/json",
+        "application/problem+json",
+        "text/html",
+        "text/plain",
+    ]
+    .iter()
+    .any(|t| ty.starts_with(t));
+    let big = h
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok())
+        .is_none_or(|n| n > 1024);
+    text && big && status != axum::http::StatusCode::PARTIAL_CONTENT
+}
+
 /// The application: every route, the body limit, request logging and metrics.
 pub fn app(state: AppState) -> Router {
     use routes::*;
@@ -347,6 +377,7 @@ pub fn app(state: AppState) -> Router {
         )
         // A panic in a handler becomes a 500 problem instead of a dropped connection.
         .layer(CatchPanicLayer::custom(panic_problem))
+        .layer(tower_http::compression::CompressionLayer::new().compress_when(compressible))
         .with_state(state)
 }
 

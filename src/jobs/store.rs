@@ -336,6 +336,15 @@ impl Store {
         Ok(())
     }
 
+    /// Whether scene `id` is stored (without reading it).
+    pub fn scene_exists(&self, id: &str) -> Result<bool, StoreError> {
+        Ok(self
+            .conn()
+            .query_row("SELECT 1 FROM scenes WHERE id = ?1", [id], |_| Ok(()))
+            .optional()?
+            .is_some())
+    }
+
     pub fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
         let c = self.conn();
         let Some((scene_json, created_at)) = c

@@ -582,3 +582,82 @@ async fn an_idempotency_key_gives_the_same_render() {
     assert_eq!(loc(&r), again);
     srv.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn json_is_gzipped_for_clients_that_accept_it_and_scenes_revalidate() {
+    use std::io::Read;
+    let srv = Server::start("api-gzip", |_, _| {}).await;
+    let r = srv.post_json("/v1/scenes", &scene_sized(8, 8)).await;
+    assert_eq!(r.status(), 201);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let get = |path: String, headers: Vec<(&'static str, String)>| {
+        let mut b = srv.client.get(srv.url(&path));
+        for (k, v) in headers {
+            b = b.header(k, v);
+        }
+        b.send()
+    };
+
+    // The scene's JSON, plain and gzipped: the same document.
+    let plain = get(loc.clone(), vec![]).await.unwrap();
+    assert_eq!(plain.status(), 200);
+    assert!(plain.headers().get("content-encoding").is_none());
+    let etag = plain.headers()["etag"].to_str().unwrap().to_string();
+    assert_eq!(plain.headers()["cache-control"], "no-cache");
+    let plain: serde_json::Value = plain.json().await.unwrap();
+    let zipped = get(loc.clone(), vec![("accept-encoding", "gzip".into())])
+        .await
+        .unwrap();
+    assert_eq!(zipped.headers()["content-encoding"], "gzip");
+    let bytes = zipped.bytes().await.unwrap();
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(&bytes[..])
+        .read_to_string(&mut text)
+        .unwrap();
+    assert!(
+        bytes.len() < text.len(),
+        "{} >= {}",
+        bytes.len(),
+        text.len()
+    );
+    assert_eq!(
+        serde_json::from_str::<serde_json::Value>(&text).unwrap(),
+        plain
+    );
+
+    // Images and event streams are never compressed.
+    let r = srv.post_json("/v1/renders", &render(3)).await;
+    let render_loc = r.headers()["location"].to_str().unwrap().to_string();
+    for path in [
+        format!("{render_loc}/image"),
+        format!("{render_loc}/events"),
+    ] {
+        let r = get(path.clone(), vec![("accept-encoding", "gzip".into())])
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200, "{path}");
+        assert!(r.headers().get("content-encoding").is_none(), "{path}");
+    }
+
+    // Revalidation: 304 while the scene exists, 404 once it is gone.
+    let r = get(loc.clone(), vec![("if-none-match", etag.clone())])
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 304);
+    assert_eq!(r.headers()["etag"].to_str().unwrap(), etag);
+    let r = get(loc.clone(), vec![("if-none-match", "\"other\"".into())])
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    // Its render is finished, so the scene may go.
+    let d = srv.client.delete(srv.url(&loc)).send().await.unwrap();
+    assert_eq!(d.status(), 204);
+    problem(
+        get(loc.clone(), vec![("if-none-match", etag)])
+            .await
+            .unwrap(),
+        404,
+    )
+    .await;
+    srv.stop().await;
+}

@@ -254,7 +254,7 @@ fn etag(r: &JobRecord) -> Option<String> {
 }
 
 /// Whether an `If-None-Match` value matches entity tag `tag` (weak comparison: `W/` ignored).
-fn none_match(value: &str, tag: &str) -> bool {
+pub(super) fn none_match(value: &str, tag: &str) -> bool {
     value
         .split(',')
         .map(str::trim)

@@ -133,19 +133,43 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
     Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())
 }
 
+/// `GET /v1/scenes/{id}`: with `ETag` (the content-addressed id and the server's version, as
+/// what the server says of a scene may change with its version) and `Cache-Control: no-cache`
+/// (a scene may be deleted): `If-None-Match` with that tag answers 304 without loading it.
 pub async fn get_scene(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
     Path(id): Path<String>,
-) -> Result<Json<SceneInfo>, AppError> {
+    headers: axum::http::HeaderMap,
+) -> Result<Response, AppError> {
+    use axum::http::HeaderValue;
     if !valid_scene_id(&id) || !(p.admin || st.jobs.store.holds(Held::Scene, &id, &p.owner)?) {
         return Err(AppError::not_found("scene", &id));
+    }
+    let tag = format!("\"{id}.{}\"", env!("CARGO_PKG_VERSION"));
+    let cache = |r: &mut Response| {
+        let h = r.headers_mut();
+        if let Ok(v) = HeaderValue::from_str(&tag) {
+            h.insert(header::ETAG, v);
+        }
+        h.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-cache"));
+    };
+    let matches = headers
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| super::jobs::none_match(v, &tag));
+    if matches && st.jobs.store.scene_exists(&id)? {
+        let mut r = StatusCode::NOT_MODIFIED.into_response();
+        cache(&mut r);
+        return Ok(r);
     }
     let jobs = st.jobs.clone();
     let id2 = id.clone();
     let info = blocking(move || Ok(jobs.scenes.info(&id2)?)).await?;
-    info.map(Json)
-        .ok_or_else(|| AppError::not_found("scene", &id))
+    let info = info.ok_or_else(|| AppError::not_found("scene", &id))?;
+    let mut r = Json(info).into_response();
+    cache(&mut r);
+    Ok(r)
 }
 
 /// `DELETE /v1/scenes/{id}`: drops the caller's hold on the scene (an admin's: every hold);
