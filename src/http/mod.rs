@@ -284,8 +284,11 @@ async fn count_requests(State(st): State<AppState>, req: Request, next: Next) ->
         .get::<MatchedPath>()
         .map(|m| m.as_str().to_string())
         .unwrap_or_else(|| "unmatched".into());
+    let t0 = std::time::Instant::now();
     let r = next.run(req).await;
-    st.jobs.metrics.request(&route, r.status().as_u16());
+    st.jobs
+        .metrics
+        .request(&route, r.status().as_u16(), t0.elapsed());
     r
 }
 

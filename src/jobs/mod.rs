@@ -205,7 +205,7 @@ impl JobSystem {
         let sys = Arc::new(JobSystem {
             scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone()),
             store,
-            metrics: Arc::new(Metrics::default()),
+            metrics: Arc::new(Metrics::new(cfg.bake_timeout, cfg.render_timeout)),
             bakes: ArtifactStore::new(cfg.data_dir.join("bakes")),
             queues: Mutex::new(Queues::default()),
             wake: Condvar::new(),
@@ -319,6 +319,19 @@ impl JobSystem {
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .depth()
+    }
+
+    /// Jobs running in this process, per kind (bake, render).
+    pub fn running(&self) -> (usize, usize) {
+        let live = self.live.lock().unwrap_or_else(|e| e.into_inner());
+        let mut n = (0, 0);
+        for h in live.values().filter(|h| h.state() == JobState::Running) {
+            match h.kind() {
+                JobKind::Bake => n.0 += 1,
+                JobKind::Render => n.1 += 1,
+            }
+        }
+        n
     }
 
     /// The live handle of a job queued or running in this process.

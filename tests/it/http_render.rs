@@ -181,16 +181,29 @@ async fn direct_render_gives_a_png_and_exr_from_the_gpu_worker() {
     })
     .await;
     assert_eq!(ready["status"], "ready");
-    // Metrics show the renders.
-    let m = srv
-        .client
-        .get(srv.url("/metrics"))
-        .send()
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    // Metrics show the renders (OpenMetrics text).
+    let r = srv.client.get(srv.url("/metrics")).send().await.unwrap();
+    assert!(
+        r.headers()["content-type"]
+            .to_str()
+            .unwrap()
+            .starts_with("application/openmetrics-text"),
+        "{:?}",
+        r.headers()
+    );
+    let m = r.text().await.unwrap();
+    for line in [
+        "caustica_http_requests_total{route=\"/v1/renders\",code=\"200\"} 2",
+        "caustica_http_request_duration_seconds_count{route=\"/v1/renders\"} 2",
+        // Job run times: buckets up to the job time limit (the bake timeout, 3600 s).
+        "caustica_job_duration_seconds_bucket{le=\"3600.0\",kind=\"render\"} 2",
+        "caustica_jobs_running{kind=\"render\"} 0",
+        "caustica_build_info{version=\"",
+        "process_resident_memory_bytes ",
+        "# EOF",
+    ] {
+        assert!(m.contains(line), "no {line} in {m}");
+    }
     assert!(
         m.contains("caustica_jobs_total{kind=\"render\",state=\"succeeded\"} 2"),
         "{m}"

@@ -47,33 +47,23 @@ pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value
 }
 
 pub async fn metrics(State(st): State<AppState>) -> Response {
-    use std::fmt::Write;
     use std::sync::atomic::Ordering::Relaxed;
-    let mut body = st.jobs.metrics.render(st.jobs.queue_depth());
     let c = &st.conns;
-    body.push_str("# HELP caustica_connections_open HTTP connections being served.\n");
-    body.push_str("# TYPE caustica_connections_open gauge\n");
-    let _ = writeln!(body, "caustica_connections_open {}", c.open.load(Relaxed));
-    body.push_str(
-        "# HELP caustica_connections_total HTTP connections accepted, by outcome (served; shed \
-         with 503 past the connection cap; dropped unanswered past the shedding cap).\n",
-    );
-    body.push_str("# TYPE caustica_connections_total counter\n");
-    for (k, v) in [
-        ("served", &c.accepted),
-        ("shed", &c.shed),
-        ("dropped", &c.dropped),
-    ] {
-        let _ = writeln!(
-            body,
-            "caustica_connections_total{{outcome=\"{k}\"}} {}",
-            v.load(Relaxed)
-        );
-    }
+    let now = crate::jobs::metrics::Snapshot {
+        queue: st.jobs.queue_depth(),
+        running: st.jobs.running(),
+        connections_open: c.open.load(Relaxed),
+        connections: [
+            c.accepted.load(Relaxed),
+            c.shed.load(Relaxed),
+            c.dropped.load(Relaxed),
+        ],
+    };
+    let body = st.jobs.metrics.render(now);
     (
         [(
             header::CONTENT_TYPE,
-            "text/plain; version=0.0.4; charset=utf-8",
+            "application/openmetrics-text; version=1.0.0; charset=utf-8",
         )],
         body,
     )
