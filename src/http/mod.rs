@@ -6,6 +6,7 @@
 //! it on a listener with graceful shutdown.
 
 pub mod auth;
+pub mod docs;
 pub mod error;
 pub mod problems;
 pub mod routes;
@@ -49,6 +50,7 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/readyz"),
     ("GET", "/metrics"),
     ("GET", "/openapi.json"),
+    ("GET", "/docs"),
     ("GET", "/problems"),
     ("GET", "/problems/{type}"),
 ];
@@ -348,6 +350,7 @@ pub fn app(state: AppState) -> Router {
         .route("/readyz", get(readyz))
         .route("/metrics", get(metrics))
         .route("/openapi.json", get(openapi_json))
+        .route("/docs", get(docs::page))
         .route("/problems", get(problems::index))
         .route("/problems/{type}", get(problems::show))
         .fallback(not_found)
