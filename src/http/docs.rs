@@ -1,17 +1,11 @@
 //! `GET /docs`: the API description as one HTML page, rendered by the server from the same
 //! OpenAPI document it serves at `/openapi.json` (no scripts, nothing fetched: works offline).
 
+use super::problems::escape as esc;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use serde_json::Value;
 use std::fmt::Write;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 fn text(v: &Value) -> &str {
     v.as_str().unwrap_or("")

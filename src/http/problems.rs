@@ -279,7 +279,8 @@ pub fn find(slug: &str) -> Option<&'static ProblemDoc> {
     PROBLEMS.iter().find(|p| p.slug == slug)
 }
 
-fn escape(s: &str) -> String {
+/// `s` as HTML text or attribute value.
+pub(super) fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")

@@ -73,6 +73,13 @@ impl Stream {
             .unwrap_or_else(|_| Event::default().event(name).data("{}"))
     }
 
+    /// Stops waiting on the job's live handle: its record is read every [`POLL`] instead.
+    fn detach(&mut self) {
+        self.handle = None;
+        self.state_rx = None;
+        self.progress_rx = None;
+    }
+
     /// The next event, or `None` when the stream is over.
     async fn next(&mut self) -> Option<Event> {
         if self.ended {
@@ -104,9 +111,7 @@ impl Stream {
             {
                 // The job ended but its record does not say so (yet, or its write failed):
                 // no further change will wake us, so read the record from now on.
-                self.handle = None;
-                self.state_rx = None;
-                self.progress_rx = None;
+                self.detach();
             }
             if v.state.is_terminal() {
                 self.ended = true;
@@ -138,9 +143,7 @@ impl Stream {
             };
             if !alive {
                 // The handle's senders are gone (the job left this process); read the record.
-                self.state_rx = None;
-                self.progress_rx = None;
-                self.handle = None;
+                self.detach();
             }
             tokio::time::sleep(MIN_GAP).await;
         }

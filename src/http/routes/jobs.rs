@@ -103,20 +103,25 @@ fn eta(elapsed_ms: i64, progress: f32) -> Option<i64> {
 /// `202 Accepted` with the job, its `Location`, and while it is not finished `Retry-After`:
 /// its ETA within 1..=10 s, else 1 s for a render and 2 s for a bake.
 pub(super) fn accepted(loc: String, v: JobView) -> Response {
-    let mut resp = (StatusCode::ACCEPTED, [(header::LOCATION, loc)]).into_response();
-    if !v.state.is_terminal() {
+    let retry = (!v.state.is_terminal()).then(|| {
         let fallback = match v.kind {
             JobKind::Render => 1,
             JobKind::Bake => 2,
         };
-        let secs = v
-            .eta_ms
-            .map_or(fallback, |ms| ((ms + 999) / 1000).clamp(1, 10));
+        v.eta_ms
+            .map_or(fallback, |ms| ((ms + 999) / 1000).clamp(1, 10))
+    });
+    let mut resp = (
+        StatusCode::ACCEPTED,
+        [(header::LOCATION, loc)],
+        axum::Json(v),
+    )
+        .into_response();
+    if let Some(secs) = retry {
         resp.headers_mut()
             .insert(header::RETRY_AFTER, HeaderValue::from(secs));
     }
-    let (parts, _) = resp.into_parts();
-    (parts, axum::Json(v)).into_response()
+    resp
 }
 
 /// Job `id` of `kind`, if `p` may see it (an admin, or one who holds it; 404 otherwise, as
