@@ -212,6 +212,8 @@ enum Cmd {
         #[arg(long)]
         camera: Option<String>,
     },
+    /// Print the OpenAPI document the service serves (YAML, as committed in api/openapi.yaml).
+    Openapi,
     /// Run the HTTP service (API v1; see api/openapi.yaml).
     Serve {
         /// Address to listen on [env: CAUSTICA_ADDR] (default 127.0.0.1:8080; port 0 picks a
@@ -331,6 +333,10 @@ fn run() -> Result<()> {
         || std::env::var("CAUSTICA_LOG_FORMAT").is_ok_and(|v| v.eq_ignore_ascii_case("json"));
     init_logging(json_logs);
     match cli.cmd {
+        Cmd::Openapi => {
+            print!("{}", caustica::http::spec::yaml());
+            Ok(())
+        }
         Cmd::Serve {
             addr,
             data_dir,

@@ -16,6 +16,7 @@ use std::io::Cursor;
     serde::Serialize,
     serde::Deserialize,
     clap::ValueEnum,
+    schemars::JsonSchema,
 )]
 #[serde(rename_all = "snake_case")]
 pub enum ToneMap {

@@ -151,22 +151,38 @@ impl std::ops::DerefMut for AppError {
     }
 }
 
+/// RFC 9457 problem details: the body of every error answer.
+#[derive(serde::Serialize, schemars::JsonSchema)]
+#[schemars(rename = "Problem")]
+pub struct ProblemBody {
+    /// A reference relative to the server (`/problems/{slug}`) whose page documents the type.
+    #[serde(rename = "type")]
+    #[schemars(extend("format" = "uri-reference"))]
+    pub kind: String,
+    pub title: String,
+    /// The HTTP status.
+    pub status: u16,
+    /// Names the field, file or limit at fault.
+    pub detail: String,
+    /// The JSON path of the request field at fault, when there is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instance: Option<String>,
+}
+
 impl AppError {
     /// The problem+json body.
     pub fn body(&self) -> serde_json::Value {
-        let mut body = serde_json::json!({
-            "type": format!("{TYPE_BASE}{}", self.kind),
-            "title": self.title,
-            "status": self.status.as_u16(),
-            "detail": self.detail,
-        });
-        if let Some(f) = &self.field {
-            body["field"] = f.clone().into();
-        }
-        if let Some(i) = &self.instance {
-            body["instance"] = i.clone().into();
-        }
-        body
+        serde_json::to_value(ProblemBody {
+            kind: format!("{TYPE_BASE}{}", self.kind),
+            title: self.title.into(),
+            status: self.status.as_u16(),
+            detail: self.detail.clone(),
+            field: self.field.clone(),
+            instance: self.instance.clone(),
+        })
+        .expect("a problem serialises")
     }
 }
 
@@ -197,6 +213,9 @@ impl IntoResponse for AppError {
 impl From<SceneError> for AppError {
     fn from(e: SceneError) -> Self {
         let field = e.field().to_string();
+        if let SceneError::Syntax { .. } = e {
+            return AppError::bad_request(e.to_string());
+        }
         if let SceneError::Busy { .. } = e {
             return AppError::new(
                 StatusCode::SERVICE_UNAVAILABLE,

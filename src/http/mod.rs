@@ -11,6 +11,7 @@ pub mod error;
 pub mod problems;
 pub mod routes;
 pub mod server;
+pub mod spec;
 pub mod wire;
 
 pub use error::AppError;
@@ -87,6 +88,31 @@ pub struct HttpConfig {
     /// Origins whose web pages may call the API (CORS; `*`: any); empty, the default: no CORS
     /// headers, so browsers refuse cross-origin calls.
     pub cors_origins: Vec<String>,
+    /// Sees every answer of the application (the integration tests check each against the
+    /// OpenAPI document); none by default.
+    pub observe: Option<Observer>,
+}
+
+/// An answer as an [`Observer`] sees it.
+pub struct Observed {
+    pub method: axum::http::Method,
+    /// The route's path template; None for a request no route matched.
+    pub route: Option<String>,
+    pub status: u16,
+    pub content_type: Option<String>,
+    /// The whole body of a JSON or text answer (before compression); None for images,
+    /// artifacts and event streams, which are passed on unread.
+    pub body: Option<axum::body::Bytes>,
+}
+
+/// A function shown every answer ([`HttpConfig::observe`]).
+#[derive(Clone)]
+pub struct Observer(pub Arc<dyn Fn(Observed) + Send + Sync>);
+
+impl std::fmt::Debug for Observer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Observer")
+    }
 }
 
 impl Default for HttpConfig {
@@ -104,6 +130,7 @@ impl Default for HttpConfig {
             keys: auth::Keys::default(),
             max_jobs_per_key: 32,
             cors_origins: Vec::new(),
+            observe: None,
         }
     }
 }
@@ -271,13 +298,61 @@ impl AppState {
     }
 }
 
-/// The OpenAPI document, converted from `api/openapi.yaml` once.
+/// The OpenAPI document ([`spec::document`]), made once.
 pub fn openapi() -> &'static serde_json::Value {
     static DOC: std::sync::OnceLock<serde_json::Value> = std::sync::OnceLock::new();
-    DOC.get_or_init(|| {
-        serde_yaml_ng::from_str(include_str!("../../api/openapi.yaml"))
-            .expect("api/openapi.yaml parses (checked by the http_openapi tests)")
-    })
+    DOC.get_or_init(spec::document)
+}
+
+/// Shows each answer to the configured [`Observer`].
+async fn observe(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    let Some(obs) = st.cfg.observe.clone() else {
+        return next.run(req).await;
+    };
+    let method = req.method().clone();
+    let route = req
+        .extensions()
+        .get::<MatchedPath>()
+        .map(|m| m.as_str().to_string());
+    let r = next.run(req).await;
+    let content_type = r
+        .headers()
+        .get(axum::http::header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .map(str::to_string);
+    let text = content_type.as_deref().is_some_and(|t| {
+        [
+            "application/json",
+            "application/problem+json",
+            "text/html",
+            "text/plain",
+        ]
+        .iter()
+        .any(|p| t.starts_with(p))
+    });
+    let status = r.status().as_u16();
+    if !text {
+        obs.0(Observed {
+            method,
+            route,
+            status,
+            content_type,
+            body: None,
+        });
+        return r;
+    }
+    let (parts, body) = r.into_parts();
+    let bytes = axum::body::to_bytes(body, usize::MAX)
+        .await
+        .unwrap_or_default();
+    obs.0(Observed {
+        method,
+        route,
+        status,
+        content_type,
+        body: Some(bytes.clone()),
+    });
+    Response::from_parts(parts, axum::body::Body::from(bytes))
 }
 
 async fn count_requests(State(st): State<AppState>, req: Request, next: Next) -> Response {
@@ -383,6 +458,7 @@ pub fn app(state: AppState) -> Router {
         )
         // A panic in a handler becomes a 500 problem instead of a dropped connection.
         .layer(CatchPanicLayer::custom(panic_problem))
+        .layer(axum::middleware::from_fn_with_state(state.clone(), observe))
         .layer(tower_http::compression::CompressionLayer::new().compress_when(compressible))
         .with_state(state)
 }

@@ -14,7 +14,9 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Instant;
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Format {
     #[default]
@@ -23,17 +25,21 @@ pub enum Format {
 }
 
 /// Render parameters (everything of a render request but the scene and method).
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RenderParams {
     /// Image size; the camera's when absent.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 4096))]
     pub width: Option<u32>,
     #[serde(default)]
+    #[schemars(range(min = 1, max = 4096))]
     pub height: Option<u32>,
+    /// png (the default; tone-mapped 8-bit sRGB) or exr (linear radiance). Without it, an
+    /// `Accept` header naming image types picks one.
     #[serde(default)]
     pub format: Format,
-    /// The component written: total, direct, caustics, specular or indirect.
+    /// The component written (default total).
     #[serde(default)]
     pub component: Component,
     /// EXR only: every component as a layer (the chosen one first).
@@ -51,41 +57,50 @@ pub struct RenderParams {
     /// Replaces the scene's lights (lights inside glTF files stay).
     #[serde(default)]
     pub lights: Option<Vec<LightDesc>>,
-    /// Reference: photons, 1..=1e9.
+    /// reference and photons: light paths to trace in all (defaults 4,000,000 and
+    /// 1,048,576).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 1_000_000_000))]
     pub photons: Option<u64>,
-    /// Reference: camera samples per pixel, 1..=1024.
+    /// reference only: camera samples per pixel.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 1024))]
     pub spp: Option<u32>,
+    /// reference and photons: the random sequence's seed.
     #[serde(default)]
     pub seed: Option<u64>,
-    /// Reference: scatterings in the scene's medium a light path may have (1: single
+    /// reference only: scatterings in the scene's medium a light path may have (1: single
     /// scattering), 1..=1000 (default: unlimited).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 1000))]
     pub volume_bounces: Option<u32>,
-    /// CSL: the bake's parameters, `{"preset": "paper" | "fast", "grid": 16..=4096}` as for
-    /// `POST /v1/bakes` (default: the paper's).
+    /// csl only: the bake's parameters, as for `POST /v1/bakes` (default: the paper's). With
+    /// `dynamic: true` the render uses the dynamic bake of these parameters (found in the data
+    /// directory, e.g. made by a bake job, or baked now) and interpolates the set for the
+    /// scene's light direction.
     #[serde(default)]
+    #[schemars(with = "Option<crate::methods::csl::BakeParams>")]
     pub csl: Option<serde_json::Value>,
-    /// Pinhole: `{"samples": 1..=100000, "sampling": "random" | "grid" | "quantized" |
-    /// "neighbourhood", "filter": bool, "shadows": bool, "sun_radius": degrees}`.
+    /// pinhole only (Wand and Straßer 2003, no bake): sample points on the mirrors and glass
+    /// project the environment and the lights onto the receivers every frame.
     #[serde(default)]
+    #[schemars(with = "Option<crate::methods::pinhole::PinholeArgs>")]
     pub pinhole: Option<serde_json::Value>,
-    /// Water: `physical` (default) or `article`.
+    /// water only: `physical` (the default: a refracted grid of sun rays, irradiance from the
+    /// area ratio, converges to the reference) or `article` (the article's sun-map lookup).
     #[serde(default)]
     pub water_mode: Option<crate::render::water::Mode>,
-    /// Water: `{"variant": "pixel" | "texture" | "vertex" | "shader", "grid": 16..=2048,
-    /// "sun_samples": 1..=64, "map_resolution": 16..=2048, "mesh_resolution": 4..=2048,
-    /// "sun_map_width": degrees, "pixel_samples": 1..=8}` (`methods::water::WaterArgs`).
+    /// water only (Sánchez-Crespo 2003, no bake); see docs/methods/water.md.
     #[serde(default)]
+    #[schemars(with = "Option<crate::methods::water::WaterArgs>")]
     pub water: Option<serde_json::Value>,
-    /// Beams: `{"grid": 32 | 64 | 128 | 256, "samples": 1..=16, "shadows": bool, "two_sided":
-    /// bool, "surface": bool, "downsample": 1 | 2 | 4}` (`methods::beams::BeamsArgs`).
+    /// beams only (Liktor and Dachsbacher 2010, no bake); see docs/methods/beams.md.
     #[serde(default)]
+    #[schemars(with = "Option<crate::methods::beams::BeamsArgs>")]
     pub beams: Option<serde_json::Value>,
-    /// Photons: `{"photons_per_frame": 1024..=4194240, "time_budget_ms": 1..=600000,
-    /// "error_target": (0, 1), "footprint": 0.5..=8}` (`methods::photons::ProgressiveArgs`).
+    /// photons only (progressive photon tracing, no bake); see docs/methods/photons.md.
     #[serde(default)]
+    #[schemars(with = "Option<crate::methods::photons::ProgressiveArgs>")]
     pub progressive: Option<serde_json::Value>,
     /// Scenes with water: the waves' time in seconds (any method); the first frame's time of a
     /// sequence.
@@ -94,9 +109,11 @@ pub struct RenderParams {
     /// Scenes with water: a sequence of this many frames, 1..=240, answered as an animated PNG
     /// (format png only).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 240))]
     pub frames: Option<u32>,
     /// A sequence's frames per second, 0.1..=60 (default 24).
     #[serde(default)]
+    #[schemars(range(min = 0.1, max = 60), extend("default" = 24))]
     pub fps: Option<f32>,
 }
 

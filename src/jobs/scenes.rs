@@ -31,20 +31,24 @@ pub enum SceneInput {
 }
 
 /// What a client learns about a stored scene.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct SceneInfo {
+    /// SHA-256 of the canonical scene and its files.
     pub id: String,
     pub name: String,
     pub objects: Vec<ObjectInfo>,
     pub lights: Vec<&'static str>,
     pub triangles: usize,
+    /// What the upload left out or assumed (a glTF without a camera, say).
     pub warnings: Vec<String>,
+    /// The files the scene names (multipart uploads).
     pub files: Vec<String>,
     /// The canonical scene description.
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub scene: serde_json::Value,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct ObjectInfo {
     pub name: String,
     pub triangles: usize,

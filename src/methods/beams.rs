@@ -29,32 +29,40 @@ pub struct Beams;
 
 /// The `beams` field of a render request (the CLI's `--grid`, `--beam-samples`,
 /// `--no-beam-shadows`, `--one-sided`, `--no-surface`, `--downsample`).
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "BeamsOptions")]
 pub struct BeamsArgs {
     /// Grid cells a side: 32, 64, 128 (default) or 256.
     #[serde(default)]
+    #[schemars(extend("enum" = [32, 64, 128, 256], "default" = 128))]
     pub grid: Option<u32>,
     /// Samples along a view ray per beam, 1..=16 (default 1, the paper's).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 16), extend("default" = 1))]
     pub samples: Option<u32>,
     /// Beams end at the first surface their photons meet, so occluders cut them (default
     /// true; false: the paper's beams, which run through everything).
     #[serde(default)]
+    #[schemars(extend("default" = true))]
     pub shadows: Option<bool>,
     /// Refracted photons are traced through their glass object and the beams start where they
     /// leave it (default true; false: the paper's one-sided refraction).
     #[serde(default)]
+    #[schemars(extend("default" = true))]
     pub two_sided: Option<bool>,
     /// The beams also light the receivers (surface caustics; default true).
     #[serde(default)]
+    #[schemars(extend("default" = true))]
     pub surface: Option<bool>,
     /// The volume at 1/downsample of the resolution, upsampled edge-aware: 1 (default), 2 or 4.
     #[serde(default)]
+    #[schemars(extend("enum" = [1, 2, 4], "default" = 1))]
     pub downsample: Option<u32>,
     /// Grid cells across a silhouette or a change of path are split refine × refine, 1..=8
     /// (default 4; 1: the paper's uniform grid).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 8), extend("default" = 4))]
     pub refine: Option<u32>,
     /// The bounding volume a beam is drawn with: hull (default) or touching_planes (the
     /// paper's prism).

@@ -98,14 +98,17 @@ fn no_light() -> ParamError {
 
 /// Parameters of a CSL bake (the `params` of a `csl` bake, the `csl` field of a `csl` render);
 /// defaults filled in before the bake id is computed.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "CslParams")]
 pub struct BakeParams {
     /// `paper` (the paper's settings) or `fast` (coarser cells and images, for previews).
     #[serde(default = "default_preset")]
+    #[schemars(extend("enum" = ["paper", "fast"]))]
     pub preset: String,
     /// Rays per side of the ray grid over the silhouette, 16..=4096 (the paper: 1280).
     #[serde(default)]
+    #[schemars(range(min = 16, max = 4096))]
     pub grid: Option<u32>,
     /// Dynamic lighting (Liu et al. 2008 §4): a set per direction of a subdivided icosahedron,
     /// matched into triples; serves every directional light. Omitted when false.
@@ -113,16 +116,20 @@ pub struct BakeParams {
     pub dynamic: bool,
     /// Dynamic: icosahedron subdivisions, 0..=3 (default 2: 162 directions).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(max = 3), extend("default" = 2))]
     pub subdivisions: Option<u32>,
     /// Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 128).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 16, max = 1024), extend("default" = 128))]
     pub track_grid: Option<u32>,
     /// Dynamic: tracking steps along an icosahedron edge, 1..=100 (default 20).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 1, max = 100), extend("default" = 20))]
     pub steps: Option<u32>,
     /// Dynamic: the largest axis distance of a match, in bounding-sphere radii, (0, 10]
     /// (default 0.5). Omitted when not given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0, "maximum" = 10, "default" = 0.5))]
     pub match_threshold: Option<f32>,
 }
 

@@ -29,22 +29,27 @@ pub const DEFAULT_PHOTONS: u64 = 2 << 19;
 
 /// The `progressive` field of a render request (the CLI's `--photons-per-frame`,
 /// `--time-budget`, `--error-target` and `--footprint`).
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "ProgressiveOptions")]
 pub struct ProgressiveArgs {
     /// Photons traced per frame, 1024..=4194240 (default 524288).
     #[serde(default)]
+    #[schemars(range(min = 1024, max = 4194240), extend("default" = 524288))]
     pub photons_per_frame: Option<u32>,
     /// Return the frame after this many milliseconds of photon frames, 1..=600000.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 600000))]
     pub time_budget_ms: Option<u64>,
     /// Return the frame once the estimated noise (relative L1 per pixel) is at most this,
     /// (0, 1).
     #[serde(default)]
+    #[schemars(extend("exclusiveMinimum" = 0, "exclusiveMaximum" = 1))]
     pub error_target: Option<f32>,
     /// The first frame's kernel half-size in spacings of neighbouring photons, 0.5..=8
     /// (default 3).
     #[serde(default)]
+    #[schemars(range(min = 0.5, max = 8), extend("default" = 3))]
     pub footprint: Option<f32>,
 }
 

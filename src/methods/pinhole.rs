@@ -30,35 +30,42 @@ pub struct Pinhole;
 
 /// The `pinhole` field of a render request (the CLI's `--samples`, `--sampling`,
 /// `--no-filter`, `--shadows`, `--transmit`, `--cluster`, `--sun-radius`).
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "PinholeOptions")]
 pub struct PinholeArgs {
     /// Sample points over all reflectors, 1..=100000 (default 2000).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 100000), extend("default" = 2000))]
     pub samples: Option<u32>,
     /// random, grid, quantized or neighbourhood (default).
     #[serde(default)]
     pub sampling: Option<Strategy>,
     /// Curvature-based anti-aliasing (default true).
     #[serde(default)]
+    #[schemars(extend("default" = true))]
     pub filter: Option<bool>,
     /// Occlusion of the reflected light by the scene's objects (default false: 12–19× the
     /// time on lavapipe; needed where a mirror faces the table or itself, see
     /// docs/methods/pinhole.md).
     #[serde(default)]
+    #[schemars(extend("default" = false))]
     pub shadows: Option<bool>,
     /// Points per cluster, 1..=64 (default 16; 1: every pixel takes every point): a receiver
     /// farther than 6 cluster radii takes a cluster as one pinhole.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 64), extend("default" = 16))]
     pub cluster: Option<u32>,
     /// Open glass surfaces (meshes with a boundary: a water surface, a sheet) also transmit,
     /// as one refracting interface (the paper's §5; default false, since a glass solid whose
     /// mesh has holes would count as open too).
     #[serde(default)]
+    #[schemars(extend("default" = false))]
     pub transmit: Option<bool>,
     /// Angular radius in degrees of the disc a directional, point or spot light appears as,
     /// 0.01..=10 (default 0.27, the sun's).
     #[serde(default)]
+    #[schemars(range(min = 0.01, max = 10), extend("default" = 0.27))]
     pub sun_radius: Option<f32>,
 }
 

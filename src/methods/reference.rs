@@ -143,21 +143,26 @@ impl RenderPlan for Plan {
 }
 
 /// Parameters of a reference bake; defaults filled in before the bake id is computed.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "ReferenceParams")]
 pub struct BakeParams {
     /// Photons (light paths) to trace, 1..=1e9.
     #[serde(default = "default_photons")]
+    #[schemars(range(min = 1, max = 1_000_000_000))]
     pub photons: u64,
     /// Camera samples per pixel, 1..=1024.
     #[serde(default = "default_spp")]
+    #[schemars(range(min = 1, max = 1024))]
     pub spp: u32,
     #[serde(default = "one")]
     pub seed: u64,
     /// Image size; the scene camera's when absent.
     #[serde(default)]
+    #[schemars(range(min = 1, max = 4096))]
     pub width: Option<u32>,
     #[serde(default)]
+    #[schemars(range(min = 1, max = 4096))]
     pub height: Option<u32>,
 }
 

@@ -88,15 +88,18 @@ impl MethodImpl for Transport {
 }
 
 /// Parameters of a transport bake; defaults filled in before the bake id is computed.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "TransportParams")]
 pub struct BakeParams {
     /// Rings of sampling directions between the pole and the horizon, 1..=64 (default 12).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 64), extend("default" = 12))]
     pub rings: Option<u32>,
     /// Directions per ring, 4..=256 (default 24: 289 directions; 8 rings of 16 are the paper's
     /// 129).
     #[serde(default)]
+    #[schemars(range(min = 4, max = 256), extend("default" = 24))]
     pub azimuths: Option<u32>,
 }
 

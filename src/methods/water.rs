@@ -33,8 +33,9 @@ pub struct Water;
 /// The `water` field of a render request (the API's `water_mode` is its `mode`; the CLI's
 /// `--water-mode`, `--water-variant`, `--water-grid`, `--sun-samples`, `--map-resolution`,
 /// `--mesh-resolution`, `--sun-map-width`, `--pixel-samples`).
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "WaterOptions")]
 pub struct WaterArgs {
     /// physical (default) or article.
     #[serde(default)]
@@ -46,23 +47,29 @@ pub struct WaterArgs {
     pub variant: Option<Variant>,
     /// Physical: sun rays per side of each water rectangle, 16..=2048 (default 512).
     #[serde(default)]
+    #[schemars(range(min = 16, max = 2048), extend("default" = 512))]
     pub grid: Option<u32>,
     /// Physical: directions over the sun's disc, 1..=64 (default 4).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 64), extend("default" = 4))]
     pub sun_samples: Option<u32>,
     /// Texture, shader, shader_texture: texels per side of the light map, 16..=2048 (default
     /// 1024).
     #[serde(default)]
+    #[schemars(range(min = 16, max = 2048), extend("default" = 1024))]
     pub map_resolution: Option<u32>,
     /// Vertex: quads per side of the receiver grid, 4..=2048 (default 128).
     #[serde(default)]
+    #[schemars(range(min = 4, max = 2048), extend("default" = 128))]
     pub mesh_resolution: Option<u32>,
     /// Article: the sun map's width in degrees, 0.1..=45 (default 4).
     #[serde(default)]
+    #[schemars(range(min = 0.1, max = 45), extend("default" = 4))]
     pub sun_map_width: Option<f32>,
     /// Receiver points per pixel side, 1..=8 (default 3: 9 a pixel, fewer where width ×
     /// height × 9 would pass 8 Mi points).
     #[serde(default)]
+    #[schemars(range(min = 1, max = 8), extend("default" = 3))]
     pub pixel_samples: Option<u32>,
 }
 

@@ -16,7 +16,10 @@ use std::sync::Arc;
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The JSON does not parse or does not have the scene's shape.
+    /// The bytes are not JSON (a syntax error, or they end early).
+    #[error("scene is not valid JSON: {message}")]
+    Syntax { message: String },
+    /// The JSON does not have the scene's shape.
     #[error("{path}: {message}")]
     Parse { path: String, message: String },
     /// A value is out of its allowed range or refers to something missing.
@@ -65,6 +68,7 @@ impl SceneError {
     /// The field path the error is about.
     pub fn field(&self) -> &str {
         match self {
+            SceneError::Syntax { .. } => "scene",
             SceneError::Parse { path, .. }
             | SceneError::Invalid { path, .. }
             | SceneError::Asset { path, .. }
@@ -165,9 +169,15 @@ pub fn parse_scene(json: &[u8]) -> Result<SceneDesc, SceneError> {
     let de = &mut serde_json::Deserializer::from_slice(json);
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
-        SceneError::Parse {
-            path: if path == "." { "scene".into() } else { path },
-            message: e.into_inner().to_string(),
+        let inner = e.into_inner();
+        match inner.classify() {
+            serde_json::error::Category::Data => SceneError::Parse {
+                path: if path == "." { "scene".into() } else { path },
+                message: inner.to_string(),
+            },
+            _ => SceneError::Syntax {
+                message: inner.to_string(),
+            },
         }
     })
 }

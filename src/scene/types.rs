@@ -34,6 +34,7 @@ impl From<Vec3> for Rgb {
 /// A whole scene: one camera, the lights, named materials and objects.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(rename = "Scene")]
 pub struct SceneDesc {
     /// Free text, shown in logs.
     #[serde(default)]

@@ -1,6 +1,8 @@
-//! `api/openapi.yaml` against the running server: every route the router serves is in the
-//! spec (and the other way round), every such route answers (not 404/405), `/openapi.json`
-//! is the YAML converted, and the spec's request examples are accepted.
+//! `api/openapi.yaml` against the code and the running server: the committed file is the
+//! document generated from `src/http/operations.yaml` and the Rust types (regenerate it with
+//! `CAUSTICA_BLESS=1 cargo test --test it http_openapi::`), every route the router serves is
+//! in the spec (and the other way round), every such route answers (not 404/405),
+//! `/openapi.json` is the same document, and the spec's request examples are accepted.
 
 use crate::support::repo_path;
 use crate::support::server::*;
@@ -10,6 +12,20 @@ use std::collections::BTreeSet;
 fn spec() -> serde_json::Value {
     let yaml = std::fs::read_to_string(repo_path("api/openapi.yaml")).unwrap();
     serde_yaml_ng::from_str(&yaml).unwrap()
+}
+
+#[test]
+fn the_committed_spec_is_the_generated_one() {
+    let generated = caustica::http::spec::yaml();
+    let path = repo_path("api/openapi.yaml");
+    if std::env::var_os("CAUSTICA_BLESS").is_some() {
+        std::fs::write(&path, &generated).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).expect("api/openapi.yaml exists");
+    assert!(
+        committed == generated,
+        "api/openapi.yaml is stale: run CAUSTICA_BLESS=1 cargo test --test it http_openapi::"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -17,9 +17,10 @@ use serde::Serialize;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The `progress` event's data.
-#[derive(Serialize, PartialEq, Clone)]
-struct Progress {
+/// The data of a `progress` event (a job's `events` stream).
+#[derive(Serialize, PartialEq, Clone, schemars::JsonSchema)]
+#[schemars(rename = "ProgressEvent")]
+pub(crate) struct Progress {
     id: String,
     state: JobState,
     progress: f32,

@@ -14,7 +14,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// A job as the API shows it.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
+#[schemars(rename = "Job")]
 pub struct JobView {
     pub id: String,
     pub kind: JobKind,
@@ -22,9 +23,14 @@ pub struct JobView {
     pub scene_id: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub object: Option<String>,
+    /// The method's parameters with their defaults filled in (a bake's `params`; a render's
+    /// request fields other than scene, method and wait).
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub params: serde_json::Value,
     pub state: JobState,
+    #[schemars(range(min = 0, max = 1))]
     pub progress: f32,
+    /// What it is doing now (a method's stage name; `queued`, `done` and the like otherwise).
     pub stage: String,
     /// While running: milliseconds it may still take, from its progress so far (its time
     /// running × (1 − progress) / progress); absent before 1 % of progress and otherwise.
@@ -32,16 +38,23 @@ pub struct JobView {
     pub eta_ms: Option<i64>,
     /// Stage → milliseconds, in order.
     pub timings: Vec<Timing>,
+    /// What the job learned: adapter, statistics, image size, notes...; for a failed job
+    /// `error_code`, one of canceled, timeout, interrupted, invalid_input, invalid_params,
+    /// no_gpu, render, encode, panic, store.
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub info: serde_json::Value,
+    /// Why it failed or was canceled; null otherwise.
     pub error: Option<String>,
     /// Where the result is, once succeeded.
     pub artifact: Option<String>,
+    /// Milliseconds since the Unix epoch.
     pub created_at: i64,
     pub started_at: Option<i64>,
     pub finished_at: Option<i64>,
 }
 
-#[derive(Serialize)]
+/// One stage of a job and the milliseconds it took.
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct Timing {
     pub stage: String,
     pub ms: f64,

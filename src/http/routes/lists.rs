@@ -19,17 +19,21 @@ pub const DEFAULT_PAGE_SIZE: usize = 20;
 pub const MAX_PAGE_SIZE: usize = 100;
 
 /// A page of a list: its items and, when more follow, the token of the next page.
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
+#[schemars(rename = "{T}Page")]
 pub struct Page<T> {
     pub items: Vec<T>,
+    /// The `page_token` of the next page; null on the last page.
     pub next_page_token: Option<String>,
 }
 
 /// A scene as a list shows it (`GET /v1/scenes/{id}` has the rest).
-#[derive(Serialize)]
+#[derive(Serialize, schemars::JsonSchema)]
 pub struct SceneSummary {
     pub id: String,
+    /// The scene's name ('' when it has none).
     pub name: String,
+    /// Milliseconds since the Unix epoch.
     pub created_at: i64,
 }
 

@@ -102,6 +102,7 @@ pub struct BeamsParams {
     serde::Serialize,
     serde::Deserialize,
     clap::ValueEnum,
+    schemars::JsonSchema,
 )]
 #[serde(rename_all = "snake_case")]
 pub enum Bounds {

@@ -1,12 +1,14 @@
 //! Shared by the HTTP tests: a real server on an ephemeral port (in this process, or the
 //! `caustica` binary as a child), a real HTTP client and bounded polling helpers.
 
+use super::contract::Contract;
 use super::{Cleanup, temp_dir};
 use caustica::http::{AppState, HttpConfig};
 use caustica::jobs::JobConfig;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 pub struct Server {
@@ -17,6 +19,17 @@ pub struct Server {
     task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
     /// The data directory the server made for itself ([`Server::start`]), removed with it.
     cleanup: Option<Cleanup>,
+    /// Every answer checked against the OpenAPI document; a disagreement fails the test when
+    /// the server stops or is dropped.
+    pub contract: Arc<Contract>,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            self.contract.assert_clean();
+        }
+    }
 }
 
 impl Server {
@@ -37,6 +50,8 @@ impl Server {
         super::gpu::ensure_runtime_dir();
         let mut jc = JobConfig::new(&dir);
         let mut hc = HttpConfig::default();
+        let contract = Arc::new(Contract::default());
+        hc.observe = Some(contract.observer());
         tune(&mut jc, &mut hc);
         let state = tokio::task::spawn_blocking(move || AppState::start(jc, hc).unwrap())
             .await
@@ -54,6 +69,7 @@ impl Server {
             stop: Some(tx),
             task: Some(task),
             cleanup: None,
+            contract,
         }
     }
 
@@ -70,6 +86,7 @@ impl Server {
         if let Some(t) = self.task.take() {
             t.await.unwrap().unwrap();
         }
+        self.contract.assert_clean();
         self.cleanup.take()
     }
 
