@@ -6,6 +6,7 @@ mod support;
 
 mod beams;
 mod cli;
+mod clients;
 mod csl_bake;
 mod csl_cli;
 mod csl_dynamic;

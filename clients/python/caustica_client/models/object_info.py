@@ -1,0 +1,92 @@
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, TypeVar, BinaryIO, TextIO, TYPE_CHECKING, Generator
+
+from attrs import define as _attrs_define
+from attrs import field as _attrs_field
+
+from ..types import UNSET, Unset
+
+
+
+
+
+
+
+T = TypeVar("T", bound="ObjectInfo")
+
+
+
+@_attrs_define
+class ObjectInfo:
+    """ 
+        Attributes:
+            name (str):
+            specular (bool): Whether it carries caustics (glass or mirror parts): what bakes are for.
+            triangles (int):
+     """
+
+    name: str
+    specular: bool
+    triangles: int
+    additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
+
+
+
+
+
+    def to_dict(self) -> dict[str, Any]:
+        name = self.name
+
+        specular = self.specular
+
+        triangles = self.triangles
+
+
+        field_dict: dict[str, Any] = {}
+        field_dict.update(self.additional_properties)
+        field_dict.update({
+            "name": name,
+            "specular": specular,
+            "triangles": triangles,
+        })
+
+        return field_dict
+
+
+
+    @classmethod
+    def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
+        d = dict(src_dict)
+        name = d.pop("name")
+
+        specular = d.pop("specular")
+
+        triangles = d.pop("triangles")
+
+        object_info = cls(
+            name=name,
+            specular=specular,
+            triangles=triangles,
+        )
+
+
+        object_info.additional_properties = d
+        return object_info
+
+    @property
+    def additional_keys(self) -> list[str]:
+        return list(self.additional_properties.keys())
+
+    def __getitem__(self, key: str) -> Any:
+        return self.additional_properties[key]
+
+    def __setitem__(self, key: str, value: Any) -> None:
+        self.additional_properties[key] = value
+
+    def __delitem__(self, key: str) -> None:
+        del self.additional_properties[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.additional_properties
