@@ -534,18 +534,18 @@ impl JobSystem {
         abandoned
     }
 
-    /// The artifact of succeeded job `r`, checked ([`Store::read_artifact`]). One that fails
-    /// its check (missing, a link, truncated, altered) is not served: the job is marked failed
-    /// with the reason and submitted again from its recorded inputs, and the error says whether
-    /// it was.
-    pub fn artifact(&self, r: &JobRecord) -> Result<Vec<u8>, ArtifactError> {
+    /// The artifact of succeeded job `r`, opened and checked ([`Store::open_artifact`]), with
+    /// its length. One that fails its check (missing, a link, truncated, altered) is not
+    /// served: the job is marked failed with the reason and submitted again from its recorded
+    /// inputs, and the error says whether it was.
+    pub fn artifact(&self, r: &JobRecord) -> Result<(std::fs::File, u64), ArtifactError> {
         let Some(path) = &r.artifact_path else {
             return Err(ArtifactError::Store(StoreError::Corrupt(
                 "succeeded job without an artifact".into(),
             )));
         };
         let expect = r.artifact_len.zip(r.artifact_sha256.as_deref());
-        match self.store.read_artifact(path, expect) {
+        match self.store.open_artifact(path, expect) {
             Ok(b) => {
                 if let Err(e) = self.store.touch(&r.id) {
                     tracing::warn!(job = %r.id, error = %e, "last use not recorded");

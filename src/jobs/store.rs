@@ -871,13 +871,16 @@ impl Store {
         })
     }
 
-    /// Reads an artifact without following links, and checks it against the length and
-    /// SHA-256 recorded when it was written (when the record has them).
-    pub fn read_artifact(
+    /// Opens artifact `name` (a plain file in the artifact directory, never a link) and checks
+    /// it against `expect` (its length, then its SHA-256, read through a fixed buffer: the
+    /// artifact is never held in memory). The file comes back with its length; reads of it
+    /// should be positional (`read_exact_at`).
+    pub fn open_artifact(
         &self,
         name: &str,
         expect: Option<(u64, &str)>,
-    ) -> Result<Vec<u8>, StoreError> {
+    ) -> Result<(std::fs::File, u64), StoreError> {
+        use sha2::Digest;
         use std::io::Read;
         use std::os::unix::fs::OpenOptionsExt;
         if name.contains('/') || name.contains("..") {
@@ -906,16 +909,24 @@ impl Store {
                 meta.len()
             )));
         }
-        let mut bytes = Vec::with_capacity(meta.len() as usize);
-        f.read_to_end(&mut bytes)?;
-        if let Some((_, sha)) = expect
-            && super::scenes::sha256_hex(&bytes) != sha
-        {
-            return Err(StoreError::Integrity(format!(
-                "{name} does not hash to the SHA-256 recorded when it was written"
-            )));
+        if let Some((_, sha)) = expect {
+            let mut h = sha2::Sha256::new();
+            let mut buf = vec![0u8; 256 << 10];
+            loop {
+                let n = f.read(&mut buf)?;
+                if n == 0 {
+                    break;
+                }
+                h.update(&buf[..n]);
+            }
+            let got: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
+            if got != sha {
+                return Err(StoreError::Integrity(format!(
+                    "{name} does not hash to the SHA-256 recorded when it was written"
+                )));
+            }
         }
-        Ok(bytes)
+        Ok((f, meta.len()))
     }
 }
 

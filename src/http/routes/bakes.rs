@@ -114,5 +114,5 @@ pub async fn get_bake_artifact(
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Bake, &id, r.state));
     }
-    serve_artifact(&st, &r, &headers)
+    serve_artifact(&st, &r, &headers).await
 }

@@ -238,21 +238,57 @@ pub(super) fn not_finished(kind: JobKind, id: &str, state: JobState) -> AppError
 }
 
 /// The artifact of succeeded job `r` as the whole body, with its type, `ETag` (its SHA-256)
-/// and caching headers. Its bytes are checked against the stored length and hash first.
-pub(super) fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError> {
-    let (ty, bytes) = artifact_bytes(st, r)?;
-    let mut resp = ([(header::CONTENT_TYPE, ty)], bytes).into_response();
+/// and caching headers. It is checked against the stored length and hash first, then
+/// streamed from disk.
+pub(super) async fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError> {
+    let (ty, file, len) = open_artifact(st, r).await?;
+    let mut resp = ([(header::CONTENT_TYPE, ty)], file_body(file, 0, len)).into_response();
+    resp.headers_mut()
+        .insert(header::CONTENT_LENGTH, HeaderValue::from(len));
     cache_headers(resp.headers_mut(), r);
     Ok(resp)
 }
 
-/// The artifact's media type and its checked bytes.
-fn artifact_bytes(st: &AppState, r: &JobRecord) -> Result<(String, Bytes), AppError> {
-    let Some(ty) = &r.artifact_type else {
+/// The artifact's media type, its file (checked, off the async workers) and its length.
+async fn open_artifact(
+    st: &AppState,
+    r: &JobRecord,
+) -> Result<(String, std::fs::File, u64), AppError> {
+    let Some(ty) = r.artifact_type.clone() else {
         return Err(AppError::internal("succeeded job without an artifact"));
     };
-    let bytes = st.jobs.artifact(r).map_err(|e| AppError::artifact(r, e))?;
-    Ok((ty.clone(), Bytes::from(bytes)))
+    let (jobs, rec) = (st.jobs.clone(), r.clone());
+    let (file, len) =
+        super::blocking(move || jobs.artifact(&rec).map_err(|e| AppError::artifact(&rec, e)))
+            .await?;
+    Ok((ty, file, len))
+}
+
+/// Bytes read from disk a chunk at a time for a streamed body.
+const CHUNK: u64 = 256 << 10;
+
+/// `len` bytes of `file` from offset `start` as a body read from disk a chunk at a time (off
+/// the async workers), so that serving an artifact holds one chunk of it in memory, not all.
+fn file_body(file: std::fs::File, start: u64, len: u64) -> axum::body::Body {
+    let file = Arc::new(file);
+    let chunks = futures_util::stream::try_unfold((start, len), move |(at, left)| {
+        let file = file.clone();
+        async move {
+            if left == 0 {
+                return Ok(None);
+            }
+            let n = left.min(CHUNK) as usize;
+            let buf = tokio::task::spawn_blocking(move || {
+                use std::os::unix::fs::FileExt;
+                let mut buf = vec![0u8; n];
+                file.read_exact_at(&mut buf, at).map(|()| buf)
+            })
+            .await
+            .map_err(std::io::Error::other)??;
+            Ok::<_, std::io::Error>(Some((Bytes::from(buf), (at + n as u64, left - n as u64))))
+        }
+    });
+    axum::body::Body::from_stream(chunks)
 }
 
 /// `ETag`, `Cache-Control` (artifacts never change) and `Accept-Ranges`.
@@ -333,7 +369,7 @@ fn range_ask(value: &str, len: u64) -> RangeAsk {
 /// `GET` of an artifact: `304` when `If-None-Match` names its ETag (without reading it), one
 /// byte range as `206` (`If-Range` honoured; several ranges get the whole body), `416` past
 /// its end, else `200` with the whole body.
-pub(super) fn serve_artifact(
+pub(super) async fn serve_artifact(
     st: &AppState,
     r: &JobRecord,
     req: &HeaderMap,
@@ -351,17 +387,21 @@ pub(super) fn serve_artifact(
         cache_headers(resp.headers_mut(), r);
         return Ok(resp);
     }
-    let (ty, bytes) = artifact_bytes(st, r)?;
+    let (ty, file, len) = open_artifact(st, r).await?;
     let range_applies = match header_str(header::IF_RANGE) {
         None => true,
         Some(v) => tag.as_deref() == Some(v.trim()),
     };
-    let len = bytes.len() as u64;
     let ask = header_str(header::RANGE)
         .filter(|_| range_applies)
         .map_or(RangeAsk::Whole, |v| range_ask(v, len));
     let mut resp = match ask {
-        RangeAsk::Whole => ([(header::CONTENT_TYPE, ty)], bytes).into_response(),
+        RangeAsk::Whole => {
+            let mut resp = ([(header::CONTENT_TYPE, ty)], file_body(file, 0, len)).into_response();
+            resp.headers_mut()
+                .insert(header::CONTENT_LENGTH, HeaderValue::from(len));
+            resp
+        }
         RangeAsk::Unsatisfiable => {
             let mut e = AppError::new(
                 StatusCode::RANGE_NOT_SATISFIABLE,
@@ -377,13 +417,14 @@ pub(super) fn serve_artifact(
         }
         RangeAsk::Part(a, b) => {
             let range = format!("bytes {a}-{b}/{len}");
-            let part = bytes.slice(a as usize..=b as usize);
             let mut resp = (
                 StatusCode::PARTIAL_CONTENT,
                 [(header::CONTENT_TYPE, ty)],
-                part,
+                file_body(file, a, b - a + 1),
             )
                 .into_response();
+            resp.headers_mut()
+                .insert(header::CONTENT_LENGTH, HeaderValue::from(b - a + 1));
             if let Ok(v) = HeaderValue::from_str(&range) {
                 resp.headers_mut().insert(header::CONTENT_RANGE, v);
             }
@@ -420,6 +461,35 @@ pub fn server_timing(timings: &[(String, f64)], request: Option<Duration>) -> St
 #[cfg(test)]
 mod tests {
     use super::{RangeAsk, eta, none_match, range_ask};
+
+    #[tokio::test]
+    async fn a_file_body_streams_exactly_the_bytes_asked_for() {
+        let dir = std::env::temp_dir().join(format!("caustica-file-body-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.bin");
+        let data: Vec<u8> = (0..600_000u32).map(|i| (i * 7 + i / 251) as u8).collect();
+        std::fs::write(&path, &data).unwrap();
+        // Whole, inside, across chunk boundaries, the last byte, nothing.
+        let chunk = super::CHUNK as usize;
+        for (start, len) in [
+            (0, data.len()),
+            (100, 300_000),
+            (chunk - 1, 2),
+            (chunk, chunk + 1),
+            (data.len() - 1, 1),
+            (5, 0),
+        ] {
+            let f = std::fs::File::open(&path).unwrap();
+            let body = super::file_body(f, start as u64, len as u64);
+            let got = axum::body::to_bytes(body, usize::MAX).await.unwrap();
+            assert!(got[..] == data[start..start + len], "{start} +{len}");
+        }
+        // Past the end of the file: the body fails instead of coming out short.
+        let f = std::fs::File::open(&path).unwrap();
+        let body = super::file_body(f, data.len() as u64 - 10, 20);
+        assert!(axum::body::to_bytes(body, usize::MAX).await.is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn byte_ranges_follow_rfc_9110() {

@@ -139,7 +139,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
         let err = r.error.as_deref().unwrap_or_default();
         return Err(AppError::failed_render(&id, code, err).instance(loc));
     }
-    let mut resp = artifact_response(&st, &r)?;
+    let mut resp = artifact_response(&st, &r).await?;
     // Around the job's own stages: its acceptance, and the record and image read back once it
     // finished.
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
@@ -187,5 +187,5 @@ pub async fn get_render_image(
     if r.state != JobState::Succeeded {
         return Err(not_finished(JobKind::Render, &id, r.state));
     }
-    serve_artifact(&st, &r, &headers)
+    serve_artifact(&st, &r, &headers).await
 }
