@@ -165,7 +165,8 @@ fn named<T: JsonSchema>(g: &mut SchemaGenerator, name: &str) {
 
 /// Makes the generated schemas plainer for client generators: an enum of documented unit
 /// variants (schemars writes `oneOf` of `const`s) becomes one `enum` whose description lists
-/// the variants; integer `format`s that OpenAPI does not define (`uint32`...) are dropped.
+/// the variants; integer `format`s that OpenAPI does not define (`uint32`...) and `default:
+/// null` are dropped.
 fn tidy(v: &mut Value) {
     match v {
         Value::Object(o) => {
@@ -209,6 +210,11 @@ fn tidy(v: &mut Value) {
                 .contains(&f.as_str())
             {
                 o.remove("format");
+            }
+            // `default: null` on every optional field says nothing a client needs, and some
+            // generators take a field with a default for one that is always present.
+            if o.get("default") == Some(&Value::Null) {
+                o.remove("default");
             }
             for x in o.values_mut() {
                 tidy(x);
