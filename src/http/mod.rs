@@ -182,8 +182,39 @@ impl HttpConfig {
             self.cors_origins =
                 parse_origins(&v).map_err(|e| format!("CAUSTICA_CORS_ORIGINS: {e}"))?;
         }
+        if let Some(v) = get("CAUSTICA_ANSWER_LOG") {
+            self.observe = Some(answer_log(std::path::Path::new(&v))?);
+        }
         Ok(())
     }
+}
+
+/// An [`Observer`] that appends every answer to the file at `path` as a JSON line (`method`,
+/// `route`, `status`, `content_type`, and `body` for JSON and text answers): what the tests
+/// check against the OpenAPI document for a server running as its own process
+/// (`CAUSTICA_ANSWER_LOG`; bodies are written as they are, so it is for testing only).
+fn answer_log(path: &std::path::Path) -> Result<Observer, String> {
+    use std::io::Write;
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| format!("CAUSTICA_ANSWER_LOG: cannot open {}: {e}", path.display()))?;
+    let file = std::sync::Mutex::new(file);
+    Ok(Observer(Arc::new(move |o: Observed| {
+        let line = serde_json::json!({
+            "method": o.method.as_str(),
+            "route": o.route,
+            "status": o.status,
+            "content_type": o.content_type,
+            "body": o.body.as_ref().map(|b| String::from_utf8_lossy(b).into_owned()),
+        });
+        // One write per line on an append-only file: lines stay whole.
+        let mut f = file.lock().unwrap_or_else(|e| e.into_inner());
+        if let Err(e) = f.write_all(format!("{line}\n").as_bytes()) {
+            tracing::warn!(error = %e, "CAUSTICA_ANSWER_LOG: answer not written");
+        }
+    })))
 }
 
 /// A CORS allow-list: origins (`http://` or `https://`, a host, an optional port, nothing

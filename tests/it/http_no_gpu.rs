@@ -1,6 +1,7 @@
 //! Without a usable adapter the service still starts and serves CPU methods; `/readyz` says
 //! why it is not ready and GPU renders are a 503 problem naming the cause.
 
+use crate::support::contract::AnswerLog;
 use crate::support::scenes::scene_sized;
 use crate::support::server::*;
 use crate::support::{Cleanup, caustica_command, temp_dir};
@@ -10,11 +11,13 @@ use std::time::Duration;
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn no_adapter_means_not_ready_and_503_for_gpu_renders() {
     let dir = temp_dir("no-gpu");
+    let log = AnswerLog::new("no-gpu-answers");
     let _cleanup = Cleanup(dir.clone());
     let mut child = caustica_command()
         .args(["serve", "--addr", "127.0.0.1:0", "--log-json", "--data-dir"])
         .arg(&dir)
         .env("CAUSTICA_ADAPTER", "no-such-adapter")
+        .env("CAUSTICA_ANSWER_LOG", log.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -92,3 +92,74 @@ async fn the_spec_matches_the_router_and_its_examples_are_accepted() {
     assert_eq!(p["status"], 422);
     srv.stop().await;
 }
+
+/// The check every test server's answers go through catches what the spec does not allow.
+#[test]
+fn the_contract_check_catches_answers_the_spec_does_not_allow() {
+    use caustica::http::Observed;
+    let c = crate::support::contract::Contract::default();
+    let answer =
+        |method: &str, route: Option<&str>, status: u16, ty: &str, body: Option<&str>| Observed {
+            method: method.parse().unwrap(),
+            route: route.map(str::to_string),
+            status,
+            content_type: Some(ty.to_string()),
+            body: body.map(|b| axum::body::Bytes::from(b.as_bytes().to_vec())),
+        };
+    let problem = r#"{"type": "/problems/not-found", "title": "Not found", "status": 404,
+                      "detail": "no bake x"}"#;
+    // Allowed: a documented problem, and an image the operation lists.
+    c.check(answer(
+        "GET",
+        Some("/v1/bakes/{id}"),
+        404,
+        "application/problem+json",
+        Some(problem),
+    ));
+    c.check(answer(
+        "GET",
+        Some("/v1/renders/{id}/image"),
+        200,
+        "image/png",
+        None,
+    ));
+    assert!(c.violations().is_empty(), "{:?}", c.violations());
+    // A status the operation does not list.
+    c.check(answer(
+        "GET",
+        Some("/healthz"),
+        418,
+        "application/json",
+        Some("{}"),
+    ));
+    // A job without its required fields.
+    c.check(answer(
+        "GET",
+        Some("/v1/bakes/{id}"),
+        200,
+        "application/json",
+        Some(r#"{"id": "bk_x"}"#),
+    ));
+    // A media type the status does not list.
+    c.check(answer(
+        "GET",
+        Some("/v1/bakes/{id}"),
+        200,
+        "image/png",
+        None,
+    ));
+    // A problem without its detail.
+    c.check(answer(
+        "GET",
+        Some("/v1/bakes/{id}"),
+        404,
+        "application/problem+json",
+        Some(r#"{"type": "/problems/not-found", "title": "Not found", "status": 404}"#),
+    ));
+    let v = c.violations();
+    assert_eq!(v.len(), 4, "{v:#?}");
+    assert!(v[0].contains("status 418"), "{}", v[0]);
+    assert!(v[1].contains("required"), "{}", v[1]);
+    assert!(v[2].contains("image/png is not among"), "{}", v[2]);
+    assert!(v[3].contains("detail"), "{}", v[3]);
+}

@@ -2,6 +2,7 @@
 //! again on the same data directory, and the bake completes under the same id; a finished
 //! render from before the kill is still served.
 
+use crate::support::contract::AnswerLog;
 use crate::support::scenes::scene_sized;
 use crate::support::server::*;
 use crate::support::{Cleanup, caustica_command, temp_dir};
@@ -10,11 +11,12 @@ use std::time::Duration;
 
 /// Starts `caustica serve` on an ephemeral port; returns the child and its base URL (read
 /// from the line it prints on stdout).
-fn spawn(dir: &std::path::Path) -> (Child, String) {
+fn spawn(dir: &std::path::Path, log: &AnswerLog) -> (Child, String) {
     let mut child = caustica_command()
         .args(["serve", "--addr", "127.0.0.1:0", "--data-dir"])
         .arg(dir)
         .env("CAUSTICA_LOG", "warn")
+        .env("CAUSTICA_ANSWER_LOG", log.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -25,10 +27,12 @@ fn spawn(dir: &std::path::Path) -> (Child, String) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_bake_interrupted_by_kill_9_completes_after_restart() {
+    // Both processes' answers, checked against the spec once the test is done with them.
+    let log = AnswerLog::new("restart-answers");
     let dir = temp_dir("restart");
     let _cleanup = Cleanup(dir.clone());
     let c = client();
-    let (mut child, base) = spawn(&dir);
+    let (mut child, base) = spawn(&dir, &log);
     // A render that finishes before the kill.
     let r = c
         .post(format!("{base}/v1/renders"))
@@ -62,7 +66,7 @@ async fn a_bake_interrupted_by_kill_9_completes_after_restart() {
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
 
-    let (mut child, base) = spawn(&dir);
+    let (mut child, base) = spawn(&dir, &log);
     let (s, v) = get_json(&c, &format!("{base}{loc}")).await;
     assert_eq!(s, 200);
     assert!(

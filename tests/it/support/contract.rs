@@ -1,11 +1,14 @@
-//! Every answer of the in-process test servers ([`super::server::Server`]) checked against the
-//! OpenAPI document the server serves: its status is one the operation lists, its media type
-//! one that status lists, and a JSON body validates against that media type's schema. A
-//! server's violations fail the test when it stops ([`Contract::assert_clean`]).
+//! Every answer of the test servers checked against the OpenAPI document the server serves:
+//! its status is one the operation lists, its media type one that status lists, and a JSON
+//! body validates against that media type's schema. In-process servers
+//! ([`super::server::Server`]) show each answer to a [`Contract`] as they give it; a
+//! `caustica serve` child writes them to its `CAUSTICA_ANSWER_LOG`, which an [`AnswerLog`]
+//! checks once the child is gone. Violations fail the test.
 
 use caustica::http::{Observed, Observer};
 use serde_json::{Value, json};
 use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 #[derive(Default)]
@@ -42,7 +45,13 @@ impl Contract {
         self.violations.lock().unwrap().push(s);
     }
 
-    fn check(&self, o: Observed) {
+    /// The disagreements so far.
+    pub fn violations(&self) -> Vec<String> {
+        self.violations.lock().unwrap().clone()
+    }
+
+    /// Checks one answer; a disagreement is kept for [`Contract::assert_clean`].
+    pub fn check(&self, o: Observed) {
         *self.checked.lock().unwrap() += 1;
         if let Err(e) = self.verdict(&o) {
             let body = o
@@ -160,6 +169,54 @@ impl Contract {
             Ok(())
         } else {
             Err(errors.join("; "))
+        }
+    }
+}
+
+/// The answer log of `caustica serve` children (`CAUSTICA_ANSWER_LOG`), checked against the
+/// spec when dropped (after the children it served are gone), then removed.
+pub struct AnswerLog(PathBuf);
+
+impl AnswerLog {
+    pub fn new(name: &str) -> AnswerLog {
+        let p = super::temp_dir(name).join("answers.jsonl");
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        AnswerLog(p)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+
+    /// Checks every line; how many answers there were.
+    pub fn check(&self) -> usize {
+        let c = Contract::default();
+        let text = std::fs::read_to_string(&self.0).unwrap_or_default();
+        for line in text.lines() {
+            let v: Value = serde_json::from_str(line).expect("an answer log line is JSON");
+            c.check(Observed {
+                method: v["method"].as_str().unwrap().parse().unwrap(),
+                route: v["route"].as_str().map(str::to_string),
+                status: v["status"].as_u64().unwrap() as u16,
+                content_type: v["content_type"].as_str().map(str::to_string),
+                body: v["body"]
+                    .as_str()
+                    .map(|b| axum::body::Bytes::from(b.as_bytes().to_vec())),
+            });
+        }
+        c.assert_clean();
+        c.checked()
+    }
+}
+
+impl Drop for AnswerLog {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let n = self.check();
+            assert!(n > 0, "{}: no answers logged", self.0.display());
+        }
+        if let Some(dir) = self.0.parent() {
+            let _ = std::fs::remove_dir_all(dir);
         }
     }
 }

@@ -211,13 +211,16 @@ pub fn sigterm(child: &Child) {
         .unwrap();
 }
 
-/// A child process killed (and reaped) when dropped, whether the test passed or not.
-pub struct ChildGuard(pub Child);
+/// A child process killed (and reaped) when dropped, whether the test passed or not; then its
+/// answer log, if any, is checked against the spec.
+pub struct ChildGuard(pub Child, pub Option<super::contract::AnswerLog>);
 
 impl Drop for ChildGuard {
     fn drop(&mut self) {
         let _ = self.0.kill();
         let _ = self.0.wait();
+        // Checked (its own drop) now that nothing writes to it.
+        drop(self.1.take());
     }
 }
 
@@ -225,6 +228,7 @@ impl Drop for ChildGuard {
 /// serve ..."` so that `limits` (e.g. `ulimit -v 3145728`) bound it; and its base URL.
 pub fn serve_under(limits: &str, dir: &std::path::Path) -> (ChildGuard, String) {
     let exe = super::caustica_command().get_program().to_owned();
+    let log = super::contract::AnswerLog::new("answers-serve-under");
     let mut child = Command::new("sh")
         .arg("-c")
         .arg(format!(r#"{limits} && exec "$0" "$@""#))
@@ -235,10 +239,11 @@ pub fn serve_under(limits: &str, dir: &std::path::Path) -> (ChildGuard, String) 
         // glibc reserves 64 MiB of address space per malloc arena, up to 8 a core: without
         // this, an address-space limit would mean something else on a machine of many cores.
         .env("MALLOC_ARENA_MAX", "2")
+        .env("CAUSTICA_ANSWER_LOG", log.path())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::inherit())
         .spawn()
         .expect("starts");
     let base = listening_on(&mut child);
-    (ChildGuard(child), base)
+    (ChildGuard(child, Some(log)), base)
 }
