@@ -6,8 +6,10 @@
 //! generated here from the Rust types the server parses and serialises (schemars): the scene,
 //! the requests, the job, the pages, the problem. So a field added to a type is in the spec at
 //! the next build, the `http_openapi` tests fail while the committed `api/openapi.yaml` is
-//! stale, and the integration tests check every answer the server gives against this document
-//! (see `tests/it/http_openapi.rs`).
+//! stale, and the integration tests check every answer their servers give against this
+//! document (`tests/it/support/contract.rs`). The request types below describe bodies the
+//! handlers parse field by field (for errors that name the field); tests check that the two
+//! agree.
 
 use crate::http::error::ProblemBody;
 use crate::http::routes::events::Progress;
@@ -376,6 +378,50 @@ mod tests {
                 .is_ok();
             assert_eq!(bakes, BAKE_METHODS.contains(&m), "{m:?}");
         }
+    }
+
+    #[test]
+    fn every_bake_request_field_is_one_the_handler_reads() {
+        // The handler's parser refuses unknown fields: a body with every property the schema
+        // names (of any alternative) parses.
+        let doc = document();
+        for alt in doc["components"]["schemas"]["BakeRequest"]["oneOf"]
+            .as_array()
+            .unwrap()
+        {
+            let mut body = serde_json::Map::new();
+            for (k, p) in alt["properties"].as_object().unwrap() {
+                let v = match k.as_str() {
+                    "method" => p["const"].clone(),
+                    "params" => serde_json::json!({}),
+                    _ => "x".into(),
+                };
+                body.insert(k.clone(), v);
+            }
+            serde_json::from_value::<crate::http::routes::bakes::BakeRequest>(Value::Object(body))
+                .unwrap_or_else(|e| panic!("{}: {e}", alt["title"]));
+        }
+    }
+
+    #[test]
+    fn the_render_request_is_the_handlers_fields_and_its_parameters() {
+        // The handler takes scene, method and wait, and parses the rest as RenderParams.
+        let doc = document();
+        let props = doc["components"]["schemas"]["RenderRequest"]["properties"]
+            .as_object()
+            .unwrap();
+        let defaults: RenderParams = serde_json::from_value(serde_json::json!({})).unwrap();
+        let fields = serde_json::to_value(defaults).unwrap();
+        let mut want: Vec<&str> = fields
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(String::as_str)
+            .chain(["scene", "method", "wait"])
+            .collect();
+        want.sort();
+        let got: Vec<&str> = props.keys().map(String::as_str).collect();
+        assert_eq!(got, want);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use axum::{Extension, Json};
 
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
-struct BakeRequest {
+pub(crate) struct BakeRequest {
     #[serde(default)]
     scene: Option<serde_json::Value>,
     #[serde(default)]
