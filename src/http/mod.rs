@@ -12,6 +12,7 @@ pub mod problems;
 pub mod routes;
 pub mod server;
 pub mod spec;
+pub mod viewer;
 pub mod wire;
 
 pub use error::AppError;
@@ -54,6 +55,11 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/docs"),
     ("GET", "/problems"),
     ("GET", "/problems/{type}"),
+    ("GET", "/"),
+    ("GET", "/viewer/viewer.js"),
+    ("GET", "/viewer/caustica.js"),
+    ("GET", "/viewer/viewer.css"),
+    ("GET", "/viewer/example.json"),
 ];
 
 /// HTTP settings.
@@ -459,6 +465,11 @@ pub fn app(state: AppState) -> Router {
         .route("/docs", get(docs::page))
         .route("/problems", get(problems::index))
         .route("/problems/{type}", get(problems::show))
+        .route("/", get(viewer::page))
+        .route("/viewer/viewer.js", get(viewer::script))
+        .route("/viewer/caustica.js", get(viewer::client))
+        .route("/viewer/viewer.css", get(viewer::styles))
+        .route("/viewer/example.json", get(viewer::example))
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(

@@ -36,4 +36,5 @@ mod schema;
 mod shaders_naga;
 mod transport_bake;
 mod transport_render;
+mod viewer;
 mod water;

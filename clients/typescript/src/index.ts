@@ -17,6 +17,9 @@ export type RenderRequest = Schemas["RenderRequest"];
 export type BakeRequest = Schemas["BakeRequest"];
 export type Problem = Schemas["Problem"];
 export type ProgressEvent = Schemas["ProgressEvent"];
+export type LightDesc = Schemas["LightDesc"];
+/** The light of one `type` (`LightDescOf<"directional">`...). */
+export type LightDescOf<T extends LightDesc["type"]> = Extract<LightDesc, { type: T }>;
 export type ListJobsQuery = NonNullable<operations["listBakes"]["parameters"]["query"]>;
 export type ListScenesQuery = NonNullable<operations["listScenes"]["parameters"]["query"]>;
 

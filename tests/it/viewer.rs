@@ -1,0 +1,284 @@
+//! The web viewer at `/` in a real browser: headless Chromium driven through chromedriver
+//! (Debian: chromium, chromium-driver; `.ci/run` installs them) over the WebDriver protocol.
+//! The page loads the example, renders it with the reference, shows exactly the frame the API
+//! gives for the same request, moves the caustic the right way when the light turns, and bakes
+//! with its progress shown. Also: the committed compiled viewer is the compiler's output.
+
+use crate::support::server::*;
+use crate::support::{Cleanup, repo_path, temp_dir};
+use serde_json::{Value, json};
+use std::time::Duration;
+
+/// A WebDriver session on a chromedriver child.
+struct Browser {
+    _driver: ChildGuard,
+    url: String,
+    http: reqwest::Client,
+}
+
+impl Browser {
+    async fn start() -> Browser {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let driver = std::process::Command::new("chromedriver")
+            .arg(format!("--port={port}"))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("chromedriver runs (Debian: chromium-driver)");
+        let driver = ChildGuard(driver, None);
+        let http = reqwest::Client::new();
+        let base = format!("http://127.0.0.1:{port}");
+        poll("chromedriver to start", Duration::from_secs(30), || async {
+            let r = http.get(format!("{base}/status")).send().await.ok()?;
+            let v: Value = r.json().await.ok()?;
+            v["value"]["ready"].as_bool().filter(|r| *r)
+        })
+        .await;
+        let caps = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {"args": ["--headless=new", "--no-sandbox", "--disable-gpu",
+                "--disable-dev-shm-usage", "--window-size=1200,900"]}
+        }}});
+        let v: Value = http
+            .post(format!("{base}/session"))
+            .json(&caps)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        let id = v["value"]["sessionId"]
+            .as_str()
+            .unwrap_or_else(|| panic!("no session: {v}"));
+        Browser {
+            _driver: driver,
+            url: format!("{base}/session/{id}"),
+            http,
+        }
+    }
+
+    async fn post(&self, path: &str, body: Value) -> Value {
+        let v: Value = self
+            .http
+            .post(format!("{}{path}", self.url))
+            .json(&body)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        assert!(v["value"].get("error").is_none(), "{path}: {v}");
+        v["value"].clone()
+    }
+
+    async fn goto(&self, url: &str) {
+        self.post("/url", json!({ "url": url })).await;
+    }
+
+    /// Runs `script` (a function body; `arguments` as given) in the page.
+    async fn exec(&self, script: &str) -> Value {
+        self.post("/execute/sync", json!({"script": script, "args": []}))
+            .await
+    }
+
+    /// Runs `script`, whose last argument is the callback it calls with its result.
+    async fn exec_async(&self, script: &str) -> Value {
+        self.post("/execute/async", json!({"script": script, "args": []}))
+            .await
+    }
+
+    /// The number of the frame shown, once the page has shown one past `after`.
+    async fn frame_after(&self, after: u64) -> u64 {
+        poll("a frame in the page", Duration::from_secs(180), || async {
+            let v = self
+                .exec("return [document.getElementById('frame').dataset.frame || '0', document.getElementById('status').textContent]")
+                .await;
+            let n: u64 = v[0].as_str().unwrap().parse().unwrap();
+            let status = v[1].as_str().unwrap();
+            assert!(!status.contains("failed"), "{status}");
+            (n > after).then_some(n)
+        })
+        .await
+    }
+
+    /// The frame's pixels as the page shows them (RGBA) and its size.
+    async fn pixels(&self) -> (Vec<u8>, u32, u32) {
+        let v = self
+            .exec_async(
+                "const done = arguments[arguments.length - 1];
+                 const img = document.getElementById('frame');
+                 const c = document.createElement('canvas');
+                 c.width = img.naturalWidth; c.height = img.naturalHeight;
+                 const g = c.getContext('2d');
+                 g.drawImage(img, 0, 0);
+                 done([c.width, c.height, Array.from(g.getImageData(0, 0, c.width, c.height).data)]);",
+            )
+            .await;
+        let px = v[2]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_u64().unwrap() as u8)
+            .collect();
+        (
+            px,
+            v[0].as_u64().unwrap() as u32,
+            v[1].as_u64().unwrap() as u32,
+        )
+    }
+
+    /// Saves a screenshot of the page as `name`.png in the tests' artifact folder
+    /// (`target/tmp/viewer/`), and returns its path.
+    async fn screenshot(&self, name: &str) -> std::path::PathBuf {
+        use base64::Engine;
+        let v: Value = self
+            .http
+            .get(format!("{}/screenshot", self.url))
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(v["value"].as_str().unwrap())
+            .unwrap();
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer");
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(format!("{name}.png"));
+        std::fs::write(&p, png).unwrap();
+        p
+    }
+
+    async fn quit(&self) {
+        let _ = self.http.delete(&self.url).send().await;
+    }
+}
+
+/// The centroid (x, y) of the brightest 0.5 % of the pixels' luminance: the caustic's focus in
+/// the canonical scene (the glass itself renders dark in the reference).
+fn focus(rgba: &[u8], w: u32) -> (f64, f64) {
+    let lum: Vec<f64> = rgba
+        .chunks(4)
+        .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+        .collect();
+    let mut sorted = lum.clone();
+    sorted.sort_by(f64::total_cmp);
+    let cut = sorted[sorted.len() * 995 / 1000];
+    let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+    for (i, l) in lum.iter().enumerate() {
+        if *l >= cut {
+            sx += (i as u32 % w) as f64;
+            sy += (i as u32 / w) as f64;
+            n += 1.0;
+        }
+    }
+    (sx / n, sy / n)
+}
+
+/// The frame the API renders for the request the page shows as its curl line.
+async fn api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
+    let curl = b.exec("return document.getElementById('curl').value").await;
+    let curl = curl.as_str().unwrap();
+    let body = &curl[curl.find("-d '").unwrap() + 4..curl.rfind("' -o").unwrap()];
+    let req: Value = serde_json::from_str(body).unwrap();
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200);
+    let png = r.bytes().await.unwrap();
+    image::load_from_memory(&png).unwrap().to_rgba8().into_raw()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
+    let srv = Server::start("viewer", |_, _| {}).await;
+    let b = Browser::start().await;
+    b.goto(&srv.url("/")).await;
+
+    // The example, rendered with the reference on load: the page shows the API's frame.
+    let first = b.frame_after(0).await;
+    let (px, w, h) = b.pixels().await;
+    assert_eq!((w, h), (192, 144));
+    let api = api_frame(&srv, &b).await;
+    assert_eq!(px.len(), api.len());
+    let differ = px.iter().zip(&api).filter(|(a, b)| a != b).count();
+    assert!(differ == 0, "{differ} of {} bytes differ", px.len());
+    let (x0, y0) = focus(&px, w);
+    b.screenshot("example-reference").await;
+
+    // Turn the light from travelling along +x (azimuth 0) to +z, towards the camera: the
+    // caustic beyond the sphere moves towards the camera (down the frame) and left.
+    b.exec(
+        "const s = document.getElementById('azimuth'); s.value = '60';
+         s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'));",
+    )
+    .await;
+    let t0 = std::time::Instant::now();
+    b.frame_after(first).await;
+    let turned = t0.elapsed();
+    let (px2, _, _) = b.pixels().await;
+    assert_eq!(px2, api_frame(&srv, &b).await);
+    let (x1, y1) = focus(&px2, w);
+    b.screenshot("light-turned").await;
+    assert!(
+        y1 > y0 + 3.0 && x1 < x0 - 3.0,
+        "the focus went from ({x0:.1}, {y0:.1}) to ({x1:.1}, {y1:.1})"
+    );
+    let status = b
+        .exec("return document.getElementById('status').textContent")
+        .await;
+    println!(
+        "light turned -> full frame in {turned:?} ({status}); focus ({x0:.1}, {y0:.1}) -> ({x1:.1}, {y1:.1})"
+    );
+
+    // A bake of the glass: its progress shown, then succeeded.
+    b.exec("document.getElementById('bake').click()").await;
+    let stage = poll("the bake to finish", Duration::from_secs(300), || async {
+        let v = b
+            .exec("return [document.getElementById('bake-stage').textContent, document.getElementById('bake-progress').value]")
+            .await;
+        let stage = v[0].as_str().unwrap().to_string();
+        ["succeeded", "failed", "canceled"]
+            .contains(&stage.as_str())
+            .then_some((stage, v[1].as_f64().unwrap()))
+    })
+    .await;
+    assert_eq!(stage, ("succeeded".to_string(), 1.0));
+    b.screenshot("baked").await;
+    let (_, list) = srv.get_json("/v1/bakes?state=succeeded&method=csl").await;
+    assert_eq!(list["items"].as_array().unwrap().len(), 1, "{list}");
+    b.quit().await;
+    srv.stop().await;
+}
+
+/// The committed `web/dist` is what `web/build.sh` (tsc) makes of the viewer and the client.
+#[test]
+fn the_committed_viewer_is_the_compilers_output() {
+    let out = temp_dir("viewer-build");
+    let _cleanup = Cleanup(out.clone());
+    let r = std::process::Command::new("tsc")
+        .arg("-p")
+        .arg(repo_path("web"))
+        .arg("--outDir")
+        .arg(&out)
+        .output()
+        .expect("tsc runs (Debian: node-typescript)");
+    assert!(
+        r.status.success(),
+        "tsc:\n{}",
+        String::from_utf8_lossy(&r.stdout)
+    );
+    for f in ["web/src/viewer.js", "clients/typescript/src/index.js"] {
+        let built = std::fs::read_to_string(out.join(f)).unwrap();
+        let committed = std::fs::read_to_string(repo_path(format!("web/dist/{f}"))).unwrap();
+        assert!(
+            built == committed,
+            "web/dist/{f} is stale: run web/build.sh"
+        );
+    }
+}

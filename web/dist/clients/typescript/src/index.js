@@ -1,0 +1,253 @@
+// Caustica from TypeScript (browsers and Node 18+): every type comes from `schema.ts`, generated
+// from api/openapi.yaml by openapi-typescript (`./generate.sh`); this file is the thin layer
+// over `fetch` that the generator does not write: one typed method per operation, uploads of
+// each scene format, a job's server-sent events, waiting for a render answered with 202, and
+// errors thrown as CausticaError carrying the problem.
+/** An answer that was not a success, with its RFC 9457 problem. */
+export class CausticaError extends Error {
+    constructor(status, problem) {
+        super(`${status} ${problem.title}: ${problem.detail}`);
+        this.status = status;
+        this.problem = problem;
+    }
+    /** The request field at fault, when there is one. */
+    get field() {
+        return this.problem.field ?? undefined;
+    }
+}
+const TERMINAL = ["succeeded", "failed", "canceled"];
+/** Parses `Server-Timing` (`name;dur=ms, ...`). */
+export function parseServerTiming(h) {
+    if (!h)
+        return [];
+    return h.split(",").flatMap((part) => {
+        const [name, ...params] = part.trim().split(";");
+        const dur = params.map((p) => p.trim()).find((p) => p.startsWith("dur="));
+        return name && dur ? [{ name: name.trim(), ms: Number(dur.slice(4)) }] : [];
+    });
+}
+export class Caustica {
+    constructor(baseUrl, opts = {}) {
+        this.base = baseUrl.replace(/\/$/, "");
+        this.key = opts.apiKey;
+        this.fetch = opts.fetch ?? globalThis.fetch.bind(globalThis);
+    }
+    async call(path, init = {}) {
+        const headers = new Headers(init.headers);
+        if (this.key)
+            headers.set("Authorization", `Bearer ${this.key}`);
+        const r = await this.fetch(this.base + path, { ...init, headers });
+        if (!r.ok && r.status !== 304) {
+            const text = await r.text();
+            let problem;
+            try {
+                problem = JSON.parse(text);
+            }
+            catch {
+                problem = { type: "about:blank", title: r.statusText, status: r.status, detail: text.slice(0, 200) };
+            }
+            throw new CausticaError(r.status, problem);
+        }
+        return r;
+    }
+    async json(path, init = {}) {
+        return (await (await this.call(path, init)).json());
+    }
+    post(path, body, headers = {}) {
+        return this.json(path, {
+            method: "POST",
+            headers: { "Content-Type": "application/json", ...headers },
+            body: JSON.stringify(body),
+        });
+    }
+    // Scenes
+    /** Stores a scene given as our scene JSON. */
+    uploadScene(scene) {
+        return this.post("/v1/scenes", scene);
+    }
+    /** Stores a GLB (`model/gltf-binary`) as a whole scene. */
+    uploadGlb(glb) {
+        return this.json("/v1/scenes", {
+            method: "POST",
+            headers: { "Content-Type": "model/gltf-binary" },
+            body: glb,
+        });
+    }
+    /** Stores a glTF JSON file with embedded data (`model/gltf+json`) as a whole scene. */
+    uploadGltf(gltf) {
+        return this.json("/v1/scenes", {
+            method: "POST",
+            headers: { "Content-Type": "model/gltf+json" },
+            body: gltf,
+        });
+    }
+    /** Stores a scene JSON with the files it names (multipart: part `scene` and one per file). */
+    uploadSceneWithFiles(scene, files) {
+        const form = new FormData();
+        form.append("scene", new Blob([JSON.stringify(scene)], { type: "application/json" }));
+        for (const [name, data] of Object.entries(files)) {
+            form.append(name, data instanceof Blob ? data : new Blob([data]), name);
+        }
+        return this.json("/v1/scenes", { method: "POST", body: form });
+    }
+    scene(id) {
+        return this.json(`/v1/scenes/${encodeURIComponent(id)}`);
+    }
+    async deleteScene(id) {
+        await this.call(`/v1/scenes/${encodeURIComponent(id)}`, { method: "DELETE" });
+    }
+    /** Every stored scene the key holds, newest first, fetched a page at a time. */
+    scenes(query = {}) {
+        return this.pages("/v1/scenes", query);
+    }
+    // Renders
+    /** Renders a frame; a render that outlasts the server's wait is followed to its end. */
+    async render(req, opts = {}) {
+        const headers = { "Content-Type": "application/json" };
+        if (opts.idempotencyKey)
+            headers["Idempotency-Key"] = opts.idempotencyKey;
+        const r = await this.call("/v1/renders", {
+            method: "POST",
+            headers,
+            body: JSON.stringify(req),
+            signal: opts.signal,
+        });
+        const timings = parseServerTiming(r.headers.get("Server-Timing"));
+        const location = r.headers.get("Location") ?? "";
+        if (r.status === 202) {
+            const job = (await r.json());
+            const done = await this.wait(job.id);
+            if (done.state !== "succeeded") {
+                throw new CausticaError(500, {
+                    type: "about:blank",
+                    title: `render ${done.state}`,
+                    status: 500,
+                    detail: done.error ?? "",
+                });
+            }
+            const img = await this.call(`/v1/renders/${done.id}/image`);
+            return {
+                image: new Uint8Array(await img.arrayBuffer()),
+                contentType: img.headers.get("Content-Type") ?? "",
+                timings: done.timings.map((t) => ({ name: t.stage, ms: t.ms })),
+                renderId: done.id,
+            };
+        }
+        return {
+            image: new Uint8Array(await r.arrayBuffer()),
+            contentType: r.headers.get("Content-Type") ?? "",
+            timings,
+            renderId: location.split("/").pop() || undefined,
+        };
+    }
+    renders(query = {}) {
+        return this.pages("/v1/renders", query);
+    }
+    cancelRender(id) {
+        return this.json(`/v1/renders/${encodeURIComponent(id)}`, { method: "DELETE" });
+    }
+    // Bakes
+    /** Starts (or finds) a bake; with `wait`, follows its events to the end. */
+    async bake(req, opts = {}) {
+        const headers = {};
+        if (opts.idempotencyKey)
+            headers["Idempotency-Key"] = opts.idempotencyKey;
+        const job = await this.post("/v1/bakes", req, headers);
+        if (!opts.wait || TERMINAL.includes(job.state))
+            return job;
+        return this.wait(job.id, opts.onProgress);
+    }
+    async bakeArtifact(id) {
+        const r = await this.call(`/v1/bakes/${encodeURIComponent(id)}/artifact`);
+        return new Uint8Array(await r.arrayBuffer());
+    }
+    bakes(query = {}) {
+        return this.pages("/v1/bakes", query);
+    }
+    cancelBake(id) {
+        return this.json(`/v1/bakes/${encodeURIComponent(id)}`, { method: "DELETE" });
+    }
+    // Jobs
+    job(id) {
+        return this.json(`/v1/${kind(id)}/${encodeURIComponent(id)}`);
+    }
+    /** The job's server-sent events until the stream ends. */
+    async *events(id, signal) {
+        const r = await this.call(`/v1/${kind(id)}/${encodeURIComponent(id)}/events`, {
+            headers: { Accept: "text/event-stream" },
+            signal,
+        });
+        if (!r.body)
+            return;
+        const reader = r.body.getReader();
+        const text = new TextDecoder();
+        let buf = "";
+        let event = "message";
+        let data = [];
+        for (;;) {
+            const { value, done } = await reader.read();
+            if (done)
+                return;
+            buf += text.decode(value, { stream: true });
+            let nl;
+            while ((nl = buf.indexOf("\n")) >= 0) {
+                const line = buf.slice(0, nl).replace(/\r$/, "");
+                buf = buf.slice(nl + 1);
+                if (line === "") {
+                    if (data.length)
+                        yield { event, data: JSON.parse(data.join("\n")) };
+                    event = "message";
+                    data = [];
+                }
+                else if (line.startsWith("event:")) {
+                    event = line.slice(6).trim();
+                }
+                else if (line.startsWith("data:")) {
+                    data.push(line.slice(5).trimStart());
+                }
+            }
+        }
+    }
+    /** The job once finished, following its events (polling when the stream breaks). */
+    async wait(id, onProgress) {
+        try {
+            for await (const e of this.events(id)) {
+                if (e.event === "progress")
+                    onProgress?.(e.data);
+                else if (e.event === "done")
+                    return e.data;
+                else if (e.event === "gone") {
+                    throw new CausticaError(404, { type: "about:blank", title: "Not found", status: 404, detail: `job ${id} was deleted` });
+                }
+            }
+        }
+        catch (e) {
+            if (e instanceof CausticaError)
+                throw e;
+        }
+        for (;;) {
+            const job = await this.job(id);
+            if (TERMINAL.includes(job.state))
+                return job;
+            await new Promise((res) => setTimeout(res, 1000));
+        }
+    }
+    async *pages(path, query) {
+        let token;
+        do {
+            const q = new URLSearchParams();
+            for (const [k, v] of Object.entries(query))
+                if (v !== undefined && v !== null)
+                    q.set(k, String(v));
+            if (token)
+                q.set("page_token", token);
+            const page = await this.json(`${path}?${q}`);
+            for (const item of page.items)
+                yield item;
+            token = page.next_page_token;
+        } while (token);
+    }
+}
+function kind(id) {
+    return id.startsWith("bk_") ? "bakes" : "renders";
+}
