@@ -1,8 +1,10 @@
 //! The web viewer at `/` in a real browser: headless Chromium driven through chromedriver
 //! (Debian: chromium, chromium-driver; `.ci/run` installs them) over the WebDriver protocol.
 //! The page loads the example, renders it with the reference, shows exactly the frame the API
-//! gives for the same request, moves the caustic the right way when the light turns, and bakes
-//! with its progress shown. Also: the committed compiled viewer is the compiler's output.
+//! gives for the same request, moves the caustic the right way when the light turns, orbits the
+//! camera by dragging the frame (previews while dragging, the full frame on release), bakes
+//! with its progress shown and cancels a bake. Also: the committed compiled viewer is the
+//! compiler's output.
 
 use crate::support::server::*;
 use crate::support::{Cleanup, repo_path, temp_dir};
@@ -156,6 +158,30 @@ impl Browser {
         p
     }
 
+    /// Drags the mouse from the centre of element `css` by (dx, dy) pixels over `ms`
+    /// milliseconds.
+    async fn drag(&self, css: &str, dx: i64, dy: i64, ms: u64) {
+        let c = self
+            .exec(&format!(
+                "const r = document.querySelector('{css}').getBoundingClientRect();
+                 return [Math.round(r.x + r.width / 2), Math.round(r.y + r.height / 2)]"
+            ))
+            .await;
+        let (x, y) = (c[0].as_i64().unwrap(), c[1].as_i64().unwrap());
+        self.post(
+            "/actions",
+            json!({"actions": [{"type": "pointer", "id": "mouse",
+                "parameters": {"pointerType": "mouse"}, "actions": [
+                {"type": "pointerMove", "duration": 0, "origin": "viewport", "x": x, "y": y},
+                {"type": "pointerDown", "button": 0},
+                {"type": "pointerMove", "duration": ms / 2, "origin": "pointer", "x": dx / 2, "y": dy / 2},
+                {"type": "pause", "duration": ms / 2},
+                {"type": "pointerMove", "duration": ms / 2, "origin": "pointer", "x": dx - dx / 2, "y": dy - dy / 2},
+                {"type": "pointerUp", "button": 0}]}]}),
+        )
+        .await;
+    }
+
     async fn quit(&self) {
         let _ = self.http.delete(&self.url).send().await;
     }
@@ -196,7 +222,8 @@ async fn api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
-    let srv = Server::start("viewer", |_, _| {}).await;
+    // One CPU worker: a long bake queued ahead keeps the viewer's bake queued, to cancel it.
+    let srv = Server::start("viewer", |j, _| j.cpu_workers = 1).await;
     let b = Browser::start().await;
     b.goto(&srv.url("/")).await;
 
@@ -236,22 +263,99 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         "light turned -> full frame in {turned:?} ({status}); focus ({x0:.1}, {y0:.1}) -> ({x1:.1}, {y1:.1})"
     );
 
-    // A bake of the glass: its progress shown, then succeeded.
-    b.exec("document.getElementById('bake').click()").await;
+    // Dragging the frame orbits the camera: small direct previews while dragging, then the
+    // full frame for the new camera, again the API's frame for the request shown.
+    let before = b
+        .exec("return [document.getElementById('orbit').value, document.getElementById('frame').dataset.frame]")
+        .await;
+    let frames: u64 = before[1].as_str().unwrap().parse().unwrap();
+    let t0 = std::time::Instant::now();
+    b.drag("#frame", -80, 20, 1200).await;
+    b.frame_after(frames).await;
+    let released = t0.elapsed();
+    let after = b
+        .exec("const f = document.getElementById('frame'); return [document.getElementById('orbit').value, document.getElementById('tilt').value, f.dataset.preview || '0', f.dataset.previewMs || '']")
+        .await;
+    let orbit = |v: &Value| v.as_str().unwrap().parse::<i64>().unwrap();
+    assert_eq!(orbit(&after[0]), orbit(&before[0]) + 40, "{after}");
+    let previews: u64 = after[2].as_str().unwrap().parse().unwrap();
+    assert!(previews >= 1, "no preview while dragging: {after}");
+    let (px3, _, _) = b.pixels().await;
+    assert_eq!(px3, api_frame(&srv, &b).await);
+    assert_ne!(px3, px2, "the orbit changed nothing");
+    b.screenshot("orbited").await;
+    println!(
+        "drag: {previews} previews, the last {} ms after its input; release -> full frame {:?} after the drag began (1.2 s of dragging)",
+        after[3].as_str().unwrap(),
+        released
+    );
+
+    // A bake of the glass at the paper's settings: its progress shown as it comes, then
+    // succeeded.
+    b.exec(
+        "document.getElementById('preset').value = 'paper';
+         document.getElementById('bake').click()",
+    )
+    .await;
     let stage = poll("the bake to finish", Duration::from_secs(300), || async {
         let v = b
-            .exec("return [document.getElementById('bake-stage').textContent, document.getElementById('bake-progress').value]")
+            .exec("const p = document.getElementById('bake-progress'); return [document.getElementById('bake-stage').textContent, p.value, p.dataset.events || '0']")
             .await;
         let stage = v[0].as_str().unwrap().to_string();
         ["succeeded", "failed", "canceled"]
             .contains(&stage.as_str())
-            .then_some((stage, v[1].as_f64().unwrap()))
+            .then_some((stage, v[1].as_f64().unwrap(), v[2].as_str().unwrap().to_string()))
     })
     .await;
-    assert_eq!(stage, ("succeeded".to_string(), 1.0));
+    assert_eq!((stage.0.as_str(), stage.1), ("succeeded", 1.0));
+    let events: u32 = stage.2.parse().unwrap();
+    assert!(events >= 2, "{events} progress events shown");
     b.screenshot("baked").await;
     let (_, list) = srv.get_json("/v1/bakes?state=succeeded&method=csl").await;
     assert_eq!(list["items"].as_array().unwrap().len(), 1, "{list}");
+
+    // Cancel: a long reference bake holds the one CPU worker, so the viewer's next bake waits
+    // in the queue; its Cancel button cancels it.
+    let scene_id = b
+        .exec("return JSON.parse(document.getElementById('curl').value.split(\"-d '\")[1].split(\"' -o\")[0]).scene")
+        .await;
+    let long = srv
+        .submit_bake(
+            &json!({"scene": scene_id, "object": "glass", "method": "reference",
+            "params": {"photons": 200_000_000, "spp": 64, "width": 256, "height": 256}}),
+        )
+        .await;
+    b.exec(
+        "document.getElementById('preset').value = 'fast';
+         document.getElementById('bake').click()",
+    )
+    .await;
+    poll("the cancel button", Duration::from_secs(30), || async {
+        let v = b
+            .exec("return !document.getElementById('cancel').disabled")
+            .await;
+        v.as_bool().unwrap().then_some(())
+    })
+    .await;
+    b.exec("document.getElementById('cancel').click()").await;
+    poll(
+        "the bake to be canceled",
+        Duration::from_secs(60),
+        || async {
+            let v = b
+                .exec("return document.getElementById('bake-stage').textContent")
+                .await;
+            (v == "canceled").then_some(())
+        },
+    )
+    .await;
+    let r = srv
+        .client
+        .delete(srv.url(&format!("/v1/bakes/{long}")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
     b.quit().await;
     srv.stop().await;
 }

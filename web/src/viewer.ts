@@ -1,11 +1,19 @@
 // The web viewer served at `/` by `caustica serve`: pick the example or upload a scene, render
-// it with a method, turn the scene's directional light, bake its caustic spot lights with live
+// it with a method, orbit the camera and turn the scene's directional light (small `direct`
+// previews while dragging, the full frame on release), bake its caustic spot lights with live
 // progress. Every call goes through the TypeScript client (clients/typescript), compiled with
 // this file into web/dist (web/build.sh) and served from the binary.
 
 // "caustica" is the client: mapped to its source for tsc (tsconfig paths), and to its compiled
 // module for the browser (index.html's import map).
-import { Caustica, CausticaError, type LightDescOf, type RenderRequest, type SceneInfo } from "caustica";
+import {
+  Caustica,
+  CausticaError,
+  type LightDescOf,
+  type RenderRequest,
+  type Scene,
+  type SceneInfo,
+} from "caustica";
 
 const $ = <T extends HTMLElement>(id: string): T => document.getElementById(id) as T;
 const status = $<HTMLParagraphElement>("status");
@@ -22,6 +30,9 @@ const cancelBtn = $<HTMLButtonElement>("cancel");
 const progress = $<HTMLProgressElement>("bake-progress");
 const bakeStage = $<HTMLSpanElement>("bake-stage");
 const keyInput = $<HTMLInputElement>("key");
+const orbit = $<HTMLInputElement>("orbit");
+const tilt = $<HTMLInputElement>("tilt");
+const preset = $<HTMLSelectElement>("preset");
 
 keyInput.value = sessionStorage.getItem("caustica-key") ?? "";
 let client = new Caustica(location.origin, { apiKey: keyInput.value || undefined });
@@ -33,8 +44,12 @@ keyInput.addEventListener("change", () => {
 let scene: SceneInfo | undefined;
 /** The scene's first directional light, turned by the sliders (undefined: the scene has none). */
 let light: LightDescOf<"directional"> | undefined;
+/** The scene's camera; `distance` from its target, turned by the orbit and tilt sliders. */
+let camera: (Scene["camera"] & { distance: number }) | undefined;
 let frameUrl = "";
 let rendering = 0;
+let previews = 0;
+let previewBusy = false;
 
 function say(text: string): void {
   status.textContent = text;
@@ -52,8 +67,22 @@ function direction(): [number, number, number] {
 }
 
 function showSliders(): void {
-  $<HTMLOutputElement>("azimuth-value").value = azimuth.value;
-  $<HTMLOutputElement>("elevation-value").value = elevation.value;
+  for (const s of [azimuth, elevation, orbit, tilt]) {
+    $<HTMLOutputElement>(`${s.id}-value`).value = s.value;
+  }
+}
+
+/** The camera's eye from the orbit and tilt sliders, at its distance from its target. */
+function eye(): [number, number, number] {
+  const c = camera!;
+  const az = (Number(orbit.value) * Math.PI) / 180;
+  const el = (Number(tilt.value) * Math.PI) / 180;
+  const d = c.distance;
+  return [
+    c.target[0] + d * Math.cos(el) * Math.sin(az),
+    c.target[1] + d * Math.sin(el),
+    c.target[2] + d * Math.cos(el) * Math.cos(az),
+  ];
 }
 
 /** Sets the sliders from a light direction. */
@@ -72,6 +101,13 @@ async function useScene(info: SceneInfo): Promise<void> {
   light = dir ? { ...dir } : undefined;
   if (light) slidersFrom(light.direction);
   azimuth.disabled = elevation.disabled = !light;
+  const cam = (info.scene as Scene).camera;
+  const [ex, ey, ez] = cam.eye.map((v, i) => v - cam.target[i]);
+  const distance = Math.hypot(ex, ey, ez);
+  camera = { ...cam, distance };
+  orbit.value = String(Math.round((Math.atan2(ex, ez) * 180) / Math.PI));
+  tilt.value = String(Math.round((Math.asin(ey / distance) * 180) / Math.PI));
+  showSliders();
   objectSel.replaceChildren(
     ...info.objects
       .filter((o) => o.specular)
@@ -84,17 +120,50 @@ async function useScene(info: SceneInfo): Promise<void> {
   await render();
 }
 
-function request(): RenderRequest {
+/** The render request for what the controls say; a preview is a small `direct` frame. */
+function request(preview = false): RenderRequest {
   const req: RenderRequest = {
     scene: scene!.id,
-    method: method.value as RenderRequest["method"],
+    method: (preview ? "direct" : method.value) as RenderRequest["method"],
     width: Number(width.value),
     height: Number(height.value),
   };
-  if (method.value === "reference" || method.value === "photons") req.photons = Number(photons.value);
-  if (method.value === "reference") req.spp = 4;
+  if (preview) {
+    const s = Math.min(1, 128 / Math.max(req.width!, req.height!));
+    req.width = Math.max(16, Math.round(req.width! * s));
+    req.height = Math.max(16, Math.round(req.height! * s));
+  } else if (method.value === "reference" || method.value === "photons") {
+    req.photons = Number(photons.value);
+  }
+  if (!preview && method.value === "reference") req.spp = 4;
   if (light) req.lights = [{ ...light, direction: direction() }];
+  if (camera) {
+    const { distance: _, ...cam } = camera;
+    req.camera = { ...cam, eye: eye() };
+  }
   return req;
+}
+
+/** A small `direct` frame for the controls as they are now, unless one is on its way. */
+async function preview(): Promise<void> {
+  if (!scene || previewBusy) return;
+  previewBusy = true;
+  const asked = rendering;
+  const t0 = performance.now();
+  try {
+    const f = await client.render(request(true));
+    if (asked !== rendering) return; // a full frame was asked for meanwhile
+    URL.revokeObjectURL(frameUrl);
+    frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
+    frame.src = frameUrl;
+    frame.classList.add("preview");
+    frame.dataset.preview = String(++previews);
+    frame.dataset.previewMs = (performance.now() - t0).toFixed(0);
+  } catch (e) {
+    say(`Preview failed: ${problem(e)}`);
+  } finally {
+    previewBusy = false;
+  }
 }
 
 async function render(): Promise<void> {
@@ -112,6 +181,7 @@ async function render(): Promise<void> {
     const loaded = new Promise((res) => (frame.onload = res));
     frame.src = frameUrl;
     await loaded;
+    frame.classList.remove("preview");
     const dl = $<HTMLAnchorElement>("download");
     dl.href = frameUrl;
     dl.hidden = false;
@@ -128,6 +198,9 @@ async function render(): Promise<void> {
     $<HTMLTextAreaElement>("curl").value =
       `curl -s ${location.origin}/v1/renders -H 'Content-Type: application/json' ` +
       `-d '${JSON.stringify(req)}' -o frame.png`;
+    $<HTMLTextAreaElement>("python").value =
+      `import json\nfrom caustica import Caustica\n` +
+      `Caustica("${location.origin}").render(**json.loads('${JSON.stringify(req)}'), out="frame.png")`;
     say(`Rendered with ${req.method} in ${(performance.now() - t0).toFixed(0)} ms`);
     frame.dataset.frame = String(mine);
   } catch (e) {
@@ -166,13 +239,20 @@ async function bake(): Promise<void> {
   bakeStage.textContent = "";
   try {
     const job = await client.bake(
-      { scene: scene.id, object: objectSel.value, method: "csl", params: { preset: "fast" } },
+      {
+        scene: scene.id,
+        object: objectSel.value,
+        method: "csl",
+        params: { preset: preset.value as "fast" | "paper" },
+      },
       { wait: false },
     );
     cancelBtn.disabled = false;
     cancelBtn.onclick = () => void client.cancelBake(job.id).catch((e) => say(problem(e)));
+    progress.dataset.events = "0";
     const done = await client.wait(job.id, (e) => {
       progress.value = e.progress;
+      progress.dataset.events = String(Number(progress.dataset.events) + 1);
       bakeStage.textContent = e.stage;
     });
     progress.value = done.state === "succeeded" ? 1 : progress.value;
@@ -206,11 +286,46 @@ document.addEventListener("drop", (e) => {
   const f = e.dataTransfer?.files[0];
   if (f) void upload(f);
 });
-for (const s of [azimuth, elevation]) {
-  s.addEventListener("input", showSliders);
-  // The full frame once the slider is released (keyboard changes too).
+for (const s of [azimuth, elevation, orbit, tilt]) {
+  // Previews while a slider moves; the full frame once it is released (keyboard changes too).
+  s.addEventListener("input", () => {
+    showSliders();
+    void preview();
+  });
   s.addEventListener("change", () => void render());
 }
+// Dragging the frame orbits the camera (horizontal) and tilts it (vertical).
+let drag: { x: number; y: number; orbit: number; tilt: number } | undefined;
+// Not the browser's own image drag (which would drop the frame on the page as an upload).
+frame.draggable = false;
+frame.addEventListener("dragstart", (e) => e.preventDefault());
+frame.addEventListener("pointerdown", (e) => {
+  if (!camera) return;
+  e.preventDefault();
+  frame.setPointerCapture(e.pointerId);
+  drag = { x: e.clientX, y: e.clientY, orbit: Number(orbit.value), tilt: Number(tilt.value) };
+});
+frame.addEventListener("pointermove", (e) => {
+  if (!drag) return;
+  const wrap = (a: number) => ((((a + 180) % 360) + 360) % 360) - 180;
+  orbit.value = String(Math.round(wrap(drag.orbit - (e.clientX - drag.x) / 2)));
+  tilt.value = String(Math.round(Math.min(85, Math.max(5, drag.tilt + (e.clientY - drag.y) / 2))));
+  showSliders();
+  void preview();
+});
+frame.addEventListener("pointerup", () => {
+  if (!drag) return;
+  drag = undefined;
+  void render();
+});
+fetch("/readyz")
+  .then((r) => r.json())
+  .then((v: { adapter?: string; detail?: string }) => {
+    $<HTMLParagraphElement>("server").textContent = v.adapter
+      ? `GPU: ${v.adapter}`
+      : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
+  })
+  .catch(() => undefined);
 bakeBtn.addEventListener("click", () => void bake());
 showSliders();
 void example();

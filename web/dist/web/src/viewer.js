@@ -1,10 +1,11 @@
 // The web viewer served at `/` by `caustica serve`: pick the example or upload a scene, render
-// it with a method, turn the scene's directional light, bake its caustic spot lights with live
+// it with a method, orbit the camera and turn the scene's directional light (small `direct`
+// previews while dragging, the full frame on release), bake its caustic spot lights with live
 // progress. Every call goes through the TypeScript client (clients/typescript), compiled with
 // this file into web/dist (web/build.sh) and served from the binary.
 // "caustica" is the client: mapped to its source for tsc (tsconfig paths), and to its compiled
 // module for the browser (index.html's import map).
-import { Caustica, CausticaError } from "caustica";
+import { Caustica, CausticaError, } from "caustica";
 const $ = (id) => document.getElementById(id);
 const status = $("status");
 const method = $("method");
@@ -20,6 +21,9 @@ const cancelBtn = $("cancel");
 const progress = $("bake-progress");
 const bakeStage = $("bake-stage");
 const keyInput = $("key");
+const orbit = $("orbit");
+const tilt = $("tilt");
+const preset = $("preset");
 keyInput.value = sessionStorage.getItem("caustica-key") ?? "";
 let client = new Caustica(location.origin, { apiKey: keyInput.value || undefined });
 keyInput.addEventListener("change", () => {
@@ -29,8 +33,12 @@ keyInput.addEventListener("change", () => {
 let scene;
 /** The scene's first directional light, turned by the sliders (undefined: the scene has none). */
 let light;
+/** The scene's camera; `distance` from its target, turned by the orbit and tilt sliders. */
+let camera;
 let frameUrl = "";
 let rendering = 0;
+let previews = 0;
+let previewBusy = false;
 function say(text) {
     status.textContent = text;
 }
@@ -44,8 +52,21 @@ function direction() {
     return [Math.cos(el) * Math.cos(az), -Math.sin(el), Math.cos(el) * Math.sin(az)];
 }
 function showSliders() {
-    $("azimuth-value").value = azimuth.value;
-    $("elevation-value").value = elevation.value;
+    for (const s of [azimuth, elevation, orbit, tilt]) {
+        $(`${s.id}-value`).value = s.value;
+    }
+}
+/** The camera's eye from the orbit and tilt sliders, at its distance from its target. */
+function eye() {
+    const c = camera;
+    const az = (Number(orbit.value) * Math.PI) / 180;
+    const el = (Number(tilt.value) * Math.PI) / 180;
+    const d = c.distance;
+    return [
+        c.target[0] + d * Math.cos(el) * Math.sin(az),
+        c.target[1] + d * Math.sin(el),
+        c.target[2] + d * Math.cos(el) * Math.cos(az),
+    ];
 }
 /** Sets the sliders from a light direction. */
 function slidersFrom(d) {
@@ -63,6 +84,13 @@ async function useScene(info) {
     if (light)
         slidersFrom(light.direction);
     azimuth.disabled = elevation.disabled = !light;
+    const cam = info.scene.camera;
+    const [ex, ey, ez] = cam.eye.map((v, i) => v - cam.target[i]);
+    const distance = Math.hypot(ex, ey, ez);
+    camera = { ...cam, distance };
+    orbit.value = String(Math.round((Math.atan2(ex, ez) * 180) / Math.PI));
+    tilt.value = String(Math.round((Math.asin(ey / distance) * 180) / Math.PI));
+    showSliders();
     objectSel.replaceChildren(...info.objects
         .filter((o) => o.specular)
         .map((o) => new Option(`${o.name} (${o.triangles} triangles)`, o.name)));
@@ -70,20 +98,56 @@ async function useScene(info) {
     $("warnings").replaceChildren(...info.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
     await render();
 }
-function request() {
+/** The render request for what the controls say; a preview is a small `direct` frame. */
+function request(preview = false) {
     const req = {
         scene: scene.id,
-        method: method.value,
+        method: (preview ? "direct" : method.value),
         width: Number(width.value),
         height: Number(height.value),
     };
-    if (method.value === "reference" || method.value === "photons")
+    if (preview) {
+        const s = Math.min(1, 128 / Math.max(req.width, req.height));
+        req.width = Math.max(16, Math.round(req.width * s));
+        req.height = Math.max(16, Math.round(req.height * s));
+    }
+    else if (method.value === "reference" || method.value === "photons") {
         req.photons = Number(photons.value);
-    if (method.value === "reference")
+    }
+    if (!preview && method.value === "reference")
         req.spp = 4;
     if (light)
         req.lights = [{ ...light, direction: direction() }];
+    if (camera) {
+        const { distance: _, ...cam } = camera;
+        req.camera = { ...cam, eye: eye() };
+    }
     return req;
+}
+/** A small `direct` frame for the controls as they are now, unless one is on its way. */
+async function preview() {
+    if (!scene || previewBusy)
+        return;
+    previewBusy = true;
+    const asked = rendering;
+    const t0 = performance.now();
+    try {
+        const f = await client.render(request(true));
+        if (asked !== rendering)
+            return; // a full frame was asked for meanwhile
+        URL.revokeObjectURL(frameUrl);
+        frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
+        frame.src = frameUrl;
+        frame.classList.add("preview");
+        frame.dataset.preview = String(++previews);
+        frame.dataset.previewMs = (performance.now() - t0).toFixed(0);
+    }
+    catch (e) {
+        say(`Preview failed: ${problem(e)}`);
+    }
+    finally {
+        previewBusy = false;
+    }
 }
 async function render() {
     if (!scene)
@@ -102,6 +166,7 @@ async function render() {
         const loaded = new Promise((res) => (frame.onload = res));
         frame.src = frameUrl;
         await loaded;
+        frame.classList.remove("preview");
         const dl = $("download");
         dl.href = frameUrl;
         dl.hidden = false;
@@ -116,6 +181,9 @@ async function render() {
         $("curl").value =
             `curl -s ${location.origin}/v1/renders -H 'Content-Type: application/json' ` +
                 `-d '${JSON.stringify(req)}' -o frame.png`;
+        $("python").value =
+            `import json\nfrom caustica import Caustica\n` +
+                `Caustica("${location.origin}").render(**json.loads('${JSON.stringify(req)}'), out="frame.png")`;
         say(`Rendered with ${req.method} in ${(performance.now() - t0).toFixed(0)} ms`);
         frame.dataset.frame = String(mine);
     }
@@ -158,11 +226,18 @@ async function bake() {
     progress.value = 0;
     bakeStage.textContent = "";
     try {
-        const job = await client.bake({ scene: scene.id, object: objectSel.value, method: "csl", params: { preset: "fast" } }, { wait: false });
+        const job = await client.bake({
+            scene: scene.id,
+            object: objectSel.value,
+            method: "csl",
+            params: { preset: preset.value },
+        }, { wait: false });
         cancelBtn.disabled = false;
         cancelBtn.onclick = () => void client.cancelBake(job.id).catch((e) => say(problem(e)));
+        progress.dataset.events = "0";
         const done = await client.wait(job.id, (e) => {
             progress.value = e.progress;
+            progress.dataset.events = String(Number(progress.dataset.events) + 1);
             bakeStage.textContent = e.stage;
         });
         progress.value = done.state === "succeeded" ? 1 : progress.value;
@@ -199,11 +274,49 @@ document.addEventListener("drop", (e) => {
     if (f)
         void upload(f);
 });
-for (const s of [azimuth, elevation]) {
-    s.addEventListener("input", showSliders);
-    // The full frame once the slider is released (keyboard changes too).
+for (const s of [azimuth, elevation, orbit, tilt]) {
+    // Previews while a slider moves; the full frame once it is released (keyboard changes too).
+    s.addEventListener("input", () => {
+        showSliders();
+        void preview();
+    });
     s.addEventListener("change", () => void render());
 }
+// Dragging the frame orbits the camera (horizontal) and tilts it (vertical).
+let drag;
+// Not the browser's own image drag (which would drop the frame on the page as an upload).
+frame.draggable = false;
+frame.addEventListener("dragstart", (e) => e.preventDefault());
+frame.addEventListener("pointerdown", (e) => {
+    if (!camera)
+        return;
+    e.preventDefault();
+    frame.setPointerCapture(e.pointerId);
+    drag = { x: e.clientX, y: e.clientY, orbit: Number(orbit.value), tilt: Number(tilt.value) };
+});
+frame.addEventListener("pointermove", (e) => {
+    if (!drag)
+        return;
+    const wrap = (a) => ((((a + 180) % 360) + 360) % 360) - 180;
+    orbit.value = String(Math.round(wrap(drag.orbit - (e.clientX - drag.x) / 2)));
+    tilt.value = String(Math.round(Math.min(85, Math.max(5, drag.tilt + (e.clientY - drag.y) / 2))));
+    showSliders();
+    void preview();
+});
+frame.addEventListener("pointerup", () => {
+    if (!drag)
+        return;
+    drag = undefined;
+    void render();
+});
+fetch("/readyz")
+    .then((r) => r.json())
+    .then((v) => {
+    $("server").textContent = v.adapter
+        ? `GPU: ${v.adapter}`
+        : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
+})
+    .catch(() => undefined);
 bakeBtn.addEventListener("click", () => void bake());
 showSliders();
 void example();
