@@ -158,6 +158,24 @@ impl Browser {
         p
     }
 
+    /// Types `text` into element `css` (for a file input: the path of the file to choose).
+    async fn type_into(&self, css: &str, text: &str) {
+        let el = self
+            .post("/element", json!({"using": "css selector", "value": css}))
+            .await;
+        let id = el
+            .as_object()
+            .unwrap()
+            .values()
+            .next()
+            .unwrap()
+            .as_str()
+            .unwrap()
+            .to_string();
+        self.post(&format!("/element/{id}/value"), json!({ "text": text }))
+            .await;
+    }
+
     /// Drags the mouse from the centre of element `css` by (dx, dy) pixels over `ms`
     /// milliseconds.
     async fn drag(&self, css: &str, dx: i64, dy: i64, ms: u64) {
@@ -356,6 +374,25 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .await
         .unwrap();
     assert_eq!(r.status(), 200);
+
+    // A GLB chosen in the file field (the mirror-lined cup): uploaded, its mirror listed for
+    // bakes, rendered (the API's frame again, and not a blank one).
+    let shown = b
+        .exec("return document.getElementById('frame').dataset.frame")
+        .await;
+    let shown: u64 = shown.as_str().unwrap().parse().unwrap();
+    let glb = repo_path("scenes/assets/cup.glb");
+    b.type_into("#upload", glb.to_str().unwrap()).await;
+    b.frame_after(shown).await;
+    let objects = b
+        .exec("return Array.from(document.getElementById('object').options).map(o => o.value)")
+        .await;
+    assert!(!objects.as_array().unwrap().is_empty(), "{objects}");
+    let (px4, _, _) = b.pixels().await;
+    assert_eq!(px4, api_frame(&srv, &b).await);
+    let lit = px4.chunks(4).filter(|p| p[0] > 40 || p[1] > 40).count();
+    assert!(lit > px4.len() / 4 / 20, "{lit} lit pixels");
+    b.screenshot("uploaded-glb").await;
     b.quit().await;
     srv.stop().await;
 }
