@@ -321,6 +321,12 @@ impl JobSystem {
             .depth()
     }
 
+    /// Jobs queued in this process, per kind (bake, render).
+    pub fn queued(&self) -> (usize, usize) {
+        let q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        (q.count(JobKind::Bake), q.count(JobKind::Render))
+    }
+
     /// Jobs running in this process, per kind (bake, render).
     pub fn running(&self) -> (usize, usize) {
         let live = self.live.lock().unwrap_or_else(|e| e.into_inner());

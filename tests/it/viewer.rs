@@ -355,6 +355,21 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         v.as_bool().unwrap().then_some(())
     })
     .await;
+    // The status line shows the queue: the long bake running, the viewer's waiting.
+    poll(
+        "the status line to show the queue",
+        Duration::from_secs(30),
+        || async {
+            let v = b
+                .exec("return document.getElementById('server').textContent")
+                .await;
+            let line = v.as_str().unwrap().to_string();
+            (line.contains("queued: 0 renders, 1 bakes")
+                && line.contains("running: 0 renders, 1 bakes"))
+            .then_some(())
+        },
+    )
+    .await;
     b.exec("document.getElementById('cancel').click()").await;
     poll(
         "the bake to be canceled",

@@ -318,14 +318,26 @@ frame.addEventListener("pointerup", () => {
   drag = undefined;
   void render();
 });
-fetch("/readyz")
-  .then((r) => r.json())
-  .then((v: { adapter?: string; detail?: string }) => {
+/** The status line: the server's GPU adapter and its queue, every few seconds. */
+async function serverLine(): Promise<void> {
+  try {
+    const v = (await (await fetch("/readyz")).json()) as {
+      adapter?: string;
+      detail?: string;
+      queued?: { bakes: number; renders: number };
+      running?: { bakes: number; renders: number };
+    };
+    const jobs = (n?: { bakes: number; renders: number }) =>
+      n ? `${n.renders} renders, ${n.bakes} bakes` : "?";
     $<HTMLParagraphElement>("server").textContent = v.adapter
-      ? `GPU: ${v.adapter}`
+      ? `GPU: ${v.adapter} · queued: ${jobs(v.queued)} · running: ${jobs(v.running)}`
       : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
-  })
-  .catch(() => undefined);
+  } catch {
+    // The line keeps its last value.
+  }
+}
+void serverLine();
+setInterval(() => void serverLine(), 3000);
 bakeBtn.addEventListener("click", () => void bake());
 showSliders();
 void example();

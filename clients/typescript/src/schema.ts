@@ -1714,11 +1714,21 @@ export interface operations {
                 };
                 content: {
                     "application/json": {
-                        adapter?: string;
+                        adapter: string;
+                        /** @description Jobs waiting in this server's queue. */
+                        queued: {
+                            bakes: number;
+                            renders: number;
+                        };
+                        /** @description Jobs running in this server. */
+                        running: {
+                            bakes: number;
+                            renders: number;
+                        };
                         /** @constant */
-                        status?: "ready";
+                        status: "ready";
                         /** @description What looked wrong with the data directory at start (an empty database file, a write-ahead log that is not one, artifacts without records). A 503 appends them to its detail. */
-                        storage_warnings?: string[];
+                        storage_warnings: string[];
                     };
                 };
             };

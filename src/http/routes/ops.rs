@@ -25,11 +25,17 @@ pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value
         }
     };
     match st.jobs.readiness() {
-        Readiness::Ready { adapter } => Ok(Json(serde_json::json!({
-            "status": "ready",
-            "adapter": adapter,
-            "storage_warnings": warnings,
-        }))),
+        Readiness::Ready { adapter } => {
+            let (qb, qr) = st.jobs.queued();
+            let (rb, rr) = st.jobs.running();
+            Ok(Json(serde_json::json!({
+                "status": "ready",
+                "adapter": adapter,
+                "storage_warnings": warnings,
+                "queued": {"bakes": qb, "renders": qr},
+                "running": {"bakes": rb, "renders": rr},
+            })))
+        }
         Readiness::Starting => Err(note(AppError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             "not-ready",

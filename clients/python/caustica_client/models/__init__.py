@@ -45,6 +45,8 @@ from .problem import Problem
 from .progress_event import ProgressEvent
 from .progressive_options import ProgressiveOptions
 from .readyz_response_200 import ReadyzResponse200
+from .readyz_response_200_queued import ReadyzResponse200Queued
+from .readyz_response_200_running import ReadyzResponse200Running
 from .reference_bake_request import ReferenceBakeRequest
 from .reference_params import ReferenceParams
 from .render_request import RenderRequest
@@ -120,6 +122,8 @@ __all__ = (
     "ProgressEvent",
     "ProgressiveOptions",
     "ReadyzResponse200",
+    "ReadyzResponse200Queued",
+    "ReadyzResponse200Running",
     "ReferenceBakeRequest",
     "ReferenceParams",
     "RenderRequest",

@@ -8,10 +8,12 @@ from attrs import field as _attrs_field
 
 from ..types import UNSET, Unset
 
-from ..types import UNSET, Unset
 from typing import cast
 from typing import Literal, cast
 
+if TYPE_CHECKING:
+  from ..models.readyz_response_200_queued import ReadyzResponse200Queued
+  from ..models.readyz_response_200_running import ReadyzResponse200Running
 
 
 
@@ -25,15 +27,19 @@ T = TypeVar("T", bound="ReadyzResponse200")
 class ReadyzResponse200:
     """ 
         Attributes:
-            adapter (str | Unset):
-            status (Literal['ready'] | Unset):
-            storage_warnings (list[str] | Unset): What looked wrong with the data directory at start (an empty database
-                file, a write-ahead log that is not one, artifacts without records). A 503 appends them to its detail.
+            adapter (str):
+            queued (ReadyzResponse200Queued): Jobs waiting in this server's queue.
+            running (ReadyzResponse200Running): Jobs running in this server.
+            status (Literal['ready']):
+            storage_warnings (list[str]): What looked wrong with the data directory at start (an empty database file, a
+                write-ahead log that is not one, artifacts without records). A 503 appends them to its detail.
      """
 
-    adapter: str | Unset = UNSET
-    status: Literal['ready'] | Unset = UNSET
-    storage_warnings: list[str] | Unset = UNSET
+    adapter: str
+    queued: ReadyzResponse200Queued
+    running: ReadyzResponse200Running
+    status: Literal['ready']
+    storage_warnings: list[str]
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -41,13 +47,17 @@ class ReadyzResponse200:
 
 
     def to_dict(self) -> dict[str, Any]:
+        from ..models.readyz_response_200_queued import ReadyzResponse200Queued # noqa: PLC0415
+        from ..models.readyz_response_200_running import ReadyzResponse200Running # noqa: PLC0415
         adapter = self.adapter
+
+        queued = self.queued.to_dict()
+
+        running = self.running.to_dict()
 
         status = self.status
 
-        storage_warnings: list[str] | Unset = UNSET
-        if not isinstance(self.storage_warnings, Unset):
-            storage_warnings = self.storage_warnings
+        storage_warnings = self.storage_warnings
 
 
 
@@ -55,13 +65,12 @@ class ReadyzResponse200:
         field_dict: dict[str, Any] = {}
         field_dict.update(self.additional_properties)
         field_dict.update({
+            "adapter": adapter,
+            "queued": queued,
+            "running": running,
+            "status": status,
+            "storage_warnings": storage_warnings,
         })
-        if adapter is not UNSET:
-            field_dict["adapter"] = adapter
-        if status is not UNSET:
-            field_dict["status"] = status
-        if storage_warnings is not UNSET:
-            field_dict["storage_warnings"] = storage_warnings
 
         return field_dict
 
@@ -69,18 +78,32 @@ class ReadyzResponse200:
 
     @classmethod
     def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
+        from ..models.readyz_response_200_queued import ReadyzResponse200Queued # noqa: PLC0415
+        from ..models.readyz_response_200_running import ReadyzResponse200Running # noqa: PLC0415
         d = dict(src_dict)
-        adapter = d.pop("adapter", UNSET)
+        adapter = d.pop("adapter")
 
-        status = cast(Literal['ready'] | Unset , d.pop("status", UNSET))
-        if status != 'ready'and not isinstance(status, Unset):
+        queued = ReadyzResponse200Queued.from_dict(d.pop("queued"))
+
+
+
+
+        running = ReadyzResponse200Running.from_dict(d.pop("running"))
+
+
+
+
+        status = cast(Literal['ready'] , d.pop("status"))
+        if status != 'ready':
             raise ValueError(f"status must match const 'ready', got '{status}'")
 
-        storage_warnings = cast(list[str], d.pop("storage_warnings", UNSET))
+        storage_warnings = cast(list[str], d.pop("storage_warnings"))
 
 
         readyz_response_200 = cls(
             adapter=adapter,
+            queued=queued,
+            running=running,
             status=status,
             storage_warnings=storage_warnings,
         )

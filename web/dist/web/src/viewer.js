@@ -309,14 +309,21 @@ frame.addEventListener("pointerup", () => {
     drag = undefined;
     void render();
 });
-fetch("/readyz")
-    .then((r) => r.json())
-    .then((v) => {
-    $("server").textContent = v.adapter
-        ? `GPU: ${v.adapter}`
-        : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
-})
-    .catch(() => undefined);
+/** The status line: the server's GPU adapter and its queue, every few seconds. */
+async function serverLine() {
+    try {
+        const v = (await (await fetch("/readyz")).json());
+        const jobs = (n) => n ? `${n.renders} renders, ${n.bakes} bakes` : "?";
+        $("server").textContent = v.adapter
+            ? `GPU: ${v.adapter} · queued: ${jobs(v.queued)} · running: ${jobs(v.running)}`
+            : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
+    }
+    catch {
+        // The line keeps its last value.
+    }
+}
+void serverLine();
+setInterval(() => void serverLine(), 3000);
 bakeBtn.addEventListener("click", () => void bake());
 showSliders();
 void example();
