@@ -48,6 +48,7 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("DELETE", "/v1/renders/{id}"),
     ("GET", "/v1/renders/{id}/image"),
     ("GET", "/v1/renders/{id}/events"),
+    ("POST", "/v1/compare"),
     ("GET", "/healthz"),
     ("GET", "/readyz"),
     ("GET", "/metrics"),
@@ -458,6 +459,7 @@ pub fn app(state: AppState) -> Router {
         .route("/v1/renders/{id}", get(get_render).delete(delete_render))
         .route("/v1/renders/{id}/image", get(get_render_image))
         .route("/v1/renders/{id}/events", get(render_events))
+        .route("/v1/compare", axum::routing::post(post_compare))
         .route("/healthz", get(healthz))
         .route("/readyz", get(readyz))
         .route("/metrics", get(metrics))

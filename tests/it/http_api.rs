@@ -686,3 +686,81 @@ async fn the_api_docs_are_served_from_the_spec() {
     );
     srv.stop().await;
 }
+
+/// `POST /v1/compare` measures one finished EXR render against another (the CLI's figures are
+/// checked against it in the viewer's browser test); what it cannot compare is refused naming
+/// the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn compare_measures_one_exr_render_against_another() {
+    let srv = Server::start("api-compare", |_, _| {}).await;
+    let render = |format: &'static str, w: u32, photons: u64| {
+        let srv = &srv;
+        async move {
+            let body = serde_json::json!({"scene": scene_sized(w, 24), "method": "reference",
+                "photons": photons, "spp": 1, "format": format});
+            let r = srv.post_json("/v1/renders", &body).await;
+            assert_eq!(r.status(), 200);
+            let loc = r.headers()["location"].to_str().unwrap().to_string();
+            loc.rsplit('/').next().unwrap().to_string()
+        }
+    };
+    let (a, b) = (
+        render("exr", 32, 20_000).await,
+        render("exr", 32, 80_000).await,
+    );
+    let r = srv
+        .post_json("/v1/compare", &serde_json::json!({"a": a, "b": b}))
+        .await;
+    assert_eq!(r.status(), 200);
+    let m: serde_json::Value = r.json().await.unwrap();
+    let (l1, flux) = (
+        m["relative_l1"].as_f64().unwrap(),
+        m["flux_ratio"].as_f64().unwrap(),
+    );
+    assert!(l1 > 0.0 && l1 < 1.0 && (0.5..2.0).contains(&flux), "{m}");
+    assert!(m["pixels"].as_u64().unwrap() > 100, "{m}");
+    // Against itself: nothing differs.
+    let r = srv
+        .post_json("/v1/compare", &serde_json::json!({"a": a, "b": a}))
+        .await;
+    let m: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(
+        (m["relative_l1"].as_f64(), m["flux_ratio"].as_f64()),
+        (Some(0.0), Some(1.0))
+    );
+    // A PNG, another size, an object the scene lacks, an unknown render.
+    let png = render("png", 32, 20_000).await;
+    let p = problem(
+        srv.post_json("/v1/compare", &serde_json::json!({"a": png, "b": b}))
+            .await,
+        422,
+    )
+    .await;
+    assert_eq!(p["field"], "a", "{p}");
+    let wide = render("exr", 40, 20_000).await;
+    let p = problem(
+        srv.post_json("/v1/compare", &serde_json::json!({"a": a, "b": wide}))
+            .await,
+        422,
+    )
+    .await;
+    assert_eq!(p["field"], "b", "{p}");
+    let p = problem(
+        srv.post_json(
+            "/v1/compare",
+            &serde_json::json!({"a": a, "b": b, "object": "teapot"}),
+        )
+        .await,
+        422,
+    )
+    .await;
+    assert_eq!(p["field"], "object", "{p}");
+    let unknown = format!("rn_{}", "0".repeat(32));
+    problem(
+        srv.post_json("/v1/compare", &serde_json::json!({"a": unknown, "b": b}))
+            .await,
+        404,
+    )
+    .await;
+    srv.stop().await;
+}

@@ -390,6 +390,58 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .unwrap();
     assert_eq!(r.status(), 200);
 
+    // Compare: photons against the reference, the figures the page shows are the CLI's for
+    // the same two EXR images.
+    b.exec(
+        "document.getElementById('method').value = 'photons';
+         document.getElementById('compare').click()",
+    )
+    .await;
+    let shown = poll("the comparison", Duration::from_secs(180), || async {
+        let v = b
+            .exec("const d = document.getElementById('compare-result'); return [document.getElementById('rel-l1').textContent, document.getElementById('flux-ratio').textContent, d.dataset.a || '', d.dataset.b || '', d.dataset.camera || '', document.getElementById('status').textContent]")
+            .await;
+        assert!(!v[5].as_str().unwrap().contains("failed"), "{v}");
+        (v[0] != "–").then_some(v)
+    })
+    .await;
+    let dir = temp_dir("viewer-compare");
+    let _cleanup_compare = Cleanup(dir.clone());
+    for (i, name) in [(2, "a.exr"), (3, "b.exr")] {
+        let id = shown[i].as_str().unwrap();
+        let r = srv
+            .client
+            .get(srv.url(&format!("/v1/renders/{id}/image")))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.headers()["content-type"], "image/x-exr");
+        std::fs::write(dir.join(name), r.bytes().await.unwrap()).unwrap();
+    }
+    let out = crate::support::caustica_command()
+        .arg("compare")
+        .arg(dir.join("a.exr"))
+        .arg(dir.join("b.exr"))
+        .arg("--scene")
+        .arg(repo_path("scenes/glass-sphere-directional.json"))
+        .args(["--object", "floor", "--camera", shown[4].as_str().unwrap()])
+        .output()
+        .unwrap();
+    let cli = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{cli}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let want = format!(
+        "relative L1 {}  flux ratio {}",
+        shown[0].as_str().unwrap(),
+        shown[1].as_str().unwrap()
+    );
+    assert!(cli.starts_with(&want), "page: {want}; CLI: {cli}");
+    println!("compare (photons against the reference): {cli}");
+    b.screenshot("compared").await;
+
     // A GLB chosen in the file field (the mirror-lined cup): uploaded, its mirror listed for
     // bakes, rendered (the API's frame again, and not a blank one).
     let shown = b

@@ -208,6 +208,39 @@ async function render(): Promise<void> {
   }
 }
 
+/** The chosen method and the reference rendered as EXR for the controls as they are, and
+ *  measured against each other on the scene's first receiver (a non-glass object). */
+async function compareWithReference(): Promise<void> {
+  if (!scene) return;
+  const receiver = scene.objects.find((o) => !o.specular)?.name;
+  if (!receiver) {
+    say("Compare needs an object that is not glass or a mirror to measure on");
+    return;
+  }
+  const req = request();
+  const box = $<HTMLDListElement>("compare-result");
+  say(`Comparing ${req.method} with the reference…`);
+  try {
+    const a = await client.render({ ...req, format: "exr" });
+    const ref: RenderRequest = { ...req, method: "reference", format: "exr" };
+    ref.photons = Number(photons.value);
+    ref.spp = 4;
+    const b = await client.render(ref);
+    const m = await client.compare(a.renderId!, b.renderId!, receiver);
+    $<HTMLElement>("rel-l1").textContent = m.relative_l1.toFixed(4);
+    $<HTMLElement>("flux-ratio").textContent = m.flux_ratio.toFixed(4);
+    Object.assign(box.dataset, {
+      a: a.renderId,
+      b: b.renderId,
+      object: receiver,
+      camera: JSON.stringify(req.camera ?? null),
+    });
+    say(`${req.method} against the reference: relative L1 ${m.relative_l1.toFixed(4)} over ${m.pixels} pixels of ${receiver}`);
+  } catch (e) {
+    say(`Compare failed: ${problem(e)}`);
+  }
+}
+
 async function upload(file: File): Promise<void> {
   say(`Uploading ${file.name}…`);
   try {
@@ -339,5 +372,6 @@ async function serverLine(): Promise<void> {
 void serverLine();
 setInterval(() => void serverLine(), 3000);
 bakeBtn.addEventListener("click", () => void bake());
+$<HTMLButtonElement>("compare").addEventListener("click", () => void compareWithReference());
 showSliders();
 void example();

@@ -20,6 +20,7 @@ export type ProgressEvent = Schemas["ProgressEvent"];
 export type LightDesc = Schemas["LightDesc"];
 /** The light of one `type` (`LightDescOf<"directional">`...). */
 export type LightDescOf<T extends LightDesc["type"]> = Extract<LightDesc, { type: T }>;
+export type Comparison = operations["compare"]["responses"]["200"]["content"]["application/json"];
 export type ListJobsQuery = NonNullable<operations["listBakes"]["parameters"]["query"]>;
 export type ListScenesQuery = NonNullable<operations["listScenes"]["parameters"]["query"]>;
 
@@ -204,6 +205,12 @@ export class Caustica {
       timings,
       renderId: location.split("/").pop() || undefined,
     };
+  }
+
+  /** Render `a` against render `b` (both finished EXRs), as `caustica compare` does, over
+   *  the pixels that see `object` (default floor). */
+  compare(a: string, b: string, object?: string): Promise<Comparison> {
+    return this.post<Comparison>("/v1/compare", object ? { a, b, object } : { a, b });
   }
 
   renders(query: ListJobsQuery = {}): AsyncGenerator<Job> {

@@ -238,6 +238,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/v1/compare": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Two finished EXR renders compared, as `caustica compare` does
+         * @description The relative L1 (Σ|a−b| / Σ|b| after a 3×3 blur of both) and the flux ratio (Σa / Σb) of render `a` against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format: exr` and be of one size (422 naming `a` or `b`).
+         */
+        post: operations["compare"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/v1/renders": {
         parameters: {
             query?: never;
@@ -2058,6 +2078,57 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            431: components["responses"]["Problem"];
+            500: components["responses"]["Problem"];
+            503: components["responses"]["Busy"];
+        };
+    };
+    compare: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": {
+                    /** @description The id of the render measured (rn_…) */
+                    a: string;
+                    /** @description The id of the render it is measured against */
+                    b: string;
+                    /**
+                     * @description The object whose pixels count
+                     * @default floor
+                     */
+                    object?: string;
+                };
+            };
+        };
+        responses: {
+            /** @description The figures. */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        flux_ratio: number;
+                        object: string;
+                        /** @description The pixels compared */
+                        pixels: number;
+                        relative_l1: number;
+                    };
+                };
+            };
+            400: components["responses"]["Problem"];
+            401: components["responses"]["Problem"];
+            404: components["responses"]["Problem"];
+            409: components["responses"]["Problem"];
+            413: components["responses"]["Problem"];
+            414: components["responses"]["Problem"];
+            415: components["responses"]["Problem"];
+            422: components["responses"]["Problem"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];

@@ -1,8 +1,10 @@
 //! Handlers and DTOs of API v1, one file per resource: [`scenes`], [`bakes`], [`renders`],
+//! [`compare`],
 //! the job views both bakes and renders answer with ([`jobs`]), and the operational
 //! endpoints ([`ops`]). The request helpers shared by the handlers are here.
 
 pub mod bakes;
+pub mod compare;
 pub mod events;
 pub mod jobs;
 pub mod lists;
@@ -12,6 +14,7 @@ pub mod renders;
 pub mod scenes;
 
 pub use bakes::{delete_bake, get_bake, get_bake_artifact, post_bake};
+pub use compare::post_compare;
 pub use events::{bake_events, render_events};
 pub use jobs::{JobView, Timing, server_timing};
 pub use lists::{list_bakes, list_renders, list_scenes};

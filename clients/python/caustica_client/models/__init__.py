@@ -5,6 +5,8 @@ from .beams_options_downsample import BeamsOptionsDownsample
 from .beams_options_grid import BeamsOptionsGrid
 from .bounds import Bounds
 from .camera_desc import CameraDesc
+from .compare_body import CompareBody
+from .compare_response_200 import CompareResponse200
 from .component import Component
 from .create_scene_files_body import CreateSceneFilesBody
 from .csl_bake_request import CslBakeRequest
@@ -82,6 +84,8 @@ __all__ = (
     "BeamsOptionsGrid",
     "Bounds",
     "CameraDesc",
+    "CompareBody",
+    "CompareResponse200",
     "Component",
     "CreateSceneFilesBody",
     "CslBakeRequest",

@@ -192,6 +192,40 @@ async function render() {
             say(`Render failed: ${problem(e)}`);
     }
 }
+/** The chosen method and the reference rendered as EXR for the controls as they are, and
+ *  measured against each other on the scene's first receiver (a non-glass object). */
+async function compareWithReference() {
+    if (!scene)
+        return;
+    const receiver = scene.objects.find((o) => !o.specular)?.name;
+    if (!receiver) {
+        say("Compare needs an object that is not glass or a mirror to measure on");
+        return;
+    }
+    const req = request();
+    const box = $("compare-result");
+    say(`Comparing ${req.method} with the reference…`);
+    try {
+        const a = await client.render({ ...req, format: "exr" });
+        const ref = { ...req, method: "reference", format: "exr" };
+        ref.photons = Number(photons.value);
+        ref.spp = 4;
+        const b = await client.render(ref);
+        const m = await client.compare(a.renderId, b.renderId, receiver);
+        $("rel-l1").textContent = m.relative_l1.toFixed(4);
+        $("flux-ratio").textContent = m.flux_ratio.toFixed(4);
+        Object.assign(box.dataset, {
+            a: a.renderId,
+            b: b.renderId,
+            object: receiver,
+            camera: JSON.stringify(req.camera ?? null),
+        });
+        say(`${req.method} against the reference: relative L1 ${m.relative_l1.toFixed(4)} over ${m.pixels} pixels of ${receiver}`);
+    }
+    catch (e) {
+        say(`Compare failed: ${problem(e)}`);
+    }
+}
 async function upload(file) {
     say(`Uploading ${file.name}…`);
     try {
@@ -325,5 +359,6 @@ async function serverLine() {
 void serverLine();
 setInterval(() => void serverLine(), 3000);
 bakeBtn.addEventListener("click", () => void bake());
+$("compare").addEventListener("click", () => void compareWithReference());
 showSliders();
 void example();

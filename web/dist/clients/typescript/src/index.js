@@ -140,6 +140,11 @@ export class Caustica {
             renderId: location.split("/").pop() || undefined,
         };
     }
+    /** Render `a` against render `b` (both finished EXRs), as `caustica compare` does, over
+     *  the pixels that see `object` (default floor). */
+    compare(a, b, object) {
+        return this.post("/v1/compare", object ? { a, b, object } : { a, b });
+    }
     renders(query = {}) {
         return this.pages("/v1/renders", query);
     }
