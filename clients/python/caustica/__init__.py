@@ -11,7 +11,8 @@ exceptions carrying the problem.
     c = Caustica("http://127.0.0.1:8080")            # api_key="..." where the server has keys
     scene = c.upload_scene("cup.glb")                  # or a dict, a .json or .gltf path
     png = c.render(scene.id, method="direct", out="cup.png")
-    job = c.bake(scene.id, "cup", "csl", params={"preset": "fast"}, progress=print)
+    mirror = next(o.name for o in scene.objects if o.specular)
+    job = c.bake(scene.id, mirror, "csl", params={"preset": "fast"}, progress=print)
 """
 
 from __future__ import annotations
