@@ -12,7 +12,6 @@ use caustica::methods::{
 use caustica::reference::compare;
 use caustica::render::Renderer;
 use caustica::scene::{self, World};
-use caustica::trace::Accel;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -570,12 +569,7 @@ fn run() -> Result<()> {
                 encode::decode_frame(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
             };
             let (fa, fb) = (read(&a)?, read(&b)?);
-            let mut w = world.clone();
-            w.camera.width = fb.width;
-            w.camera.height = fb.height;
-            let accel = Accel::build(&w);
-            let mask = compare::object_mask(&w, &accel, &object);
-            let c = compare::compare(&fa, &fb, &mask);
+            let c = compare::compare_on(world, &object, &fa, &fb);
             println!(
                 "relative L1 {:.4}  flux ratio {:.4}  over {} pixels of '{object}'",
                 c.rel_l1, c.flux_ratio, c.pixels

@@ -358,16 +358,7 @@ async fn observe(State(st): State<AppState>, req: Request, next: Next) -> Respon
         .get(axum::http::header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .map(str::to_string);
-    let text = content_type.as_deref().is_some_and(|t| {
-        [
-            "application/json",
-            "application/problem+json",
-            "text/html",
-            "text/plain",
-        ]
-        .iter()
-        .any(|p| t.starts_with(p))
-    });
+    let text = content_type.as_deref().is_some_and(is_text);
     let status = r.status().as_u16();
     if !text {
         obs.0(Observed {
@@ -414,6 +405,19 @@ fn panic_problem(p: Box<dyn std::any::Any + Send + 'static>) -> Response {
     AppError::internal("the server hit an internal error handling this request").into_response()
 }
 
+/// Whether an answer of media type `ty` is text the server writes whole (JSON, problems, pages):
+/// what is gzipped, and what an [`Observer`] is shown the body of.
+fn is_text(ty: &str) -> bool {
+    [
+        "application/json",
+        "application/problem+json",
+        "text/html",
+        "text/plain",
+    ]
+    .iter()
+    .any(|t| ty.starts_with(t))
+}
+
 /// Which answers are gzipped for a client that accepts it: text (JSON, problems, pages,
 /// metrics), unless it declares a length of at most 1 KiB; never images, artifacts, byte
 /// ranges or event streams.
@@ -428,14 +432,7 @@ fn compressible(
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .unwrap_or("");
-    let text = [
-        "application/json",
-        "application/problem+json",
-        "text/html",
-        "text/plain",
-    ]
-    .iter()
-    .any(|t| ty.starts_with(t));
+    let text = is_text(ty);
     let big = h
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())

@@ -207,7 +207,7 @@ fn tidy(v: &mut Value) {
             }
             if let Some(Value::String(f)) = o.get("format")
                 && [
-                    "uint", "uint8", "uint16", "uint32", "uint64", "int8", "int16", "uint",
+                    "uint", "uint8", "uint16", "uint32", "uint64", "int8", "int16",
                 ]
                 .contains(&f.as_str())
             {

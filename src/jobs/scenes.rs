@@ -62,7 +62,8 @@ pub struct Scenes {
     cache: Mutex<HashMap<String, Arc<World>>>,
 }
 
-fn hex(b: &[u8]) -> String {
+/// Lowercase hex of bytes (a digest).
+pub(crate) fn hex(b: &[u8]) -> String {
     b.iter().map(|x| format!("{x:02x}")).collect()
 }
 

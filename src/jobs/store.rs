@@ -919,8 +919,7 @@ impl Store {
                 }
                 h.update(&buf[..n]);
             }
-            let got: String = h.finalize().iter().map(|b| format!("{b:02x}")).collect();
-            if got != sha {
+            if super::scenes::hex(&h.finalize()) != sha {
                 return Err(StoreError::Integrity(format!(
                     "{name} does not hash to the SHA-256 recorded when it was written"
                 )));

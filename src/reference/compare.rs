@@ -98,6 +98,16 @@ pub fn compare(a: &Frame, b: &Frame, mask: &[bool]) -> Comparison {
     }
 }
 
+/// `a` against the reference `b` over the pixels of object `name` as `world`'s camera sees
+/// them at the frames' size: the figures `caustica compare` and `POST /v1/compare` give.
+pub fn compare_on(mut world: World, name: &str, a: &Frame, b: &Frame) -> Comparison {
+    world.camera.width = b.width;
+    world.camera.height = b.height;
+    let accel = Accel::build(&world);
+    let mask = object_mask(&world, &accel, name);
+    compare(a, b, &mask)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

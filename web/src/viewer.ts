@@ -9,6 +9,7 @@
 import {
   Caustica,
   CausticaError,
+  type Frame,
   type LightDescOf,
   type RenderRequest,
   type Scene,
@@ -144,6 +145,13 @@ function request(preview = false): RenderRequest {
   return req;
 }
 
+/** Puts frame `f` on screen (its image as the frame element's object URL). */
+function show(f: Frame): void {
+  URL.revokeObjectURL(frameUrl);
+  frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
+  frame.src = frameUrl;
+}
+
 /** A small `direct` frame for the controls as they are now, unless one is on its way. */
 async function preview(): Promise<void> {
   if (!scene || previewBusy) return;
@@ -153,9 +161,7 @@ async function preview(): Promise<void> {
   try {
     const f = await client.render(request(true));
     if (asked !== rendering) return; // a full frame was asked for meanwhile
-    URL.revokeObjectURL(frameUrl);
-    frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
-    frame.src = frameUrl;
+    show(f);
     frame.classList.add("preview");
     frame.dataset.preview = String(++previews);
     frame.dataset.previewMs = (performance.now() - t0).toFixed(0);
@@ -176,10 +182,8 @@ async function render(): Promise<void> {
     const t0 = performance.now();
     const f = await client.render(req);
     if (mine !== rendering) return; // a newer frame was asked for meanwhile
-    URL.revokeObjectURL(frameUrl);
-    frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
     const loaded = new Promise((res) => (frame.onload = res));
-    frame.src = frameUrl;
+    show(f);
     await loaded;
     frame.classList.remove("preview");
     const dl = $<HTMLAnchorElement>("download");

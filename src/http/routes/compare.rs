@@ -94,11 +94,7 @@ pub async fn post_compare(
                 format!("object: the scene has no object '{}'", c.object),
             ));
         }
-        w.camera.width = fa.width;
-        w.camera.height = fa.height;
-        let accel = crate::trace::Accel::build(&w);
-        let mask = compare::object_mask(&w, &accel, &c.object);
-        let m = compare::compare(&fa, &fb, &mask);
+        let m = compare::compare_on(w, &c.object, &fa, &fb);
         Ok(Json(serde_json::json!({
             "relative_l1": m.rel_l1,
             "flux_ratio": m.flux_ratio,

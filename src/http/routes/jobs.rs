@@ -242,9 +242,7 @@ pub(super) fn not_finished(kind: JobKind, id: &str, state: JobState) -> AppError
 /// streamed from disk.
 pub(super) async fn artifact_response(st: &AppState, r: &JobRecord) -> Result<Response, AppError> {
     let (ty, file, len) = open_artifact(st, r).await?;
-    let mut resp = ([(header::CONTENT_TYPE, ty)], file_body(file, 0, len)).into_response();
-    resp.headers_mut()
-        .insert(header::CONTENT_LENGTH, HeaderValue::from(len));
+    let mut resp = file_response(StatusCode::OK, ty, file, 0, len);
     cache_headers(resp.headers_mut(), r);
     Ok(resp)
 }
@@ -289,6 +287,26 @@ fn file_body(file: std::fs::File, start: u64, len: u64) -> axum::body::Body {
         }
     });
     axum::body::Body::from_stream(chunks)
+}
+
+/// `len` bytes of `file` from `start` ([`file_body`]) as an answer of `status` with its media
+/// type and length.
+fn file_response(
+    status: StatusCode,
+    ty: String,
+    file: std::fs::File,
+    start: u64,
+    len: u64,
+) -> Response {
+    let mut resp = (
+        status,
+        [(header::CONTENT_TYPE, ty)],
+        file_body(file, start, len),
+    )
+        .into_response();
+    resp.headers_mut()
+        .insert(header::CONTENT_LENGTH, HeaderValue::from(len));
+    resp
 }
 
 /// `ETag`, `Cache-Control` (artifacts never change) and `Accept-Ranges`.
@@ -396,12 +414,7 @@ pub(super) async fn serve_artifact(
         .filter(|_| range_applies)
         .map_or(RangeAsk::Whole, |v| range_ask(v, len));
     let mut resp = match ask {
-        RangeAsk::Whole => {
-            let mut resp = ([(header::CONTENT_TYPE, ty)], file_body(file, 0, len)).into_response();
-            resp.headers_mut()
-                .insert(header::CONTENT_LENGTH, HeaderValue::from(len));
-            resp
-        }
+        RangeAsk::Whole => file_response(StatusCode::OK, ty, file, 0, len),
         RangeAsk::Unsatisfiable => {
             let mut e = AppError::new(
                 StatusCode::RANGE_NOT_SATISFIABLE,
@@ -417,14 +430,7 @@ pub(super) async fn serve_artifact(
         }
         RangeAsk::Part(a, b) => {
             let range = format!("bytes {a}-{b}/{len}");
-            let mut resp = (
-                StatusCode::PARTIAL_CONTENT,
-                [(header::CONTENT_TYPE, ty)],
-                file_body(file, a, b - a + 1),
-            )
-                .into_response();
-            resp.headers_mut()
-                .insert(header::CONTENT_LENGTH, HeaderValue::from(b - a + 1));
+            let mut resp = file_response(StatusCode::PARTIAL_CONTENT, ty, file, a, b - a + 1);
             if let Ok(v) = HeaderValue::from_str(&range) {
                 resp.headers_mut().insert(header::CONTENT_RANGE, v);
             }

@@ -124,6 +124,12 @@ function request(preview = false) {
     }
     return req;
 }
+/** Puts frame `f` on screen (its image as the frame element's object URL). */
+function show(f) {
+    URL.revokeObjectURL(frameUrl);
+    frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
+    frame.src = frameUrl;
+}
 /** A small `direct` frame for the controls as they are now, unless one is on its way. */
 async function preview() {
     if (!scene || previewBusy)
@@ -135,9 +141,7 @@ async function preview() {
         const f = await client.render(request(true));
         if (asked !== rendering)
             return; // a full frame was asked for meanwhile
-        URL.revokeObjectURL(frameUrl);
-        frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
-        frame.src = frameUrl;
+        show(f);
         frame.classList.add("preview");
         frame.dataset.preview = String(++previews);
         frame.dataset.previewMs = (performance.now() - t0).toFixed(0);
@@ -161,10 +165,8 @@ async function render() {
         const f = await client.render(req);
         if (mine !== rendering)
             return; // a newer frame was asked for meanwhile
-        URL.revokeObjectURL(frameUrl);
-        frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
         const loaded = new Promise((res) => (frame.onload = res));
-        frame.src = frameUrl;
+        show(f);
         await loaded;
         frame.classList.remove("preview");
         const dl = $("download");
