@@ -43,6 +43,8 @@ pub struct SceneInfo {
     pub warnings: Vec<String>,
     /// The files the scene names (multipart uploads).
     pub files: Vec<String>,
+    /// Each method: whether it renders this scene, and why or why not.
+    pub methods: Vec<crate::methods::MethodFit>,
     /// The canonical scene description.
     #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub scene: serde_json::Value,
@@ -297,6 +299,7 @@ fn info_of(
         triangles: world.triangle_count(),
         warnings,
         files: files.iter().map(|f| f.0.clone()).collect(),
+        methods: crate::methods::fits(world),
         scene: serde_json::to_value(desc).expect("scene serialises"),
     }
 }

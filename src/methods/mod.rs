@@ -613,9 +613,137 @@ pub(crate) fn scaled_progress<'a>(
     }
 }
 
+/// Whether a method can render a scene, and why or why not: listed with every stored scene
+/// (its `methods`) so a client can offer the methods that fit.
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
+pub struct MethodFit {
+    pub method: Method,
+    /// Whether a render of the scene with this method and its default parameters is accepted.
+    pub fits: bool,
+    /// For `auto`, the method it picks and why; for a method that fits, what it gives this
+    /// scene; otherwise the field at fault and why (the render's 422 message).
+    pub why: String,
+    /// Whether its frames need a GPU adapter (a server without one answers 503 to them).
+    pub gpu: bool,
+    /// Whether it bakes first (a render without a bake made beforehand makes it then).
+    pub bake: bool,
+}
+
+/// What each method (in [`Method::ALL`]'s order) makes of `world` with its default parameters.
+pub fn fits(world: &World) -> Vec<MethodFit> {
+    Method::ALL
+        .into_iter()
+        .map(|m| {
+            let info = m.info();
+            let planned = m.imp().plan(world, &MethodArgs::default());
+            let why = match (&planned, m) {
+                (Err(e), _) => e.to_string(),
+                (Ok(_), Method::Auto) => {
+                    let (chosen, reason) = auto::choose(world);
+                    format!("picks {chosen}: {reason}")
+                }
+                (Ok(_), _) => fit_note(m).to_string(),
+            };
+            MethodFit {
+                method: m,
+                fits: planned.is_ok(),
+                why,
+                gpu: info.gpu,
+                bake: info.bake,
+            }
+        })
+        .collect()
+}
+
+/// What a method that accepts a scene gives it.
+fn fit_note(m: Method) -> &'static str {
+    match m {
+        Method::Auto => "picks one of the others",
+        Method::Direct => "direct light and shadows only: no caustics",
+        Method::Reference => "the ground truth on the CPU: exact, slow (seconds to minutes)",
+        Method::Csl => {
+            "caustic spot lights baked for a glass or mirror object under the directional \
+             light, then fast frames; close on convex glass like the sphere, far off on \
+             complex meshes (the bake's fit check says so)"
+        }
+        Method::Transport => {
+            "light transport tables baked for a glass or mirror object, then any light \
+             position; close on the sphere, far off on complex meshes"
+        }
+        Method::Pinhole => {
+            "no bake: points on the mirrors and glass project the environment and the lights \
+             every frame (one bounce)"
+        }
+        Method::Water => "no bake: sunlight refracted by the water surface",
+        Method::Beams => {
+            "no bake: light beams projected from the glass and mirrors: the surface caustics, \
+             and the volumetric ones in a medium"
+        }
+        Method::Photons => {
+            "no bake: progressive GPU photon tracing, close to the reference on any shape"
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each canonical scene gets every method's verdict: auto names what it picks, the methods
+    /// a scene cannot have say why (the render's own message), and the verdicts agree with
+    /// the plans the renders make.
+    #[test]
+    fn each_scene_lists_the_methods_that_fit_and_why_not_the_others() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let load =
+            |n: &str| crate::scene::load_scene_file(&dir.join(n), &Default::default()).unwrap();
+        let verdicts = |n: &str| {
+            fits(&load(n))
+                .into_iter()
+                .map(|f| (f.method, (f.fits, f.why)))
+                .collect::<std::collections::HashMap<_, _>>()
+        };
+        let sphere = verdicts("glass-sphere-directional.json");
+        assert_eq!(sphere.len(), Method::ALL.len());
+        assert!(
+            sphere[&Method::Auto].1.starts_with("picks photons: "),
+            "{sphere:?}"
+        );
+        for m in [
+            Method::Direct,
+            Method::Reference,
+            Method::Csl,
+            Method::Photons,
+        ] {
+            assert!(sphere[&m].0, "{m}: {:?}", sphere[&m]);
+        }
+        // No water surface: water says so, naming the field at fault.
+        assert!(!sphere[&Method::Water].0);
+        assert!(sphere[&Method::Water].1.starts_with("scene"), "{sphere:?}");
+        // A point light only: csl (directional lights) does not fit, transport does.
+        let point = verdicts("glass-sphere-point.json");
+        assert!(!point[&Method::Csl].0, "{point:?}");
+        assert!(point[&Method::Csl].1.contains("directional"), "{point:?}");
+        assert!(point[&Method::Transport].0, "{point:?}");
+        let pool = verdicts("pool-noon.json");
+        assert!(
+            pool[&Method::Auto].1.starts_with("picks water: "),
+            "{pool:?}"
+        );
+        assert!(pool[&Method::Water].0, "{pool:?}");
+        for n in [
+            "glass-teapot.json",
+            "fog-glass-sphere-spot.json",
+            "mirror-ring-env.json",
+        ] {
+            let w = load(n);
+            for f in fits(&w) {
+                let plan = f.method.imp().plan(&w, &MethodArgs::default());
+                assert_eq!(f.fits, plan.is_ok(), "{n} {}: {}", f.method, f.why);
+                assert_eq!((f.gpu, f.bake), (f.method.info().gpu, f.method.info().bake));
+            }
+        }
+    }
 
     #[test]
     fn every_method_is_named_once_and_parses_back() {

@@ -859,6 +859,24 @@ export interface components {
          */
         Method: "auto" | "direct" | "reference" | "csl" | "transport" | "pinhole" | "water" | "beams" | "photons";
         /**
+         * @description Whether a method can render a scene, and why or why not: listed with every stored scene
+         *     (its `methods`) so a client can offer the methods that fit.
+         */
+        MethodFit: {
+            /** @description Whether it bakes first (a render without a bake made beforehand makes it then). */
+            bake: boolean;
+            /** @description Whether a render of the scene with this method and its default parameters is accepted. */
+            fits: boolean;
+            /** @description Whether its frames need a GPU adapter (a server without one answers 503 to them). */
+            gpu: boolean;
+            method: components["schemas"]["Method"];
+            /**
+             * @description For `auto`, the method it picks and why; for a method that fits, what it gives this
+             *     scene; otherwise the field at fault and why (the render's 422 message).
+             */
+            why: string;
+        };
+        /**
          * @description How E is computed.
          *
          *     - `physical`: Refracted grid of sun rays, irradiance from the area ratio (converges to the reference).
@@ -1145,6 +1163,8 @@ export interface components {
             /** @description SHA-256 of the canonical scene and its files. */
             id: string;
             lights: string[];
+            /** @description Each method: whether it renders this scene, and why or why not. */
+            methods: components["schemas"]["MethodFit"][];
             name: string;
             objects: components["schemas"]["ObjectInfo"][];
             /** @description The canonical scene description. */

@@ -38,6 +38,7 @@ from .medium_bounds_desc_type_1 import MediumBoundsDescType1
 from .medium_bounds_desc_type_2 import MediumBoundsDescType2
 from .medium_desc import MediumDesc
 from .method import Method
+from .method_fit import MethodFit
 from .mode import Mode
 from .object_desc import ObjectDesc
 from .object_info import ObjectInfo
@@ -117,6 +118,7 @@ __all__ = (
     "MediumBoundsDescType2",
     "MediumDesc",
     "Method",
+    "MethodFit",
     "Mode",
     "ObjectDesc",
     "ObjectInfo",

@@ -11,6 +11,7 @@ from ..types import UNSET, Unset
 from typing import cast
 
 if TYPE_CHECKING:
+  from ..models.method_fit import MethodFit
   from ..models.object_info import ObjectInfo
   from ..models.scene_info_scene import SceneInfoScene
 
@@ -30,6 +31,7 @@ class SceneInfo:
             files (list[str]): The files the scene names (multipart uploads).
             id (str): SHA-256 of the canonical scene and its files.
             lights (list[str]):
+            methods (list[MethodFit]): Each method: whether it renders this scene, and why or why not.
             name (str):
             objects (list[ObjectInfo]):
             scene (SceneInfoScene): The canonical scene description.
@@ -40,6 +42,7 @@ class SceneInfo:
     files: list[str]
     id: str
     lights: list[str]
+    methods: list[MethodFit]
     name: str
     objects: list[ObjectInfo]
     scene: SceneInfoScene
@@ -52,6 +55,7 @@ class SceneInfo:
 
 
     def to_dict(self) -> dict[str, Any]:
+        from ..models.method_fit import MethodFit # noqa: PLC0415
         from ..models.object_info import ObjectInfo # noqa: PLC0415
         from ..models.scene_info_scene import SceneInfoScene # noqa: PLC0415
         files = self.files
@@ -61,6 +65,13 @@ class SceneInfo:
         id = self.id
 
         lights = self.lights
+
+
+
+        methods = []
+        for methods_item_data in self.methods:
+            methods_item = methods_item_data.to_dict()
+            methods.append(methods_item)
 
 
 
@@ -88,6 +99,7 @@ class SceneInfo:
             "files": files,
             "id": id,
             "lights": lights,
+            "methods": methods,
             "name": name,
             "objects": objects,
             "scene": scene,
@@ -101,6 +113,7 @@ class SceneInfo:
 
     @classmethod
     def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
+        from ..models.method_fit import MethodFit # noqa: PLC0415
         from ..models.object_info import ObjectInfo # noqa: PLC0415
         from ..models.scene_info_scene import SceneInfoScene # noqa: PLC0415
         d = dict(src_dict)
@@ -110,6 +123,16 @@ class SceneInfo:
         id = d.pop("id")
 
         lights = cast(list[str], d.pop("lights"))
+
+
+        methods = []
+        _methods = d.pop("methods")
+        for methods_item_data in (_methods):
+            methods_item = MethodFit.from_dict(methods_item_data)
+
+
+
+            methods.append(methods_item)
 
 
         name = d.pop("name")
@@ -138,6 +161,7 @@ class SceneInfo:
             files=files,
             id=id,
             lights=lights,
+            methods=methods,
             name=name,
             objects=objects,
             scene=scene,
