@@ -58,6 +58,7 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/problems/{type}"),
     ("GET", "/"),
     ("GET", "/viewer/viewer.js"),
+    ("GET", "/viewer/pixels.js"),
     ("GET", "/viewer/caustica.js"),
     ("GET", "/viewer/viewer.css"),
     ("GET", "/viewer/example.json"),
@@ -466,6 +467,7 @@ pub fn app(state: AppState) -> Router {
         .route("/problems/{type}", get(problems::show))
         .route("/", get(viewer::page))
         .route("/viewer/viewer.js", get(viewer::script))
+        .route("/viewer/pixels.js", get(viewer::pixels))
         .route("/viewer/caustica.js", get(viewer::client))
         .route("/viewer/viewer.css", get(viewer::styles))
         .route("/viewer/example.json", get(viewer::example))

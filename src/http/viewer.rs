@@ -33,6 +33,13 @@ pub async fn script() -> Response {
     )
 }
 
+pub async fn pixels() -> Response {
+    asset(
+        "text/javascript; charset=utf-8",
+        include_str!("../../web/dist/web/src/pixels.js"),
+    )
+}
+
 pub async fn client() -> Response {
     asset(
         "text/javascript; charset=utf-8",

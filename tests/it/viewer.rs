@@ -1,10 +1,13 @@
 //! The web viewer at `/` in a real browser: headless Chromium driven through chromedriver
 //! (Debian: chromium, chromium-driver; `.ci/run` installs them) over the WebDriver protocol.
-//! The page loads the example, renders it with the reference, shows exactly the frame the API
-//! gives for the same request, moves the caustic the right way when the light turns, orbits the
-//! camera by dragging the frame (previews while dragging, the full frame on release), bakes
-//! with its progress shown and cancels a bake. Also: the committed compiled viewer is the
-//! compiler's output.
+//! The page loads the example, renders it with the reference as an EXR and shows the API's PNG
+//! of the same request (its own EXR decoding and tone map), lists the methods that fit, changes
+//! exposure and tone map without a render, moves the caustic the right way when the light turns
+//! (slider, dial) and when a point light moves, orbits the camera by dragging the frame
+//! (previews while dragging, the full frame on release), bakes with its progress shown (a
+//! dynamic csl bake and a transport bake then serve the previews), cancels a bake, compares
+//! with the reference (the CLI's figures, an error map), takes a GLB, and fits a phone's
+//! width. Also: the committed compiled viewer is the compiler's output.
 
 use crate::support::server::*;
 use crate::support::{Cleanup, repo_path, temp_dir};
@@ -89,12 +92,6 @@ impl Browser {
             .await
     }
 
-    /// Runs `script`, whose last argument is the callback it calls with its result.
-    async fn exec_async(&self, script: &str) -> Value {
-        self.post("/execute/async", json!({"script": script, "args": []}))
-            .await
-    }
-
     /// The number of the frame shown, once the page has shown one past `after`.
     async fn frame_after(&self, after: u64) -> u64 {
         poll("a frame in the page", Duration::from_secs(180), || async {
@@ -112,14 +109,10 @@ impl Browser {
     /// The frame's pixels as the page shows them (RGBA) and its size.
     async fn pixels(&self) -> (Vec<u8>, u32, u32) {
         let v = self
-            .exec_async(
-                "const done = arguments[arguments.length - 1];
-                 const img = document.getElementById('frame');
-                 const c = document.createElement('canvas');
-                 c.width = img.naturalWidth; c.height = img.naturalHeight;
+            .exec(
+                "const c = document.getElementById('frame');
                  const g = c.getContext('2d');
-                 g.drawImage(img, 0, 0);
-                 done([c.width, c.height, Array.from(g.getImageData(0, 0, c.width, c.height).data)]);",
+                 return [c.width, c.height, Array.from(g.getImageData(0, 0, c.width, c.height).data)];",
             )
             .await;
         let px = v[2]
@@ -139,6 +132,9 @@ impl Browser {
     /// (`target/tmp/viewer/`), and returns its path.
     async fn screenshot(&self, name: &str) -> std::path::PathBuf {
         use base64::Engine;
+        // The frame at the top of the window (the dial and slider drags scroll the page).
+        self.exec("document.getElementById('view').scrollIntoView()")
+            .await;
         let v: Value = self
             .http
             .get(format!("{}/screenshot", self.url))
@@ -158,8 +154,12 @@ impl Browser {
         p
     }
 
-    /// Types `text` into element `css` (for a file input: the path of the file to choose).
+    /// Types `text` into element `css` (for a file input: the paths of the files to choose, one
+    /// a line).
     async fn type_into(&self, css: &str, text: &str) {
+        // A file input keeps what was chosen before: empty it first.
+        self.exec(&format!("document.querySelector('{css}').value = ''"))
+            .await;
         let el = self
             .post("/element", json!({"using": "css selector", "value": css}))
             .await;
@@ -181,7 +181,9 @@ impl Browser {
     async fn drag(&self, css: &str, dx: i64, dy: i64, ms: u64) {
         let c = self
             .exec(&format!(
-                "const r = document.querySelector('{css}').getBoundingClientRect();
+                "const e = document.querySelector('{css}');
+                 e.scrollIntoView({{block: 'center'}});
+                 const r = e.getBoundingClientRect();
                  return [Math.round(r.x + r.width / 2), Math.round(r.y + r.height / 2)]"
             ))
             .await;
@@ -212,9 +214,14 @@ fn focus(rgba: &[u8], w: u32) -> (f64, f64) {
         .chunks(4)
         .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
         .collect();
+    brightest(lum, w, 5)
+}
+
+/// The centroid (x, y) of the brightest `per_mille` ‰ of `lum`, a `w` pixels wide image.
+fn brightest(lum: Vec<f64>, w: u32, per_mille: usize) -> (f64, f64) {
     let mut sorted = lum.clone();
     sorted.sort_by(f64::total_cmp);
-    let cut = sorted[sorted.len() * 995 / 1000];
+    let cut = sorted[sorted.len() * (1000 - per_mille) / 1000];
     let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
     for (i, l) in lum.iter().enumerate() {
         if *l >= cut {
@@ -226,16 +233,88 @@ fn focus(rgba: &[u8], w: u32) -> (f64, f64) {
     (sx / n, sy / n)
 }
 
-/// The frame the API renders for the request the page shows as its curl line.
-async fn api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
+/// The request the page shows as its curl line (the frame on screen as a PNG).
+async fn shown_request(b: &Browser) -> Value {
     let curl = b.exec("return document.getElementById('curl').value").await;
     let curl = curl.as_str().unwrap();
     let body = &curl[curl.find("-d '").unwrap() + 4..curl.rfind("' -o").unwrap()];
-    let req: Value = serde_json::from_str(body).unwrap();
+    serde_json::from_str(body).unwrap()
+}
+
+/// The centroid (x, y) of the brightest 0.1 % of the luminance of the radiance the page
+/// decoded from the frame's EXR: a caustic's focus where the floor under a point light is
+/// bright too (noise-free frames only).
+async fn radiance_focus(b: &Browser) -> (f64, f64) {
+    let w = page_state(b, "frame.width").await.as_u64().unwrap() as u32;
+    let floats: Vec<f64> = page_state(b, "frame.rgb.join(',')")
+        .await
+        .as_str()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let lum = floats
+        .chunks(3)
+        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .collect();
+    brightest(lum, w, 1)
+}
+
+/// The frame the API renders for the request the page shows as its curl line.
+async fn api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
+    let req = shown_request(b).await;
     let r = srv.post_json("/v1/renders", &req).await;
     assert_eq!(r.status(), 200);
     let png = r.bytes().await.unwrap();
     image::load_from_memory(&png).unwrap().to_rgba8().into_raw()
+}
+
+/// Checks the page shows the API's PNG for the request of its curl line: the page tone-maps
+/// the EXR itself, in single precision as the server does, so bytes may differ by one step of
+/// rounding (a different `powf`) and no more.
+async fn shows_the_api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
+    let (px, _, _) = b.pixels().await;
+    let api = api_frame(srv, b).await;
+    assert_eq!(px.len(), api.len());
+    let worst = px.iter().zip(&api).map(|(a, b)| a.abs_diff(*b)).max();
+    let off = px.iter().zip(&api).filter(|(a, b)| a != b).count();
+    assert!(
+        worst <= Some(1),
+        "page and API differ by up to {worst:?} ({off} of {} bytes)",
+        px.len()
+    );
+    px
+}
+
+/// The page's state as its script keeps it (`window.caustica`): field `path` of it.
+async fn page_state(b: &Browser, path: &str) -> Value {
+    b.exec(&format!("return window.caustica.{path}")).await
+}
+
+/// The frame's counters: full frames shown, previews shown, the last preview's method and
+/// milliseconds (request to screen), and the last full frame's milliseconds.
+async fn counters(b: &Browser) -> (u64, u64, String, String, String) {
+    let v = b
+        .exec("const d = document.getElementById('frame').dataset; return [d.frame || '0', d.preview || '0', d.previewMethod || '', d.previewMs || '', d.frameMs || '']")
+        .await;
+    let s = |i: usize| v[i].as_str().unwrap().to_string();
+    (
+        s(0).parse().unwrap(),
+        s(1).parse().unwrap(),
+        s(2),
+        s(3),
+        s(4),
+    )
+}
+
+/// The number of requests the page has made to `path`.
+async fn requests_to(b: &Browser, path: &str) -> usize {
+    let v = b
+        .exec(&format!(
+            "return performance.getEntriesByType('resource').filter(e => new URL(e.name).pathname === '{path}').length"
+        ))
+        .await;
+    v.as_u64().unwrap() as usize
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -244,74 +323,169 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     let srv = Server::start("viewer", |j, _| j.cpu_workers = 1).await;
     let b = Browser::start().await;
     b.goto(&srv.url("/")).await;
+    b.exec("performance.setResourceTimingBufferSize(100000)")
+        .await;
 
-    // The example, rendered with the reference on load: the page shows the API's frame.
+    // The example, rendered with the reference on load as an EXR, tone-mapped by the page:
+    // the API's PNG of the same request, and the radiance the page decoded is the EXR's.
     let first = b.frame_after(0).await;
     let (px, w, h) = b.pixels().await;
     assert_eq!((w, h), (192, 144));
-    let api = api_frame(&srv, &b).await;
-    assert_eq!(px.len(), api.len());
-    let differ = px.iter().zip(&api).filter(|(a, b)| a != b).count();
-    assert!(differ == 0, "{differ} of {} bytes differ", px.len());
+    shows_the_api_frame(&srv, &b).await;
+    let id = b
+        .exec("return document.getElementById('frame').dataset.render")
+        .await;
+    let exr = srv
+        .client
+        .get(srv.url(&format!("/v1/renders/{}/image", id.as_str().unwrap())))
+        .send()
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let want = image::load_from_memory(&exr)
+        .unwrap()
+        .to_rgb32f()
+        .into_raw();
+    let decoded: Vec<f32> = page_state(&b, "frame.rgb.join(',')")
+        .await
+        .as_str()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse::<f64>().unwrap() as f32)
+        .collect();
+    assert!(
+        decoded == want,
+        "the page's EXR decoding differs from image's"
+    );
     let (x0, y0) = focus(&px, w);
     b.screenshot("example-reference").await;
 
-    // Turn the light from travelling along +x (azimuth 0) to +z, towards the camera: the
+    // The methods that fit the example, and why not the others: the server's verdicts shown,
+    // the ones that do not fit not offered.
+    let fits = b
+        .exec("return Array.from(document.querySelectorAll('#fits li')).map(li => [li.dataset.method, li.dataset.fits, li.textContent])")
+        .await;
+    let fits = fits.as_array().unwrap();
+    let (_, info) = srv
+        .get_json(&format!(
+            "/v1/scenes/{}",
+            shown_request(&b).await["scene"].as_str().unwrap()
+        ))
+        .await;
+    assert_eq!(fits.len(), info["methods"].as_array().unwrap().len());
+    for (li, m) in fits.iter().zip(info["methods"].as_array().unwrap()) {
+        assert_eq!(li[0], m["method"]);
+        assert_eq!(li[1].as_str().unwrap(), m["fits"].to_string());
+        assert!(li[2].as_str().unwrap().contains(m["why"].as_str().unwrap()));
+    }
+    let water = fits.iter().find(|li| li[0] == "water").unwrap();
+    assert!(water[1] == "false" && water[2].as_str().unwrap().contains("water shape"));
+    let offered = b
+        .exec("return Array.from(document.getElementById('method').options).filter(o => !o.disabled).map(o => o.value)")
+        .await;
+    assert!(!offered.as_array().unwrap().contains(&json!("water")));
+    assert!(offered.as_array().unwrap().contains(&json!("reference")));
+
+    // Exposure and tone map change the frame on screen without a render: the page shows the
+    // API's PNG for that exposure and tone map.
+    let renders = requests_to(&b, "/v1/renders").await;
+    b.exec(
+        "const e = document.getElementById('exposure'); e.value = '1.5'; e.dispatchEvent(new Event('input'));
+         const t = document.getElementById('tone-map'); t.value = 'reinhard'; t.dispatchEvent(new Event('input'));",
+    )
+    .await;
+    let req = shown_request(&b).await;
+    assert_eq!(
+        (req["exposure"].as_f64(), req["tone_map"].as_str()),
+        (Some(1.5), Some("reinhard"))
+    );
+    let bright = shows_the_api_frame(&srv, &b).await;
+    assert_ne!(bright, px);
+    assert_eq!(
+        requests_to(&b, "/v1/renders").await,
+        renders,
+        "a render was asked for"
+    );
+    assert_eq!(counters(&b).await.0, first);
+    b.screenshot("exposure").await;
+    b.exec(
+        "const e = document.getElementById('exposure'); e.value = '0'; e.dispatchEvent(new Event('input'));
+         const t = document.getElementById('tone-map'); t.value = 'clamp'; t.dispatchEvent(new Event('input'));",
+    )
+    .await;
+
+    // Turn the light from travelling along +x (heading 0) to +z, towards the camera: the
     // caustic beyond the sphere moves towards the camera (down the frame) and left.
     b.exec(
         "const s = document.getElementById('azimuth'); s.value = '60';
          s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'));",
     )
     .await;
-    let t0 = std::time::Instant::now();
-    b.frame_after(first).await;
-    let turned = t0.elapsed();
-    let (px2, _, _) = b.pixels().await;
-    assert_eq!(px2, api_frame(&srv, &b).await);
+    let turned = b.frame_after(first).await;
+    let px2 = shows_the_api_frame(&srv, &b).await;
     let (x1, y1) = focus(&px2, w);
     b.screenshot("light-turned").await;
     assert!(
         y1 > y0 + 3.0 && x1 < x0 - 3.0,
         "the focus went from ({x0:.1}, {y0:.1}) to ({x1:.1}, {y1:.1})"
     );
-    let status = b
-        .exec("return document.getElementById('status').textContent")
-        .await;
+    println!("light slider: focus ({x0:.1}, {y0:.1}) -> ({x1:.1}, {y1:.1})");
+
+    // Dragging the light's dot on the dial to the east (+x): the light comes from +x, so it
+    // travels along -x and the caustic goes to the other side of the sphere (left of where
+    // it was with the light from -x). Previews while dragging, the full frame on release.
+    b.drag("#dial", 40, 0, 1200).await;
+    let last = b.frame_after(turned).await;
+    let (az, el) = {
+        let v = b
+            .exec("return [document.getElementById('azimuth').value, document.getElementById('elevation').value]")
+            .await;
+        let n = |i: usize| v[i].as_str().unwrap().parse::<i64>().unwrap();
+        (n(0), n(1))
+    };
+    assert!(az.abs() == 180, "heading {az}");
+    assert!((50..=58).contains(&el), "elevation {el}");
+    let (_, previews, pm, preview_ms, frame_ms) = counters(&b).await;
+    assert!(previews >= 1, "no preview while dragging the light");
+    assert_eq!(pm, "direct");
+    let px_dial = shows_the_api_frame(&srv, &b).await;
+    let (x2, _) = focus(&px_dial, w);
+    assert!(x2 < x0 - 10.0, "the focus went from x {x0:.1} to {x2:.1}");
+    b.screenshot("light-dial").await;
     println!(
-        "light turned -> full frame in {turned:?} ({status}); focus ({x0:.1}, {y0:.1}) -> ({x1:.1}, {y1:.1})"
+        "light dial (reference frames): {previews} direct previews, the last {preview_ms} ms request to screen; release -> full frame {frame_ms} ms; focus x {x0:.1} -> {x2:.1}"
     );
 
     // Dragging the frame orbits the camera: small direct previews while dragging, then the
     // full frame for the new camera, again the API's frame for the request shown.
-    let before = b
-        .exec("return [document.getElementById('orbit').value, document.getElementById('frame').dataset.frame]")
+    let orbit0 = b
+        .exec("return document.getElementById('orbit').value")
         .await;
-    let frames: u64 = before[1].as_str().unwrap().parse().unwrap();
-    let t0 = std::time::Instant::now();
+    let previews0 = counters(&b).await.1;
     b.drag("#frame", -80, 20, 1200).await;
-    b.frame_after(frames).await;
-    let released = t0.elapsed();
-    let after = b
-        .exec("const f = document.getElementById('frame'); return [document.getElementById('orbit').value, document.getElementById('tilt').value, f.dataset.preview || '0', f.dataset.previewMs || '']")
+    let orbited = b.frame_after(last).await;
+    let orbit1 = b
+        .exec("return document.getElementById('orbit').value")
         .await;
     let orbit = |v: &Value| v.as_str().unwrap().parse::<i64>().unwrap();
-    assert_eq!(orbit(&after[0]), orbit(&before[0]) + 40, "{after}");
-    let previews: u64 = after[2].as_str().unwrap().parse().unwrap();
-    assert!(previews >= 1, "no preview while dragging: {after}");
-    let (px3, _, _) = b.pixels().await;
-    assert_eq!(px3, api_frame(&srv, &b).await);
-    assert_ne!(px3, px2, "the orbit changed nothing");
+    assert_eq!(orbit(&orbit1), orbit(&orbit0) + 40);
+    let (_, previews, _, preview_ms, frame_ms) = counters(&b).await;
+    assert!(previews > previews0, "no preview while dragging");
+    let px3 = shows_the_api_frame(&srv, &b).await;
+    assert_ne!(px3, px_dial, "the orbit changed nothing");
     b.screenshot("orbited").await;
     println!(
-        "drag: {previews} previews, the last {} ms after its input; release -> full frame {:?} after the drag began (1.2 s of dragging)",
-        after[3].as_str().unwrap(),
-        released
+        "orbit drag (reference frames): {} direct previews, the last {preview_ms} ms request to screen; release -> full frame {frame_ms} ms",
+        previews - previews0
     );
 
-    // A bake of the glass at the paper's settings: its progress shown as it comes, then
-    // succeeded.
+    // A dynamic csl bake (12 directions): its progress shown as it comes, then succeeded; the
+    // page renders csl from then on, and dragging the light previews csl frames interpolated
+    // from the bake (any direction), the full frame on release again the API's.
     b.exec(
-        "document.getElementById('preset').value = 'paper';
+        "document.getElementById('bake-kind').value = 'csl-dynamic-quick';
          document.getElementById('bake').click()",
     )
     .await;
@@ -328,15 +502,28 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     assert_eq!((stage.0.as_str(), stage.1), ("succeeded", 1.0));
     let events: u32 = stage.2.parse().unwrap();
     assert!(events >= 2, "{events} progress events shown");
-    b.screenshot("baked").await;
     let (_, list) = srv.get_json("/v1/bakes?state=succeeded&method=csl").await;
     assert_eq!(list["items"].as_array().unwrap().len(), 1, "{list}");
+    let baked = b.frame_after(orbited).await;
+    assert_eq!(shown_request(&b).await["method"], "csl");
+    let previews0 = counters(&b).await.1;
+    b.drag("#dial", 0, -30, 1500).await;
+    b.frame_after(baked).await;
+    let (_, previews, pm, preview_ms, frame_ms) = counters(&b).await;
+    assert!(previews > previews0, "no preview while dragging the light");
+    assert_eq!(pm, "csl", "previews from the dynamic bake");
+    let req = shown_request(&b).await;
+    assert_eq!(req["csl"]["dynamic"], true, "{req}");
+    shows_the_api_frame(&srv, &b).await;
+    b.screenshot("dynamic-csl").await;
+    println!(
+        "light dial after a dynamic csl bake: {} csl previews, the last {preview_ms} ms request to screen; release -> full csl frame {frame_ms} ms",
+        previews - previews0
+    );
 
     // Cancel: a long reference bake holds the one CPU worker, so the viewer's next bake waits
     // in the queue; its Cancel button cancels it.
-    let scene_id = b
-        .exec("return JSON.parse(document.getElementById('curl').value.split(\"-d '\")[1].split(\"' -o\")[0]).scene")
-        .await;
+    let scene_id = shown_request(&b).await["scene"].clone();
     let long = srv
         .submit_bake(
             &json!({"scene": scene_id, "object": "glass", "method": "reference",
@@ -344,7 +531,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         )
         .await;
     b.exec(
-        "document.getElementById('preset').value = 'fast';
+        "document.getElementById('bake-kind').value = 'csl-fast';
          document.getElementById('bake').click()",
     )
     .await;
@@ -390,8 +577,8 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .unwrap();
     assert_eq!(r.status(), 200);
 
-    // Compare: photons against the reference, the figures the page shows are the CLI's for
-    // the same two EXR images.
+    // Compare: photons against the reference side by side with an error map; the figures
+    // the page shows are the CLI's for the same two EXR images.
     b.exec(
         "document.getElementById('method').value = 'photons';
          document.getElementById('compare').click()",
@@ -407,6 +594,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     .await;
     let dir = temp_dir("viewer-compare");
     let _cleanup_compare = Cleanup(dir.clone());
+    let mut exrs = vec![];
     for (i, name) in [(2, "a.exr"), (3, "b.exr")] {
         let id = shown[i].as_str().unwrap();
         let r = srv
@@ -416,7 +604,9 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
             .await
             .unwrap();
         assert_eq!(r.headers()["content-type"], "image/x-exr");
-        std::fs::write(dir.join(name), r.bytes().await.unwrap()).unwrap();
+        let bytes = r.bytes().await.unwrap();
+        exrs.push(image::load_from_memory(&bytes).unwrap().to_rgb32f());
+        std::fs::write(dir.join(name), bytes).unwrap();
     }
     let out = crate::support::caustica_command()
         .arg("compare")
@@ -440,14 +630,85 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     );
     assert!(cli.starts_with(&want), "page: {want}; CLI: {cli}");
     println!("compare (photons against the reference): {cli}");
+    // The error map's mean is the mean of |L(a) - L(b)| / mean L(b) over the two images.
+    let lum = |p: &[f32]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+    let (a, r) = (exrs[0].as_raw(), exrs[1].as_raw());
+    let scale = r.chunks(3).map(lum).sum::<f64>() / (r.len() / 3) as f64;
+    let mean = a
+        .chunks(3)
+        .zip(r.chunks(3))
+        .map(|(p, q)| (lum(p) - lum(q)).abs() / scale)
+        .sum::<f64>()
+        / (r.len() / 3) as f64;
+    let v = b
+        .exec("return [document.getElementById('compare-view').hidden, document.getElementById('cmp-error').dataset.mean, document.getElementById('cmp-reference').width]")
+        .await;
+    assert_eq!(v[0], false);
+    assert_eq!(v[1].as_str().unwrap(), format!("{mean:.4}"));
+    assert_eq!(v[2], 192);
     b.screenshot("compared").await;
+
+    // A point light (a scene JSON chosen in the file field): csl is not offered (directional
+    // lights only); a transport bake, then dragging the dial moves the light around its
+    // target with transport previews from the bake, and the caustic goes to the side away
+    // from the light.
+    let shown = counters(&b).await.0;
+    b.type_into(
+        "#upload",
+        repo_path("scenes/glass-sphere-point.json")
+            .to_str()
+            .unwrap(),
+    )
+    .await;
+    let loaded = b.frame_after(shown).await;
+    let v = b
+        .exec("return [document.getElementById('light').selectedOptions[0].textContent, document.getElementById('distance').hidden, document.querySelector('#method option[value=csl]').disabled]")
+        .await;
+    assert_eq!(v, json!(["1: point", false, true]));
+    b.exec(
+        "document.getElementById('bake-kind').value = 'transport';
+         document.getElementById('bake').click()",
+    )
+    .await;
+    poll("the transport bake", Duration::from_secs(300), || async {
+        let v = b
+            .exec("return document.getElementById('bake-stage').textContent")
+            .await;
+        assert!(v != "failed" && v != "canceled", "{v}");
+        (v == "succeeded").then_some(())
+    })
+    .await;
+    let baked = b.frame_after(loaded).await;
+    assert_eq!(shown_request(&b).await["method"], "transport");
+    // In radiance (the floor under the light saturates the 8-bit frame as the caustic does).
+    let (x5, _) = radiance_focus(&b).await;
+    b.screenshot("point-light").await;
+    let previews0 = counters(&b).await.1;
+    // The light starts on the -x side of its target; the dot goes to the +x side.
+    b.drag("#dial", 40, 0, 1500).await;
+    b.frame_after(baked).await;
+    let (_, previews, pm, preview_ms, frame_ms) = counters(&b).await;
+    assert!(previews > previews0, "no preview while dragging the light");
+    assert_eq!(pm, "transport", "previews from the transport bake");
+    let req = shown_request(&b).await;
+    assert!(
+        req["lights"][0]["position"][0].as_f64().unwrap() > 0.35,
+        "{req}"
+    );
+    shows_the_api_frame(&srv, &b).await;
+    let (x6, _) = radiance_focus(&b).await;
+    assert!(x6 < x5 - 10.0, "the focus went from x {x5:.1} to {x6:.1}");
+    b.screenshot("point-light-transport").await;
+    println!(
+        "point light dial after a transport bake: {} transport previews, the last {preview_ms} ms request to screen; release -> full transport frame {frame_ms} ms; focus x {x5:.1} -> {x6:.1}",
+        previews - previews0
+    );
 
     // A GLB chosen in the file field (the mirror-lined cup): uploaded, its mirror listed for
     // bakes, rendered (the API's frame again, and not a blank one).
-    let shown = b
-        .exec("return document.getElementById('frame').dataset.frame")
+    b.exec("document.getElementById('method').value = 'photons'")
         .await;
-    let shown: u64 = shown.as_str().unwrap().parse().unwrap();
+    let shown = counters(&b).await.0;
     let glb = repo_path("scenes/assets/cup.glb");
     b.type_into("#upload", glb.to_str().unwrap()).await;
     b.frame_after(shown).await;
@@ -455,11 +716,59 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .exec("return Array.from(document.getElementById('object').options).map(o => o.value)")
         .await;
     assert!(!objects.as_array().unwrap().is_empty(), "{objects}");
-    let (px4, _, _) = b.pixels().await;
-    assert_eq!(px4, api_frame(&srv, &b).await);
+    let px4 = shows_the_api_frame(&srv, &b).await;
     let lit = px4.chunks(4).filter(|p| p[0] > 40 || p[1] > 40).count();
     assert!(lit > px4.len() / 4 / 20, "{lit} lit pixels");
     b.screenshot("uploaded-glb").await;
+
+    // A glTF with its files (Blender's Suzanne: .gltf, .bin and two PNG textures) chosen
+    // together: the page embeds the files in the glTF and uploads it. No glass or mirror: the
+    // methods with caustics are not offered and the page falls back to auto; the frame is
+    // the API's. (It is black: the file's material is metallic, the metallic-roughness texture
+    // is not read, so the importer takes it as a rough metal of albedo 0.)
+    let shown = counters(&b).await.0;
+    let dir = repo_path("scenes/assets/Suzanne-glTF");
+    let paths = [
+        "Suzanne.gltf",
+        "Suzanne.bin",
+        "Suzanne_BaseColor.png",
+        "Suzanne_MetallicRoughness.png",
+    ]
+    .map(|f| dir.join(f).to_string_lossy().into_owned())
+    .join("\n");
+    b.type_into("#upload", &paths).await;
+    b.frame_after(shown).await;
+    let v = b
+        .exec("return [document.getElementById('method').value, document.querySelector('#fits li[data-method=photons]').dataset.fits, document.querySelectorAll('#warnings li').length, document.getElementById('object').options.length]")
+        .await;
+    assert_eq!(v, json!(["auto", "false", v[2], 0]), "{v}");
+    assert!(v[2].as_u64().unwrap() > 0, "no warnings listed: {v}");
+    shows_the_api_frame(&srv, &b).await;
+    b.screenshot("uploaded-gltf").await;
+    // The mesh came from the .bin and the base colour from its texture: the server warns of
+    // neither missing.
+    let (_, info) = srv
+        .get_json(&format!(
+            "/v1/scenes/{}",
+            shown_request(&b).await["scene"].as_str().unwrap()
+        ))
+        .await;
+    assert_eq!(info["triangles"], 3936, "{}", info["objects"]);
+    let warnings = info["warnings"].to_string();
+    assert!(!warnings.contains("texture"), "{warnings}");
+
+    // A phone's width: one column, the frame first, nothing wider than the screen.
+    b.post("/window/rect", json!({"width": 390, "height": 844}))
+        .await;
+    b.exec("window.scrollTo(0, 0)").await;
+    let v = b
+        .exec("const f = document.getElementById('frame').getBoundingClientRect(); const c = document.getElementById('controls').getBoundingClientRect(); return [document.documentElement.scrollWidth, window.innerWidth, f.width > 0 && f.right <= window.innerWidth, f.bottom <= c.top]")
+        .await;
+    assert!(
+        v[0].as_u64() <= v[1].as_u64() && v[2] == true && v[3] == true,
+        "{v}"
+    );
+    b.screenshot("phone").await;
     b.quit().await;
     srv.stop().await;
 }
@@ -481,7 +790,11 @@ fn the_committed_viewer_is_the_compilers_output() {
         "tsc:\n{}",
         String::from_utf8_lossy(&r.stdout)
     );
-    for f in ["web/src/viewer.js", "clients/typescript/src/index.js"] {
+    for f in [
+        "web/src/viewer.js",
+        "web/src/pixels.js",
+        "clients/typescript/src/index.js",
+    ] {
         let built = std::fs::read_to_string(out.join(f)).unwrap();
         let committed = std::fs::read_to_string(repo_path(format!("web/dist/{f}"))).unwrap();
         assert!(

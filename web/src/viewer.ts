@@ -1,7 +1,9 @@
-// The web viewer served at `/` by `caustica serve`: pick the example or upload a scene, render
-// it with a method, orbit the camera and turn the scene's directional light (small `direct`
-// previews while dragging, the full frame on release), bake its caustic spot lights with live
-// progress. Every call goes through the TypeScript client (clients/typescript), compiled with
+// The web viewer served at `/` by `caustica serve`: pick the example or upload a scene, see
+// which methods fit it, render it with one, change exposure and tone map on the client from
+// the frame's EXR, orbit the camera and move a light (small previews while dragging, from the
+// bake when one serves the change, else `direct`; the full frame on release), bake with live
+// progress, compare with the reference (side by side, an error map, the figures of `caustica
+// compare`). Every call goes through the TypeScript client (clients/typescript), compiled with
 // this file into web/dist (web/build.sh) and served from the binary.
 
 // "caustica" is the client: mapped to its source for tsc (tsconfig paths), and to its compiled
@@ -10,11 +12,12 @@ import {
   Caustica,
   CausticaError,
   type Frame,
-  type LightDescOf,
+  type LightDesc,
   type RenderRequest,
   type Scene,
   type SceneInfo,
 } from "caustica";
+import { decodeExr, errorMap, type Radiance, type ToneMap, toneMapped } from "./pixels.js";
 
 const $ = <T extends HTMLElement>(id: string): T => document.getElementById(id) as T;
 const status = $<HTMLParagraphElement>("status");
@@ -22,10 +25,16 @@ const method = $<HTMLSelectElement>("method");
 const width = $<HTMLInputElement>("width");
 const height = $<HTMLInputElement>("height");
 const photons = $<HTMLInputElement>("photons");
+const exposure = $<HTMLInputElement>("exposure");
+const toneMap = $<HTMLSelectElement>("tone-map");
+const lightSel = $<HTMLSelectElement>("light");
+const dial = $<HTMLCanvasElement>("dial");
 const azimuth = $<HTMLInputElement>("azimuth");
 const elevation = $<HTMLInputElement>("elevation");
-const frame = $<HTMLImageElement>("frame");
+const distance = $<HTMLInputElement>("distance");
+const frame = $<HTMLCanvasElement>("frame");
 const objectSel = $<HTMLSelectElement>("object");
+const bakeKind = $<HTMLSelectElement>("bake-kind");
 const bakeBtn = $<HTMLButtonElement>("bake");
 const cancelBtn = $<HTMLButtonElement>("cancel");
 const progress = $<HTMLProgressElement>("bake-progress");
@@ -33,7 +42,7 @@ const bakeStage = $<HTMLSpanElement>("bake-stage");
 const keyInput = $<HTMLInputElement>("key");
 const orbit = $<HTMLInputElement>("orbit");
 const tilt = $<HTMLInputElement>("tilt");
-const preset = $<HTMLSelectElement>("preset");
+const sliders = [azimuth, elevation, distance, orbit, tilt, exposure];
 
 keyInput.value = sessionStorage.getItem("caustica-key") ?? "";
 let client = new Caustica(location.origin, { apiKey: keyInput.value || undefined });
@@ -42,15 +51,38 @@ keyInput.addEventListener("change", () => {
   client = new Caustica(location.origin, { apiKey: keyInput.value || undefined });
 });
 
-let scene: SceneInfo | undefined;
-/** The scene's first directional light, turned by the sliders (undefined: the scene has none). */
-let light: LightDescOf<"directional"> | undefined;
-/** The scene's camera; `distance` from its target, turned by the orbit and tilt sliders. */
-let camera: (Scene["camera"] & { distance: number }) | undefined;
-let frameUrl = "";
+type Vec3 = [number, number, number];
+type Movable = Extract<LightDesc, { type: "directional" | "point" | "spot" }>;
+
+/** What the page shows, also on `window.caustica` for the browser's console (and tests). */
+const state: {
+  scene?: SceneInfo;
+  /** The scene's lights, as a render replaces them (the moved one changed). */
+  lights: LightDesc[];
+  /** Index in `lights` of the light the dial moves (-1: none can move). */
+  moving: number;
+  /** Point and spot lights move on a sphere around this point (their target, or the
+   *  camera's). */
+  centre: Vec3;
+  camera?: Scene["camera"] & { distance: number };
+  /** The frame on screen (linear radiance) and the request that made it. */
+  frame?: Radiance;
+  shown?: RenderRequest;
+  renderId?: string;
+  exr?: Uint8Array;
+  /** The compare view's two frames. */
+  compared?: { a: Radiance; b: Radiance };
+  /** Bakes that succeeded this session: `scene id + bake kind`. */
+  baked: Set<string>;
+  gpu?: boolean;
+} = { lights: [], moving: -1, centre: [0, 0, 0], baked: new Set() };
+(window as unknown as { caustica: typeof state }).caustica = state;
+
 let rendering = 0;
 let previews = 0;
 let previewBusy = false;
+let pngUrl = "";
+let exrUrl = "";
 
 function say(text: string): void {
   status.textContent = text;
@@ -60,55 +92,141 @@ function problem(e: unknown): string {
   return e instanceof CausticaError ? `${e.status}: ${e.problem.detail}` : String(e);
 }
 
-/** Light direction (towards where the light travels) from the sliders. */
-function direction(): [number, number, number] {
-  const az = (Number(azimuth.value) * Math.PI) / 180;
-  const el = (Number(elevation.value) * Math.PI) / 180;
+const rad = (deg: number) => (deg * Math.PI) / 180;
+const deg = (r: number) => (r * 180) / Math.PI;
+
+/** The direction light travels in, from the heading and elevation sliders. */
+function direction(): Vec3 {
+  const az = rad(Number(azimuth.value));
+  const el = rad(Number(elevation.value));
   return [Math.cos(el) * Math.cos(az), -Math.sin(el), Math.cos(el) * Math.sin(az)];
 }
 
+/** Sets the heading and elevation sliders from a direction light travels in. */
+function slidersFrom(d: number[]): void {
+  const [x, y, z] = d;
+  azimuth.value = String(Math.round(deg(Math.atan2(z, x))));
+  elevation.value = String(Math.round(deg(Math.atan2(-y, Math.hypot(x, z)))));
+}
+
 function showSliders(): void {
-  for (const s of [azimuth, elevation, orbit, tilt]) {
-    $<HTMLOutputElement>(`${s.id}-value`).value = s.value;
+  for (const s of sliders) $<HTMLOutputElement>(`${s.id}-value`).value = s.value;
+  drawDial();
+}
+
+/** The light being moved, as the sliders place it: a directional light travels along
+ *  `direction()`; a point or spot light sits `distance` back along it from its centre (a
+ *  spot keeps its target, so it stays aimed). */
+function movedLight(): LightDesc | undefined {
+  const l = state.lights[state.moving] as Movable | undefined;
+  if (!l) return undefined;
+  const d = direction();
+  if (l.type === "directional") return { ...l, direction: d };
+  const r = Number(distance.value);
+  const c = state.centre;
+  return { ...l, position: [c[0] - r * d[0], c[1] - r * d[1], c[2] - r * d[2]] };
+}
+
+/** Picks the light the dial moves and sets the sliders from it. */
+function chooseLight(i: number): void {
+  state.moving = i;
+  const l = state.lights[i] as Movable | undefined;
+  for (const el of document.querySelectorAll<HTMLElement>(".positional")) {
+    el.hidden = !l || l.type === "directional";
   }
+  for (const s of [azimuth, elevation, distance]) s.disabled = !l;
+  if (!l) return showSliders();
+  if (l.type === "directional") {
+    slidersFrom(l.direction);
+  } else {
+    const c = l.type === "spot" ? l.target : state.camera ? state.camera.target : [0, 0, 0];
+    state.centre = [c[0], c[1], c[2]];
+    const v = state.centre.map((c, k) => c - l.position[k]);
+    const r = Math.hypot(...v) || 1;
+    slidersFrom(v.map((x) => x / r));
+    distance.max = String(Math.max(10, Math.ceil(r * 3)));
+    distance.min = String(Math.min(0.2, r / 2));
+    distance.step = String(Number(distance.max) / 400);
+    distance.value = String(r);
+  }
+  showSliders();
+}
+
+/** The dial: the sky seen from above, the light's dot where light comes from (or where a
+ *  point or spot light sits), the camera's side marked on the rim. */
+function drawDial(): void {
+  const g = dial.getContext("2d");
+  if (!g) return;
+  const { width: w, height: h } = dial;
+  const R = w / 2 - 12;
+  g.clearRect(0, 0, w, h);
+  g.strokeStyle = "#888";
+  g.lineWidth = 1;
+  for (const f of [1, Math.cos(rad(30)), Math.cos(rad(60))]) {
+    g.beginPath();
+    g.arc(w / 2, h / 2, R * f, 0, 2 * Math.PI);
+    g.stroke();
+  }
+  if (state.camera) {
+    const c = state.camera;
+    const [ex, ez] = [c.eye[0] - c.target[0], c.eye[2] - c.target[2]];
+    const n = Math.hypot(ex, ez) || 1;
+    g.fillStyle = "#48c";
+    g.fillRect(w / 2 + (R + 6) * (ex / n) - 4, h / 2 + (R + 6) * (ez / n) - 4, 8, 8);
+  }
+  if (state.moving < 0) return;
+  const d = direction();
+  g.fillStyle = "#fc3";
+  g.strokeStyle = "#000";
+  g.beginPath();
+  g.arc(w / 2 - R * d[0], h / 2 - R * d[2], 7, 0, 2 * Math.PI);
+  g.fill();
+  g.stroke();
+}
+
+/** Moves the light to where the pointer is on the dial. */
+function dialTo(e: PointerEvent): void {
+  const r = dial.getBoundingClientRect();
+  const R = (r.width / 2) * (1 - 24 / dial.width);
+  let x = (e.clientX - r.left - r.width / 2) / R;
+  let z = (e.clientY - r.top - r.height / 2) / R;
+  const n = Math.hypot(x, z);
+  const most = Math.cos(rad(Number(elevation.min)));
+  if (n > most) [x, z] = [(x / n) * most, (z / n) * most];
+  // The dot is where light comes from: light travels the other way.
+  azimuth.value = String(Math.round(deg(Math.atan2(-z, -x))));
+  elevation.value = String(Math.round(deg(Math.acos(Math.min(1, Math.hypot(x, z))))));
+  showSliders();
 }
 
 /** The camera's eye from the orbit and tilt sliders, at its distance from its target. */
-function eye(): [number, number, number] {
-  const c = camera!;
-  const az = (Number(orbit.value) * Math.PI) / 180;
-  const el = (Number(tilt.value) * Math.PI) / 180;
-  const d = c.distance;
+function eye(): Vec3 {
+  const c = state.camera!;
+  const az = rad(Number(orbit.value));
+  const el = rad(Number(tilt.value));
   return [
-    c.target[0] + d * Math.cos(el) * Math.sin(az),
-    c.target[1] + d * Math.sin(el),
-    c.target[2] + d * Math.cos(el) * Math.cos(az),
+    c.target[0] + c.distance * Math.cos(el) * Math.sin(az),
+    c.target[1] + c.distance * Math.sin(el),
+    c.target[2] + c.distance * Math.cos(el) * Math.cos(az),
   ];
 }
 
-/** Sets the sliders from a light direction. */
-function slidersFrom(d: number[]): void {
-  const [x, y, z] = d;
-  const h = Math.hypot(x, z);
-  azimuth.value = String(Math.round((Math.atan2(z, x) * 180) / Math.PI));
-  elevation.value = String(Math.round((Math.atan2(-y, h) * 180) / Math.PI));
-  showSliders();
-}
-
 async function useScene(info: SceneInfo): Promise<void> {
-  scene = info;
-  const lights = ((info.scene as { lights?: unknown[] }).lights ?? []) as { type: string }[];
-  const dir = lights.find((l) => l.type === "directional") as LightDescOf<"directional"> | undefined;
-  light = dir ? { ...dir } : undefined;
-  if (light) slidersFrom(light.direction);
-  azimuth.disabled = elevation.disabled = !light;
-  const cam = (info.scene as Scene).camera;
+  state.scene = info;
+  const desc = info.scene as Scene;
+  const cam = desc.camera;
   const [ex, ey, ez] = cam.eye.map((v, i) => v - cam.target[i]);
-  const distance = Math.hypot(ex, ey, ez);
-  camera = { ...cam, distance };
-  orbit.value = String(Math.round((Math.atan2(ex, ez) * 180) / Math.PI));
-  tilt.value = String(Math.round((Math.asin(ey / distance) * 180) / Math.PI));
-  showSliders();
+  const dist = Math.hypot(ex, ey, ez);
+  state.camera = { ...cam, distance: dist };
+  orbit.value = String(Math.round(deg(Math.atan2(ex, ez))));
+  tilt.value = String(Math.round(deg(Math.asin(ey / dist))));
+  state.lights = ((desc as { lights?: LightDesc[] }).lights ?? []).map((l) => ({ ...l }));
+  const movable = state.lights.flatMap((l, i) =>
+    ["directional", "point", "spot"].includes(l.type) ? [new Option(`${i + 1}: ${l.type}`, String(i))] : [],
+  );
+  lightSel.replaceChildren(...movable);
+  lightSel.disabled = movable.length === 0;
+  chooseLight(movable.length ? Number(movable[0].value) : -1);
   objectSel.replaceChildren(
     ...info.objects
       .filter((o) => o.specular)
@@ -118,53 +236,171 @@ async function useScene(info: SceneInfo): Promise<void> {
   $<HTMLUListElement>("warnings").replaceChildren(
     ...info.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })),
   );
+  showFits();
+  $<HTMLElement>("compare-view").hidden = true;
   await render();
 }
 
-/** The render request for what the controls say; a preview is a small `direct` frame. */
-function request(preview = false): RenderRequest {
+/** Lists each method's verdict for the scene, and offers only those that fit (and that this
+ *  server can run: the GPU methods need its adapter). */
+function showFits(): void {
+  const fits = state.scene?.methods ?? [];
+  $<HTMLUListElement>("fits").replaceChildren(
+    ...fits.map((f) => {
+      const ok = f.fits && (!f.gpu || state.gpu !== false);
+      const why = f.fits && !ok ? "needs a GPU adapter; this server has none" : f.why;
+      const li = document.createElement("li");
+      Object.assign(li.dataset, { method: f.method, fits: String(ok) });
+      li.append(Object.assign(document.createElement("strong"), { textContent: f.method }));
+      li.append(` ${ok ? "✓" : "✗"} ${why}${f.bake && ok ? " (bakes)" : ""}`);
+      const opt = Array.from(method.options).find((o) => o.value === f.method);
+      if (opt) {
+        opt.disabled = !ok;
+        opt.title = why;
+      }
+      return li;
+    }),
+  );
+  if (method.selectedOptions[0]?.disabled) method.value = "auto";
+}
+
+/** A bake the page can ask for: its method, parameters, and what it lets move
+ *  interactively. */
+interface BakeKind {
+  method: "csl" | "transport";
+  params: Record<string, unknown>;
+  /** `camera`: the bake serves any camera; `light`: any light as well. */
+  serves: "camera" | "light";
+}
+const BAKES: Record<string, BakeKind> = {
+  "csl-fast": { method: "csl", params: { preset: "fast" }, serves: "camera" },
+  "csl-paper": { method: "csl", params: { preset: "paper" }, serves: "camera" },
+  "csl-dynamic-quick": {
+    method: "csl",
+    params: { preset: "fast", dynamic: true, subdivisions: 0, steps: 4, track_grid: 32 },
+    serves: "light",
+  },
+  "csl-dynamic": { method: "csl", params: { preset: "paper", dynamic: true }, serves: "light" },
+  transport: { method: "transport", params: {}, serves: "light" },
+};
+
+/** The csl parameters a `csl` render sends: the chosen bake's, so it uses that bake. */
+function cslParams(): Record<string, unknown> {
+  const k = BAKES[bakeKind.value];
+  return k.method === "csl" ? k.params : { preset: "fast" };
+}
+
+/** The method a preview uses while `what` moves: the chosen method when a bake of this
+ *  session serves the change quickly, else `direct`. */
+function previewMethod(what: "camera" | "light"): string {
+  const m = method.value;
+  if (!state.scene || (m !== "csl" && m !== "transport")) return "direct";
+  for (const [name, k] of Object.entries(BAKES)) {
+    const params = m === "csl" ? cslParams() : {};
+    if (
+      k.method === m &&
+      JSON.stringify(k.params) === JSON.stringify(params) &&
+      state.baked.has(`${state.scene.id} ${name}`) &&
+      (k.serves === "light" || what === "camera")
+    ) {
+      return m;
+    }
+  }
+  return "direct";
+}
+
+/** The render request for what the controls say; a preview is a small frame of `use`. */
+function request(preview?: string): RenderRequest {
+  const m = preview ?? method.value;
   const req: RenderRequest = {
-    scene: scene!.id,
-    method: (preview ? "direct" : method.value) as RenderRequest["method"],
+    scene: state.scene!.id,
+    method: m as RenderRequest["method"],
     width: Number(width.value),
     height: Number(height.value),
+    format: "exr",
   };
   if (preview) {
     const s = Math.min(1, 128 / Math.max(req.width!, req.height!));
     req.width = Math.max(16, Math.round(req.width! * s));
     req.height = Math.max(16, Math.round(req.height! * s));
-  } else if (method.value === "reference" || method.value === "photons") {
-    req.photons = Number(photons.value);
   }
-  if (!preview && method.value === "reference") req.spp = 4;
-  if (light) req.lights = [{ ...light, direction: direction() }];
-  if (camera) {
-    const { distance: _, ...cam } = camera;
+  if (m === "reference" || m === "photons") req.photons = Number(photons.value);
+  if (m === "reference") req.spp = 4;
+  if (m === "csl") req.csl = cslParams();
+  if (state.moving >= 0) {
+    const moved = movedLight()!;
+    req.lights = state.lights.map((l, i) => (i === state.moving ? moved : l));
+  }
+  if (state.camera) {
+    const { distance: _, ...cam } = state.camera;
     req.camera = { ...cam, eye: eye() };
   }
   return req;
 }
 
-/** Puts frame `f` on screen (its image as the frame element's object URL). */
-function show(f: Frame): void {
-  URL.revokeObjectURL(frameUrl);
-  frameUrl = URL.createObjectURL(new Blob([f.image], { type: f.contentType }));
-  frame.src = frameUrl;
+function paint(canvas: HTMLCanvasElement, f: Radiance): void {
+  canvas.width = f.width;
+  canvas.height = f.height;
+  canvas.getContext("2d")!.putImageData(toneMapped(f, Number(exposure.value), toneMap.value as ToneMap), 0, 0);
 }
 
-/** A small `direct` frame for the controls as they are now, unless one is on its way. */
-async function preview(): Promise<void> {
-  if (!scene || previewBusy) return;
+/** The request that gives, as a PNG, the frame shown: the render's with the page's exposure
+ *  and tone map. */
+function shownAsPng(): RenderRequest {
+  const req: RenderRequest = { ...state.shown!, format: "png" };
+  req.exposure = Number(exposure.value);
+  req.tone_map = toneMap.value as ToneMap;
+  return req;
+}
+
+/** Redraws what is on screen with the picture settings (no new render), and updates the
+ *  download link and the curl and Python lines that give the same PNG. */
+function repaint(): void {
+  if (state.frame) paint(frame, state.frame);
+  if (state.compared) showCompared();
+  if (!state.shown || frame.classList.contains("preview")) return;
+  frame.toBlob((b) => {
+    if (!b) return;
+    URL.revokeObjectURL(pngUrl);
+    pngUrl = URL.createObjectURL(b);
+    const dl = $<HTMLAnchorElement>("download");
+    dl.href = pngUrl;
+    dl.hidden = false;
+  });
+  const json = JSON.stringify(shownAsPng());
+  $<HTMLTextAreaElement>("curl").value =
+    `curl -s ${location.origin}/v1/renders -H 'Content-Type: application/json' -d '${json}' -o frame.png`;
+  $<HTMLTextAreaElement>("python").value =
+    `import json\nfrom caustica import Caustica\n` +
+    `Caustica("${location.origin}").render(**json.loads('${json}'), out="frame.png")`;
+}
+
+/** Puts frame `f` on screen: its EXR decoded, tone-mapped here. */
+async function show(f: Frame): Promise<Radiance> {
+  const r = await decodeExr(f.image);
+  state.frame = r;
+  paint(frame, r);
+  return r;
+}
+
+/** A small frame for the controls as they are now, unless one is on its way: `direct`, or
+ *  the chosen method where a bake serves the change (`what` moved). */
+async function preview(what: "camera" | "light"): Promise<void> {
+  if (!state.scene || previewBusy) return;
   previewBusy = true;
   const asked = rendering;
   const t0 = performance.now();
+  const m = previewMethod(what);
   try {
-    const f = await client.render(request(true));
+    const f = await client.render(request(m));
     if (asked !== rendering) return; // a full frame was asked for meanwhile
-    show(f);
+    await show(f);
     frame.classList.add("preview");
-    frame.dataset.preview = String(++previews);
-    frame.dataset.previewMs = (performance.now() - t0).toFixed(0);
+    Object.assign(frame.dataset, {
+      preview: String(++previews),
+      previewMs: (performance.now() - t0).toFixed(0),
+      previewMethod: m,
+    });
   } catch (e) {
     say(`Preview failed: ${problem(e)}`);
   } finally {
@@ -173,7 +409,7 @@ async function preview(): Promise<void> {
 }
 
 async function render(): Promise<void> {
-  if (!scene) return;
+  if (!state.scene) return;
   const req = request();
   const mine = ++rendering;
   say(`Rendering with ${req.method}…`);
@@ -182,13 +418,19 @@ async function render(): Promise<void> {
     const t0 = performance.now();
     const f = await client.render(req);
     if (mine !== rendering) return; // a newer frame was asked for meanwhile
-    const loaded = new Promise((res) => (frame.onload = res));
-    show(f);
-    await loaded;
+    await show(f);
+    if (mine !== rendering) return;
+    const ms = performance.now() - t0;
     frame.classList.remove("preview");
-    const dl = $<HTMLAnchorElement>("download");
-    dl.href = frameUrl;
-    dl.hidden = false;
+    state.shown = req;
+    state.renderId = f.renderId;
+    state.exr = f.image;
+    URL.revokeObjectURL(exrUrl);
+    exrUrl = URL.createObjectURL(new Blob([f.image], { type: "image/x-exr" }));
+    const exr = $<HTMLAnchorElement>("download-exr");
+    exr.href = exrUrl;
+    exr.hidden = false;
+    repaint();
     const max = Math.max(...f.timings.filter((t) => t.name !== "request").map((t) => t.ms), 1);
     $<HTMLOListElement>("timings").replaceChildren(
       ...f.timings.map((t) => {
@@ -199,24 +441,31 @@ async function render(): Promise<void> {
         return li;
       }),
     );
-    $<HTMLTextAreaElement>("curl").value =
-      `curl -s ${location.origin}/v1/renders -H 'Content-Type: application/json' ` +
-      `-d '${JSON.stringify(req)}' -o frame.png`;
-    $<HTMLTextAreaElement>("python").value =
-      `import json\nfrom caustica import Caustica\n` +
-      `Caustica("${location.origin}").render(**json.loads('${JSON.stringify(req)}'), out="frame.png")`;
-    say(`Rendered with ${req.method} in ${(performance.now() - t0).toFixed(0)} ms`);
-    frame.dataset.frame = String(mine);
+    say(`Rendered with ${req.method} in ${ms.toFixed(0)} ms`);
+    Object.assign(frame.dataset, { frame: String(mine), frameMs: ms.toFixed(0), render: f.renderId ?? "" });
   } catch (e) {
     if (mine === rendering) say(`Render failed: ${problem(e)}`);
   }
 }
 
-/** The chosen method and the reference rendered as EXR for the controls as they are, and
- *  measured against each other on the scene's first receiver (a non-glass object). */
+function showCompared(): void {
+  const c = state.compared!;
+  paint($("cmp-method"), c.a);
+  paint($("cmp-reference"), c.b);
+  const e = $<HTMLCanvasElement>("cmp-error");
+  const m = errorMap(c.a, c.b);
+  e.width = c.a.width;
+  e.height = c.a.height;
+  e.getContext("2d")!.putImageData(m.image, 0, 0);
+  e.dataset.mean = m.mean.toFixed(4);
+}
+
+/** The chosen method and the reference rendered as EXR for the controls as they are, shown
+ *  side by side with an error map, and measured against each other (`POST /v1/compare`) on
+ *  the scene's first receiver (an object that is not glass or a mirror). */
 async function compareWithReference(): Promise<void> {
-  if (!scene) return;
-  const receiver = scene.objects.find((o) => !o.specular)?.name;
+  if (!state.scene) return;
+  const receiver = state.scene.objects.find((o) => !o.specular)?.name;
   if (!receiver) {
     say("Compare needs an object that is not glass or a mirror to measure on");
     return;
@@ -225,12 +474,17 @@ async function compareWithReference(): Promise<void> {
   const box = $<HTMLDListElement>("compare-result");
   say(`Comparing ${req.method} with the reference…`);
   try {
-    const a = await client.render({ ...req, format: "exr" });
-    const ref: RenderRequest = { ...req, method: "reference", format: "exr" };
-    ref.photons = Number(photons.value);
-    ref.spp = 4;
+    // The frame on screen when it is this request's, else a new one.
+    const same = JSON.stringify(state.shown) === JSON.stringify(req) && state.renderId && state.exr;
+    const a = same ? { renderId: state.renderId!, image: state.exr! } : await client.render(req);
+    const ref: RenderRequest = { ...req, method: "reference", photons: Number(photons.value), spp: 4 };
+    delete ref.csl;
     const b = await client.render(ref);
     const m = await client.compare(a.renderId!, b.renderId!, receiver);
+    state.compared = { a: await decodeExr(a.image), b: await decodeExr(b.image) };
+    showCompared();
+    $<HTMLElement>("cmp-method-caption").textContent = req.method ?? "";
+    $<HTMLElement>("compare-view").hidden = false;
     $<HTMLElement>("rel-l1").textContent = m.relative_l1.toFixed(4);
     $<HTMLElement>("flux-ratio").textContent = m.flux_ratio.toFixed(4);
     Object.assign(box.dataset, {
@@ -245,18 +499,50 @@ async function compareWithReference(): Promise<void> {
   }
 }
 
-async function upload(file: File): Promise<void> {
-  say(`Uploading ${file.name}…`);
+/** Uploads what was chosen or dropped: a GLB; a glTF with the files it names (their data
+ *  embedded here, as the server takes glTF JSON); or a scene JSON with the files it names. */
+async function upload(files: File[]): Promise<void> {
+  const named = (ext: string) => files.find((f) => f.name.toLowerCase().endsWith(ext));
+  const main = named(".glb") ?? named(".gltf") ?? named(".json");
+  if (!main) {
+    say(`Upload failed: choose a .glb, a .gltf (with its files) or a scene .json, not ${files.map((f) => f.name).join(", ")}`);
+    return;
+  }
+  const others = files.filter((f) => f !== main);
+  say(`Uploading ${main.name}${others.length ? ` with ${others.length} files` : ""}…`);
   try {
-    const bytes = new Uint8Array(await file.arrayBuffer());
+    const text = async () => new TextDecoder().decode(await main.arrayBuffer());
     let info: SceneInfo;
-    if (file.name.endsWith(".glb")) info = await client.uploadGlb(bytes);
-    else if (file.name.endsWith(".gltf")) info = await client.uploadGltf(new TextDecoder().decode(bytes));
-    else info = await client.uploadScene(JSON.parse(new TextDecoder().decode(bytes)));
+    if (main.name.toLowerCase().endsWith(".glb")) info = await client.uploadGlb(await main.arrayBuffer());
+    else if (main.name.toLowerCase().endsWith(".gltf")) info = await client.uploadGltf(await embedded(await text(), others));
+    else if (others.length) {
+      const parts = Object.fromEntries(others.map((f) => [f.name, f as Blob]));
+      info = await client.uploadSceneWithFiles(JSON.parse(await text()), parts);
+    } else info = await client.uploadScene(JSON.parse(await text()));
     await useScene(info);
   } catch (e) {
     say(`Upload failed: ${problem(e)}`);
   }
+}
+
+/** A glTF JSON with every buffer and image it names by a relative URI replaced by a data URI
+ *  of the file of that name among `files`. */
+async function embedded(gltf: string, files: File[]): Promise<string> {
+  const doc = JSON.parse(gltf) as { buffers?: { uri?: string }[]; images?: { uri?: string }[] };
+  for (const item of [...(doc.buffers ?? []), ...(doc.images ?? [])]) {
+    if (!item.uri || item.uri.startsWith("data:")) continue;
+    const name = decodeURIComponent(item.uri).split("/").pop()!;
+    const f = files.find((x) => x.name === name);
+    if (!f) throw new Error(`the glTF names ${item.uri}: choose it with the .gltf`);
+    const bytes = new Uint8Array(await f.arrayBuffer());
+    let bin = "";
+    for (let i = 0; i < bytes.length; i += 0x8000) {
+      bin += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+    }
+    const type = name.endsWith(".png") ? "image/png" : name.endsWith(".jpg") || name.endsWith(".jpeg") ? "image/jpeg" : "application/octet-stream";
+    item.uri = `data:${type};base64,${btoa(bin)}`;
+  }
+  return JSON.stringify(doc);
 }
 
 async function example(): Promise<void> {
@@ -270,18 +556,16 @@ async function example(): Promise<void> {
 }
 
 async function bake(): Promise<void> {
-  if (!scene) return;
+  if (!state.scene) return;
+  const scene = state.scene.id;
+  const name = bakeKind.value;
+  const kind = BAKES[name];
   bakeBtn.disabled = true;
   progress.value = 0;
   bakeStage.textContent = "";
   try {
     const job = await client.bake(
-      {
-        scene: scene.id,
-        object: objectSel.value,
-        method: "csl",
-        params: { preset: preset.value as "fast" | "paper" },
-      },
+      { scene, object: objectSel.value, method: kind.method, params: kind.params } as never,
       { wait: false },
     );
     cancelBtn.disabled = false;
@@ -294,7 +578,16 @@ async function bake(): Promise<void> {
     });
     progress.value = done.state === "succeeded" ? 1 : progress.value;
     bakeStage.textContent = done.state;
-    say(`Bake ${done.id} ${done.state}`);
+    if (done.state === "succeeded") {
+      state.baked.add(`${scene} ${name}`);
+      // Frames of the baked method from now on, previews from the bake where it serves them.
+      method.value = kind.method;
+      const what = kind.serves === "light" ? "the light and the camera" : "the camera";
+      say(`Bake ${done.id} succeeded: ${kind.method} previews as ${what} move`);
+      if (state.scene?.id === scene) await render();
+    } else {
+      say(`Bake ${done.id} ${done.state}${done.error ? `: ${done.error}` : ""}`);
+    }
   } catch (e) {
     say(`Bake failed: ${problem(e)}`);
   } finally {
@@ -309,8 +602,8 @@ $<HTMLFormElement>("controls").addEventListener("submit", (e) => {
 });
 $<HTMLButtonElement>("example").addEventListener("click", () => void example());
 $<HTMLInputElement>("upload").addEventListener("change", (e) => {
-  const f = (e.target as HTMLInputElement).files?.[0];
-  if (f) void upload(f);
+  const f = Array.from((e.target as HTMLInputElement).files ?? []);
+  if (f.length) void upload(f);
 });
 document.addEventListener("dragover", (e) => {
   e.preventDefault();
@@ -320,24 +613,69 @@ document.addEventListener("dragleave", () => document.body.classList.remove("dra
 document.addEventListener("drop", (e) => {
   e.preventDefault();
   document.body.classList.remove("dragging");
-  const f = e.dataTransfer?.files[0];
-  if (f) void upload(f);
+  const f = Array.from(e.dataTransfer?.files ?? []);
+  if (f.length) void upload(f);
 });
-for (const s of [azimuth, elevation, orbit, tilt]) {
-  // Previews while a slider moves; the full frame once it is released (keyboard changes too).
+// Previews while a slider moves; the full frame once it is released (keyboard changes too).
+for (const [s, what] of [
+  [azimuth, "light"],
+  [elevation, "light"],
+  [distance, "light"],
+  [orbit, "camera"],
+  [tilt, "camera"],
+] as const) {
   s.addEventListener("input", () => {
     showSliders();
-    void preview();
+    void preview(what);
   });
   s.addEventListener("change", () => void render());
 }
-// Dragging the frame orbits the camera (horizontal) and tilts it (vertical).
+for (const c of [exposure, toneMap]) {
+  c.addEventListener("input", () => {
+    showSliders();
+    repaint();
+  });
+}
+lightSel.addEventListener("change", () => chooseLight(Number(lightSel.value)));
+
+// Dragging the dial moves the light; dragging the frame orbits the camera (horizontal) and
+// tilts it (vertical). Previews while dragging, the full frame on release.
+let dialDrag = false;
+dial.addEventListener("pointerdown", (e) => {
+  if (state.moving < 0) return;
+  e.preventDefault();
+  dial.setPointerCapture(e.pointerId);
+  dialDrag = true;
+  dialTo(e);
+  void preview("light");
+});
+dial.addEventListener("pointermove", (e) => {
+  if (!dialDrag) return;
+  dialTo(e);
+  void preview("light");
+});
+dial.addEventListener("pointerup", () => {
+  if (!dialDrag) return;
+  dialDrag = false;
+  void render();
+});
+dial.addEventListener("keydown", (e) => {
+  const step: Record<string, [HTMLInputElement, number]> = {
+    ArrowLeft: [azimuth, -5],
+    ArrowRight: [azimuth, 5],
+    ArrowUp: [elevation, 5],
+    ArrowDown: [elevation, -5],
+  };
+  const s = step[e.key];
+  if (!s || state.moving < 0) return;
+  e.preventDefault();
+  s[0].value = String(Number(s[0].value) + s[1]);
+  showSliders();
+  void render();
+});
 let drag: { x: number; y: number; orbit: number; tilt: number } | undefined;
-// Not the browser's own image drag (which would drop the frame on the page as an upload).
-frame.draggable = false;
-frame.addEventListener("dragstart", (e) => e.preventDefault());
 frame.addEventListener("pointerdown", (e) => {
-  if (!camera) return;
+  if (!state.camera) return;
   e.preventDefault();
   frame.setPointerCapture(e.pointerId);
   drag = { x: e.clientX, y: e.clientY, orbit: Number(orbit.value), tilt: Number(tilt.value) };
@@ -348,13 +686,14 @@ frame.addEventListener("pointermove", (e) => {
   orbit.value = String(Math.round(wrap(drag.orbit - (e.clientX - drag.x) / 2)));
   tilt.value = String(Math.round(Math.min(85, Math.max(5, drag.tilt + (e.clientY - drag.y) / 2))));
   showSliders();
-  void preview();
+  void preview("camera");
 });
 frame.addEventListener("pointerup", () => {
   if (!drag) return;
   drag = undefined;
   void render();
 });
+
 /** The status line: the server's GPU adapter and its queue, every few seconds. */
 async function serverLine(): Promise<void> {
   try {
@@ -369,6 +708,11 @@ async function serverLine(): Promise<void> {
     $<HTMLParagraphElement>("server").textContent = v.adapter
       ? `GPU: ${v.adapter} · queued: ${jobs(v.queued)} · running: ${jobs(v.running)}`
       : `No GPU adapter: ${v.detail ?? "CPU methods only"}`;
+    const gpu = Boolean(v.adapter);
+    if (gpu !== state.gpu) {
+      state.gpu = gpu;
+      showFits();
+    }
   } catch {
     // The line keeps its last value.
   }
