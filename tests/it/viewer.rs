@@ -646,7 +646,12 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     assert_eq!(v[0], false);
     assert_eq!(v[1].as_str().unwrap(), format!("{mean:.4}"));
     assert_eq!(v[2], 192);
+    // A tall window, for the whole view (frame, timings, the comparison) in one picture.
+    b.post("/window/rect", json!({"width": 1200, "height": 1500}))
+        .await;
     b.screenshot("compared").await;
+    b.post("/window/rect", json!({"width": 1200, "height": 900}))
+        .await;
 
     // A point light (a scene JSON chosen in the file field): csl is not offered (directional
     // lights only); a transport bake, then dragging the dial moves the light around its
@@ -704,6 +709,33 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         previews - previews0
     );
 
+    // A spot light moves around its target and stays aimed at it: dragging the dot to the
+    // +x side moves its position there, its target unchanged (direct frames).
+    b.exec("document.getElementById('method').value = 'direct'")
+        .await;
+    let shown = counters(&b).await.0;
+    b.type_into(
+        "#upload",
+        repo_path("scenes/glass-sphere-spot.json").to_str().unwrap(),
+    )
+    .await;
+    let loaded = b.frame_after(shown).await;
+    let before = shown_request(&b).await["lights"][0].clone();
+    b.drag("#dial", 40, 0, 600).await;
+    b.frame_after(loaded).await;
+    let after = shown_request(&b).await["lights"][0].clone();
+    assert_eq!(after["type"], "spot");
+    assert_eq!(after["target"], json!([0.25, 0, 0]), "{after}");
+    assert!(before["position"][0].as_f64().unwrap() < 0.0, "{before}");
+    assert!(after["position"][0].as_f64().unwrap() > 0.25, "{after}");
+    let r = |l: &Value| {
+        let p: Vec<f64> = (0..3).map(|k| l["position"][k].as_f64().unwrap()).collect();
+        ((p[0] - 0.25).powi(2) + p[1].powi(2) + p[2].powi(2)).sqrt()
+    };
+    assert!((r(&after) - r(&before)).abs() < 0.05, "{before} {after}");
+    shows_the_api_frame(&srv, &b).await;
+    b.screenshot("spot-light").await;
+
     // A GLB chosen in the file field (the mirror-lined cup): uploaded, its mirror listed for
     // bakes, rendered (the API's frame again, and not a blank one).
     b.exec("document.getElementById('method').value = 'photons'")
@@ -757,7 +789,11 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     let warnings = info["warnings"].to_string();
     assert!(!warnings.contains("texture"), "{warnings}");
 
-    // A phone's width: one column, the frame first, nothing wider than the screen.
+    // A phone's width: one column, the frame first, nothing wider than the screen (the
+    // example again, with auto).
+    let shown = counters(&b).await.0;
+    b.exec("document.getElementById('example').click()").await;
+    b.frame_after(shown).await;
     b.post("/window/rect", json!({"width": 390, "height": 844}))
         .await;
     b.exec("window.scrollTo(0, 0)").await;
