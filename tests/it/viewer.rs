@@ -809,6 +809,51 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     srv.stop().await;
 }
 
+/// A server with API keys: the page says the example needs one (the server's 401 problem);
+/// with the key typed into its field, kept in the tab's session storage and not beyond it,
+/// the example loads and renders.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_viewer_works_with_an_api_key() {
+    use caustica::http::auth::{Keys, hash_key};
+    const KEY: &str = "ck_viewer-test-key";
+    let srv = Server::start("viewer-keys", |_, h| {
+        let mut k = Keys::default();
+        k.parse(&format!("viewer user {}", hash_key(KEY)), "test")
+            .unwrap();
+        h.keys = k;
+    })
+    .await;
+    let b = Browser::start().await;
+    b.goto(&srv.url("/")).await;
+    let said = poll("the page to give up", Duration::from_secs(60), || async {
+        let v = b
+            .exec("return document.getElementById('status').textContent")
+            .await;
+        let v = v.as_str().unwrap().to_string();
+        v.starts_with("The example did not load").then_some(v)
+    })
+    .await;
+    assert!(said.contains("401"), "{said}");
+    b.type_into("#key", KEY).await;
+    b.exec(
+        "document.getElementById('key').dispatchEvent(new Event('change'));
+         document.getElementById('example').click()",
+    )
+    .await;
+    b.frame_after(0).await;
+    let stored = b
+        .exec(
+            "return [sessionStorage.getItem('caustica-key'), localStorage.length, document.cookie]",
+        )
+        .await;
+    assert_eq!(stored, json!([KEY, 0, ""]));
+    let (px, _, _) = b.pixels().await;
+    let lit = px.chunks(4).filter(|p| p[0] > 40 || p[1] > 40).count();
+    assert!(lit > px.len() / 4 / 2, "{lit} lit pixels");
+    b.quit().await;
+    srv.stop().await;
+}
+
 /// The committed `web/dist` is what `web/build.sh` (tsc) makes of the viewer and the client.
 #[test]
 fn the_committed_viewer_is_the_compilers_output() {
