@@ -92,6 +92,12 @@ impl Browser {
             .await
     }
 
+    /// Runs `script`, whose last argument is the callback it calls with its result.
+    async fn exec_async(&self, script: &str, args: Value) -> Value {
+        self.post("/execute/async", json!({"script": script, "args": args}))
+            .await
+    }
+
     /// The number of the frame shown, once the page has shown one past `after`.
     async fn frame_after(&self, after: u64) -> u64 {
         poll("a frame in the page", Duration::from_secs(180), || async {
@@ -805,6 +811,105 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         "{v}"
     );
     b.screenshot("phone").await;
+    b.quit().await;
+    srv.stop().await;
+}
+
+/// The page's EXR decoder (`/viewer/pixels.js`) reads the encodings it claims besides the
+/// server's own tiled RLE (checked by the test above): scanline files uncompressed, RLE, ZIP
+/// (16 lines a block) and ZIPS (one line), of float and of half channels, with alpha, as the
+/// `exr` crate writes them; its values are the written ones, exactly.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_pages_exr_decoder_reads_what_the_exr_crate_writes() {
+    use base64::Engine;
+    use exr::prelude::*;
+    let srv = Server::start("viewer-exr", |_, _| {}).await;
+    let b = Browser::start().await;
+    b.goto(&srv.url("/viewer/example.json")).await;
+    let (w, h) = (37usize, 23usize);
+    // Mostly zeros, so that each compression shrinks the file: blocks are stored compressed
+    // (one that would not shrink is stored as it is, and its decompression goes untested).
+    let value = |x: usize, y: usize, c: usize| match x % 5 {
+        0 => ((x * 7 + y * 13 + c * 5) % 17) as f32 * 0.37 - 1.5,
+        _ => 0.0,
+    };
+    let mut plain = [0usize; 2];
+    for (compression, name) in [
+        (Compression::Uncompressed, "none"),
+        (Compression::RLE, "rle"),
+        (Compression::ZIP16, "zip"),
+        (Compression::ZIP1, "zips"),
+    ] {
+        for half in [false, true] {
+            let enc = Encoding {
+                compression,
+                blocks: Blocks::ScanLines,
+                line_order: LineOrder::Increasing,
+            };
+            let mut out = std::io::Cursor::new(Vec::new());
+            if half {
+                let px = SpecificChannels::rgba(|p: Vec2<usize>| {
+                    let f = |c| ::half::f16::from_f32(value(p.0, p.1, c));
+                    (f(0), f(1), f(2), f(3))
+                });
+                Image::from_layer(Layer::new((w, h), LayerAttributes::default(), enc, px))
+                    .write()
+                    .to_buffered(&mut out)
+                    .unwrap();
+            } else {
+                let px = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    (value(p.0, p.1, 0), value(p.0, p.1, 1), value(p.0, p.1, 2))
+                });
+                Image::from_layer(Layer::new((w, h), LayerAttributes::default(), enc, px))
+                    .write()
+                    .to_buffered(&mut out)
+                    .unwrap();
+            }
+            let bytes = out.into_inner();
+            if name == "none" {
+                plain[half as usize] = bytes.len();
+            } else {
+                assert!(
+                    bytes.len() < plain[half as usize],
+                    "{name} half {half}: {} bytes, uncompressed {}",
+                    bytes.len(),
+                    plain[half as usize]
+                );
+            }
+            let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
+            let v = b
+                .exec_async(
+                    "const done = arguments[arguments.length - 1];
+                     const bytes = Uint8Array.from(atob(arguments[0]), c => c.charCodeAt(0));
+                     import('/viewer/pixels.js').then(m => m.decodeExr(bytes))
+                       .then(f => done([f.width, f.height, Array.from(f.rgb)]), e => done(String(e)));",
+                    json!([b64]),
+                )
+                .await;
+            assert!(v.is_array(), "{name} half {half}: {v}");
+            assert_eq!(
+                (v[0].as_u64(), v[1].as_u64()),
+                (Some(w as u64), Some(h as u64))
+            );
+            let got: Vec<f32> = v[2]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap() as f32)
+                .collect();
+            let want: Vec<f32> = (0..w * h * 3)
+                .map(|i| {
+                    let f = value(i / 3 % w, i / 3 / w, i % 3);
+                    if half {
+                        ::half::f16::from_f32(f).to_f32()
+                    } else {
+                        f
+                    }
+                })
+                .collect();
+            assert!(got == want, "{name} half {half}: the decoded values differ");
+        }
+    }
     b.quit().await;
     srv.stop().await;
 }
