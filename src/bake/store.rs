@@ -171,6 +171,19 @@ impl ArtifactStore {
         }
     }
 
+    /// The artifact (`kind`, `hash`) if it is kept and intact (decoded as by
+    /// [`Self::find_or_bake`]); never bakes.
+    pub fn find<T: Any + Send + Sync>(
+        &self,
+        kind: ArtifactKind,
+        hash: u64,
+        decode: impl FnOnce(&[u8]) -> Option<T>,
+    ) -> Option<Arc<T>> {
+        self.find_or_bake(kind, hash, decode, || Err(()), |_| Vec::new())
+            .ok()
+            .map(|(t, _)| t)
+    }
+
     /// The artifact (`kind`, `hash`): decoded from the store when kept and intact (`decode`
     /// returns None for a damaged file or one of another hash, which is then baked over), else
     /// made by `bake`, kept (as `encode` writes it) and returned. The flag says whether it came

@@ -232,6 +232,15 @@ pub struct JobSpec {
     pub params: serde_json::Value,
 }
 
+impl JobSpec {
+    /// A bake's id: `bk_` and the SHA-256 of its spec's JSON (the same bake asked for twice,
+    /// by anyone, is one job).
+    pub fn bake_id(&self) -> String {
+        let json = serde_json::to_vec(self).expect("spec serialises");
+        format!("bk_{}", &super::scenes::sha256_hex(&json)[..32])
+    }
+}
+
 /// Builds the job for a spec.
 pub fn build_job(
     spec: &JobSpec,

@@ -75,12 +75,19 @@ pub struct RenderParams {
     #[schemars(range(min = 1, max = 1000))]
     pub volume_bounces: Option<u32>,
     /// csl only: the bake's parameters, as for `POST /v1/bakes` (default: the paper's). With
-    /// `dynamic: true` the render uses the dynamic bake of these parameters (found in the data
-    /// directory, e.g. made by a bake job, or baked now) and interpolates the set for the
-    /// scene's light direction.
+    /// `dynamic: true` the render uses the static bake made for exactly the scene's light with
+    /// the same preset and grid when the data directory keeps one (see `refine`), else the
+    /// dynamic bake of these parameters (found in the data directory, e.g. made by a bake job,
+    /// or baked now) and the set interpolated from it for the light's direction.
     #[serde(default)]
     #[schemars(with = "Option<crate::methods::csl::BakeParams>")]
     pub csl: Option<serde_json::Value>,
+    /// csl with `dynamic` only: when the frame was served by sets interpolated from the
+    /// dynamic bake, queue the static bake of each object for exactly this light (the same
+    /// preset and grid; cached by content hash), so that the next frame at this light direction
+    /// is served by it (default true). The render's `info.refine` names the bakes.
+    #[serde(default)]
+    pub refine: Option<bool>,
     /// pinhole only (Wand and Straßer 2003, no bake): sample points on the mirrors and glass
     /// project the environment and the lights onto the receivers every frame.
     #[serde(default)]
@@ -289,6 +296,14 @@ impl RenderJob {
         if p.layers && p.format != Format::Exr {
             return Err(ParamError::new("layers", "only with format exr").into());
         }
+        let dynamic = p.csl.as_ref().and_then(|c| c.get("dynamic")) == Some(&true.into());
+        if p.refine.is_some() && !(method == Method::Csl && dynamic) {
+            return Err(ParamError::new(
+                "refine",
+                "only with method csl and a dynamic bake (\"csl\": {\"dynamic\": true})",
+            )
+            .into());
+        }
         let mut world = (*world).clone();
         apply_overrides(
             &mut world,
@@ -422,6 +437,11 @@ impl Job for RenderJob {
             "component": component,
         });
         if let Some(s) = frames.statistics {
+            if self.p.refine != Some(false)
+                && let Some(r) = self.refine(ctx, &s)
+            {
+                info["refine"] = r;
+            }
             info["statistics"] = s;
         }
         if let Some(why) = self.plan.reason() {
@@ -439,6 +459,45 @@ impl Job for RenderJob {
 }
 
 impl RenderJob {
+    /// A dynamic csl frame served by interpolated sets (its `statistics` say which): queues
+    /// the static bakes of those objects for exactly this light, with the render's preset and
+    /// grid, so that the next frame at this light is served by them. What to record of it:
+    /// the bakes' ids, or why none was queued (the frame stands either way).
+    fn refine(
+        &self,
+        ctx: &JobCtx<'_>,
+        statistics: &serde_json::Value,
+    ) -> Option<serde_json::Value> {
+        let objects: Vec<String> = statistics["bakes"]
+            .as_array()?
+            .iter()
+            .filter(|b| b["set"] == "interpolated")
+            .filter_map(|b| b["object"].as_str().map(String::from))
+            .collect();
+        if objects.is_empty() {
+            return None;
+        }
+        let empty = serde_json::json!({});
+        let bp =
+            crate::methods::csl::BakeParams::parse(self.p.csl.as_ref().unwrap_or(&empty), "csl")
+                .ok()?;
+        let params = serde_json::json!({ "preset": bp.preset, "grid": bp.grid });
+        let queued = Method::Csl
+            .imp()
+            .bake_params(&params, "csl")
+            .map_err(|e| e.to_string())
+            .and_then(|params| {
+                ctx.queue_bakes(self.p.lights.as_deref(), Method::Csl, &objects, &params)
+            });
+        Some(match queued {
+            Ok(ids) => serde_json::json!({ "bakes": ids }),
+            Err(e) => {
+                tracing::warn!(error = %e, "the static bakes of a dynamic csl frame were not queued");
+                serde_json::json!({ "error": e })
+            }
+        })
+    }
+
     /// A sequence: the frames at `times`, one animated PNG.
     fn run_sequence(&self, ctx: &JobCtx<'_>, times: &[f32]) -> Result<Artifact, JobError> {
         let t = Instant::now();

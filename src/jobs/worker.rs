@@ -89,6 +89,66 @@ impl JobCtx<'_> {
 
     /// The job error for a method's error: a cancelled method stopped for the reason
     /// [`Self::check`] gives.
+    /// Queues a bake of `method` with the canonical `params` for each of `objects`, in this
+    /// job's scene with its lights replaced by `lights` (that scene stored too), held by the
+    /// key this job runs for; the bakes' ids. A bake already queued, running or done is not
+    /// queued again.
+    pub fn queue_bakes(
+        &self,
+        lights: Option<&[crate::scene::types::LightDesc]>,
+        method: crate::methods::Method,
+        objects: &[String],
+        params: &serde_json::Value,
+    ) -> Result<Vec<String>, String> {
+        use super::job::JobSpec;
+        use super::store::Held;
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let store = &self.system.store;
+        let id = &self.handle.id;
+        let rec = store
+            .get_job(id)
+            .map_err(|e| err(&e))?
+            .ok_or("the job's record is gone")?;
+        let owner = store
+            .first_holder(Held::Job, id)
+            .map_err(|e| err(&e))?
+            .unwrap_or_default();
+        let scene = store
+            .get_scene(&rec.scene_id)
+            .map_err(|e| err(&e))?
+            .ok_or("the job's scene is gone")?;
+        let mut json = scene.scene_json;
+        if let Some(lights) = lights {
+            let mut v: serde_json::Value = serde_json::from_slice(&json).map_err(|e| err(&e))?;
+            v["lights"] = serde_json::to_value(lights).map_err(|e| err(&e))?;
+            json = serde_json::to_vec(&v).map_err(|e| err(&e))?;
+        }
+        let input = scenes::SceneInput::Json {
+            scene: json,
+            files: scene.files,
+        };
+        let info = self
+            .system
+            .scenes
+            .ingest(input, &owner)
+            .map_err(|e| err(&e))?;
+        let mut ids = Vec::new();
+        for object in objects {
+            let spec = JobSpec {
+                kind: JobKind::Bake,
+                method,
+                scene_id: info.id.clone(),
+                object: Some(object.clone()),
+                params: params.clone(),
+            };
+            let bake = spec.bake_id();
+            store.hold(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
+            self.system.submit(&bake, &spec).map_err(|e| err(&e))?;
+            ids.push(bake);
+        }
+        Ok(ids)
+    }
+
     pub fn method_error(&self, e: MethodError) -> JobError {
         match e {
             MethodError::Canceled => self.check().err().unwrap_or(JobError::Canceled),

@@ -237,13 +237,18 @@ pub struct ObjectSet {
     pub cached: bool,
     /// Where the bake is kept in the store, if it is.
     pub path: Option<PathBuf>,
+    /// Interpolated from a dynamic bake (false: a static bake for exactly this light, found
+    /// or made).
+    pub interpolated: bool,
 }
 
 /// For every caustic object of `world`, its CSL set for the scene's directional light
 /// (`light`, world travel direction): from `store` when kept, else baked with `params` and
-/// kept. With a dynamic `params` the dynamic bake is found or made, and the set of the light
-/// interpolated from it. `progress(f)` sees the bakes' progress in 0..1; returning false
-/// cancels.
+/// kept. With a dynamic `params` the static set made for exactly this light with the same
+/// preset and grid is used when the store keeps one (a bake job made it, e.g. the refinement
+/// a dynamic render queues); otherwise the dynamic bake is found or made and the set of the
+/// light interpolated from it. `progress(f)` sees the bakes' progress in 0..1; returning
+/// false cancels.
 pub fn sets_for_render(
     world: &World,
     params: &BakeParams,
@@ -258,7 +263,21 @@ pub fn sets_for_render(
         let o = &world.objects[oi];
         let part = |f: f32| progress((k as f32 + f) / n);
         let dir = o.to_rigid_frame(light);
-        let (set, cached, path) = if params.dynamic {
+        let exact = if params.dynamic {
+            let cp = params.csl_params();
+            let key = csl_source_hash(world, &o.name, dir, &cp)?;
+            store
+                .find(ArtifactKind::Csl, key, |b| {
+                    CslSet::from_bytes(b).ok().filter(|s| s.source_hash == key)
+                })
+                .map(|s| (s, store.path(ArtifactKind::Csl, key)))
+        } else {
+            None
+        };
+        let interpolated = params.dynamic && exact.is_none();
+        let (set, cached, path) = if let Some((set, path)) = exact {
+            (set, true, path)
+        } else if params.dynamic {
             let dp = params.dynamic_params();
             let key = dynamic::dynamic_source_hash(world, &o.name, &dp)
                 .ok_or_else(|| BakeError::UnknownObject(o.name.clone()))?;
@@ -293,6 +312,7 @@ pub fn sets_for_render(
             set,
             cached,
             path,
+            interpolated,
         });
     }
     Ok(sets)
@@ -313,7 +333,8 @@ fn given_set(
     let o = &world.objects[object];
     let t = Instant::now();
     let bytes = std::fs::read(path).map_err(|e| given(e.to_string()))?;
-    let set = if bytes.starts_with(&dynamic::MAGIC) {
+    let interpolated = bytes.starts_with(&dynamic::MAGIC);
+    let set = if interpolated {
         // A dynamic bake: the set for this light direction, interpolated (§4.1).
         let d = DynamicSet::from_bytes(&bytes).map_err(|e| given(e.to_string()))?;
         if !d.is_for(world, o) {
@@ -337,6 +358,7 @@ fn given_set(
         set: Arc::new(set),
         cached: true,
         path: None,
+        interpolated,
     })
 }
 
@@ -456,6 +478,16 @@ impl RenderPlan for Plan {
                 "fit_error": fit,
                 "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
                 "cached": s.cached,
+                // Which set served the frame: `static` (a static render's bake), `exact` (a
+                // dynamic render's, baked for exactly this light) or `interpolated` (from the
+                // dynamic bake).
+                "set": if s.interpolated {
+                    "interpolated"
+                } else if self.params.dynamic {
+                    "exact"
+                } else {
+                    "static"
+                },
                 "source_hash": format!("{:016x}", s.set.source_hash),
                 "csls": s.set.csls.len(),
                 // An interpolated (dynamic) set has no coverage of its own.

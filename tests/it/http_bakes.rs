@@ -486,6 +486,93 @@ async fn dynamic_csl_bake_job_serves_renders() {
     srv.stop().await;
 }
 
+/// A dynamic csl render served by sets interpolated from the dynamic bake queues the static
+/// bake of its light direction (`info.refine` names it); once that bake is done, the next
+/// render at that direction is served by it (`set: exact`), its frame byte for byte a static
+/// csl render's at that light. `refine: false` queues nothing; `refine` on a render that is
+/// not a dynamic csl one is refused, naming the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_dynamic_csl_render_queues_the_exact_bake_and_the_next_frame_uses_it() {
+    let srv = Server::start("csl-refine", |_, _| {}).await;
+    let mut scene = scene_sized(32, 32);
+    scene["lights"][0]["direction"] = serde_json::json!([0.3, -1.0, 0.4]);
+    let csl = serde_json::json!({
+        "preset": "fast", "grid": 48, "dynamic": true, "subdivisions": 0,
+        "track_grid": 16, "steps": 2,
+    });
+    let render = |extra: serde_json::Value| {
+        let mut req = serde_json::json!({
+            "scene": scene, "method": "csl", "width": 32, "height": 32, "csl": csl,
+        });
+        for (k, v) in extra.as_object().unwrap() {
+            req[k] = v.clone();
+        }
+        let srv = &srv;
+        async move {
+            let r = srv.post_json("/v1/renders", &req).await;
+            assert_eq!(r.status(), 200);
+            let loc = r.headers()["location"].to_str().unwrap().to_string();
+            let png = r.bytes().await.unwrap();
+            let (_, rec) = srv.get_json(&loc).await;
+            (rec, png)
+        }
+    };
+    let set = |rec: &serde_json::Value| rec["info"]["statistics"]["bakes"][0]["set"].clone();
+
+    // Told not to refine: interpolated, nothing queued.
+    let (rec, _) = render(serde_json::json!({"refine": false})).await;
+    assert_eq!(set(&rec), "interpolated", "{rec}");
+    assert!(rec["info"].get("refine").is_none(), "{rec}");
+    let (_, list) = srv.get_json("/v1/bakes").await;
+    assert_eq!(list["items"], serde_json::json!([]), "{list}");
+
+    // By default: interpolated, and the static bake of this direction queued.
+    let (rec, _) = render(serde_json::json!({"format": "exr"})).await;
+    assert_eq!(set(&rec), "interpolated", "{rec}");
+    let bakes = rec["info"]["refine"]["bakes"]
+        .as_array()
+        .expect("bakes queued");
+    assert_eq!(bakes.len(), 1, "{rec}");
+    let bake = srv
+        .bake_succeeded(bakes[0].as_str().unwrap(), Duration::from_secs(120))
+        .await;
+    assert_eq!(bake["method"], "csl", "{bake}");
+
+    // The next frame at that direction is served by the static bake, and is a static csl
+    // render's frame at that light.
+    let (rec, exact) = render(serde_json::json!({})).await;
+    assert_eq!(set(&rec), "exact", "{rec}");
+    assert!(rec["info"].get("refine").is_none(), "{rec}");
+    let r = srv
+        .post_json(
+            "/v1/renders",
+            &serde_json::json!({
+                "scene": scene, "method": "csl", "width": 32, "height": 32,
+                "csl": {"preset": "fast", "grid": 48},
+            }),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let fixed = r.bytes().await.unwrap();
+    assert!(
+        exact == fixed,
+        "the refined frame is not the static render's"
+    );
+
+    // `refine` only where it means something.
+    let p = problem(
+        srv.post_json(
+            "/v1/renders",
+            &serde_json::json!({"scene": scene, "method": "direct", "refine": true}),
+        )
+        .await,
+        422,
+    )
+    .await;
+    assert!(p["detail"].as_str().unwrap().contains("refine"), "{p}");
+    srv.stop().await;
+}
+
 /// `method: transport` bakes the light transport table of a glass object: the artifact is the
 /// library's bytes for the same parameters; an object without glass is refused naming it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -292,6 +292,16 @@ async fn shows_the_api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
     px
 }
 
+/// The record of the render whose frame the page shows.
+async fn shown_render(srv: &Server, b: &Browser) -> Value {
+    let id = b
+        .exec("return document.getElementById('frame').dataset.render")
+        .await;
+    srv.get_json(&format!("/v1/renders/{}", id.as_str().unwrap()))
+        .await
+        .1
+}
+
 /// The page's state as its script keeps it (`window.caustica`): field `path` of it.
 async fn page_state(b: &Browser, path: &str) -> Value {
     b.exec(&format!("return window.caustica.{path}")).await
@@ -509,7 +519,11 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     let events: u32 = stage.2.parse().unwrap();
     assert!(events >= 2, "{events} progress events shown");
     let (_, list) = srv.get_json("/v1/bakes?state=succeeded&method=csl").await;
-    assert_eq!(list["items"].as_array().unwrap().len(), 1, "{list}");
+    let items = list["items"].as_array().unwrap();
+    assert!(
+        items.iter().any(|j| j["params"]["dynamic"] == true),
+        "{list}"
+    );
     let baked = b.frame_after(orbited).await;
     assert_eq!(shown_request(&b).await["method"], "csl");
     let previews0 = counters(&b).await.1;
@@ -520,12 +534,27 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     assert_eq!(pm, "csl", "previews from the dynamic bake");
     let req = shown_request(&b).await;
     assert_eq!(req["csl"]["dynamic"], true, "{req}");
-    shows_the_api_frame(&srv, &b).await;
     b.screenshot("dynamic-csl").await;
     println!(
         "light dial after a dynamic csl bake: {} csl previews, the last {preview_ms} ms request to screen; release -> full csl frame {frame_ms} ms",
         previews - previews0
     );
+    // That full frame was interpolated, and queued the static bake of its light direction
+    // (the previews did not); rendered again once that is done, the frame is served by it:
+    // the API's frame for the request shown.
+    let rec = shown_render(&srv, &b).await;
+    let set = |rec: &Value| rec["info"]["statistics"]["bakes"][0]["set"].clone();
+    assert_eq!(set(&rec), "interpolated", "{rec}");
+    let refine = rec["info"]["refine"]["bakes"][0]
+        .as_str()
+        .expect("a bake queued");
+    srv.bake_succeeded(refine, Duration::from_secs(120)).await;
+    let shown = counters(&b).await.0;
+    b.exec("document.getElementById('render').click()").await;
+    b.frame_after(shown).await;
+    let rec = shown_render(&srv, &b).await;
+    assert_eq!(set(&rec), "exact", "{rec}");
+    shows_the_api_frame(&srv, &b).await;
 
     // Cancel: a long reference bake holds the one CPU worker, so the viewer's next bake waits
     // in the queue; its Cancel button cancels it.

@@ -327,6 +327,9 @@ function request(preview?: string): RenderRequest {
   if (m === "reference" || m === "photons") req.photons = Number(photons.value);
   if (m === "reference") req.spp = 4;
   if (m === "csl") req.csl = cslParams();
+  // A preview from a dynamic bake does not queue the static bake of its light direction (the
+  // full frame on release does: the next frame there is exact).
+  if (preview && m === "csl" && req.csl?.dynamic) req.refine = false;
   if (state.moving >= 0) {
     const moved = movedLight()!;
     req.lights = state.lights.map((l, i) => (i === state.moving ? moved : l));

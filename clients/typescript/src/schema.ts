@@ -1058,9 +1058,10 @@ export interface components {
             component?: components["schemas"]["Component"];
             /**
              * @description csl only: the bake's parameters, as for `POST /v1/bakes` (default: the paper's). With
-             *     `dynamic: true` the render uses the dynamic bake of these parameters (found in the data
-             *     directory, e.g. made by a bake job, or baked now) and interpolates the set for the
-             *     scene's light direction.
+             *     `dynamic: true` the render uses the static bake made for exactly the scene's light with
+             *     the same preset and grid when the data directory keeps one (see `refine`), else the
+             *     dynamic bake of these parameters (found in the data directory, e.g. made by a bake job,
+             *     or baked now) and the set interpolated from it for the light's direction.
              */
             csl?: components["schemas"]["CslParams"] | null;
             /**
@@ -1112,6 +1113,13 @@ export interface components {
             pinhole?: components["schemas"]["PinholeOptions"] | null;
             /** @description photons only (progressive photon tracing, no bake); see docs/methods/photons.md. */
             progressive?: components["schemas"]["ProgressiveOptions"] | null;
+            /**
+             * @description csl with `dynamic` only: when the frame was served by sets interpolated from the
+             *     dynamic bake, queue the static bake of each object for exactly this light (the same
+             *     preset and grid; cached by content hash), so that the next frame at this light direction
+             *     is served by it (default true). The render's `info.refine` names the bakes.
+             */
+            refine?: boolean | null;
             scene: components["schemas"]["SceneRef"];
             /** @description reference and photons: the random sequence's seed. */
             seed?: number | null;

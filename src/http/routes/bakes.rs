@@ -56,7 +56,7 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     };
     let spec_json = serde_json::to_vec(&spec).expect("spec serialises");
     let hash = sha256_hex(&spec_json);
-    let mut id = format!("bk_{}", &hash[..32]);
+    let mut id = spec.bake_id();
     if let Some(k) = &key {
         match st.jobs.store.idempotency(k)? {
             Some((h, job)) if h == hash => id = job,

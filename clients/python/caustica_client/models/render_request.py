@@ -64,9 +64,10 @@ class RenderRequest:
                 the camera (L S+ V E): the volumetric caustic.
             csl (CslParams | None | Unset): csl only: the bake's parameters, as for `POST /v1/bakes` (default: the paper's).
                 With
-                `dynamic: true` the render uses the dynamic bake of these parameters (found in the data
-                directory, e.g. made by a bake job, or baked now) and interpolates the set for the
-                scene's light direction.
+                `dynamic: true` the render uses the static bake made for exactly the scene's light with
+                the same preset and grid when the data directory keeps one (see `refine`), else the
+                dynamic bake of these parameters (found in the data directory, e.g. made by a bake job,
+                or baked now) and the set interpolated from it for the light's direction.
             exposure (float | Unset): PNG exposure in stops. Default: 0.0.
             format_ (Format | Unset):
             fps (float | None | Unset): A sequence's frames per second, 0.1..=60 (default 24). Default: 24.0.
@@ -102,6 +103,10 @@ class RenderRequest:
                 project the environment and the lights onto the receivers every frame.
             progressive (None | ProgressiveOptions | Unset): photons only (progressive photon tracing, no bake); see
                 docs/methods/photons.md.
+            refine (bool | None | Unset): csl with `dynamic` only: when the frame was served by sets interpolated from the
+                dynamic bake, queue the static bake of each object for exactly this light (the same
+                preset and grid; cached by content hash), so that the next frame at this light direction
+                is served by it (default true). The render's `info.refine` names the bakes.
             seed (int | None | Unset): reference and photons: the random sequence's seed.
             spp (int | None | Unset): reference only: camera samples per pixel.
             time (float | None | Unset): Scenes with water: the waves' time in seconds (any method); the first frame's time
@@ -136,6 +141,7 @@ class RenderRequest:
     photons: int | None | Unset = UNSET
     pinhole: None | PinholeOptions | Unset = UNSET
     progressive: None | ProgressiveOptions | Unset = UNSET
+    refine: bool | None | Unset = UNSET
     seed: int | None | Unset = UNSET
     spp: int | None | Unset = UNSET
     time: float | None | Unset = UNSET
@@ -276,6 +282,12 @@ class RenderRequest:
         else:
             progressive = self.progressive
 
+        refine: bool | None | Unset
+        if isinstance(self.refine, Unset):
+            refine = UNSET
+        else:
+            refine = self.refine
+
         seed: int | None | Unset
         if isinstance(self.seed, Unset):
             seed = UNSET
@@ -368,6 +380,8 @@ class RenderRequest:
             field_dict["pinhole"] = pinhole
         if progressive is not UNSET:
             field_dict["progressive"] = progressive
+        if refine is not UNSET:
+            field_dict["refine"] = refine
         if seed is not UNSET:
             field_dict["seed"] = seed
         if spp is not UNSET:
@@ -668,6 +682,16 @@ class RenderRequest:
         progressive = _parse_progressive(d.pop("progressive", UNSET))
 
 
+        def _parse_refine(data: object) -> bool | None | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            return cast(bool | None | Unset, data)
+
+        refine = _parse_refine(d.pop("refine", UNSET))
+
+
         def _parse_seed(data: object) -> int | None | Unset:
             if data is None:
                 return data
@@ -797,6 +821,7 @@ class RenderRequest:
             photons=photons,
             pinhole=pinhole,
             progressive=progressive,
+            refine=refine,
             seed=seed,
             spp=spp,
             time=time,
