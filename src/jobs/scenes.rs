@@ -74,6 +74,13 @@ pub fn sha256_hex(b: &[u8]) -> String {
     hex(&Sha256::digest(b))
 }
 
+/// The id a scene JSON upload with `files` gets (that of its canonical form).
+pub fn json_scene_id(scene: &[u8], files: &[(String, Vec<u8>)]) -> Result<String, SceneError> {
+    let desc = parse_scene(scene)?;
+    let canonical = serde_json::to_vec(&desc).expect("scene serialises");
+    Ok(scene_id(&canonical, files))
+}
+
 /// The content id of a canonical scene and its files.
 pub fn scene_id(canonical: &[u8], files: &[(String, Vec<u8>)]) -> String {
     let mut h = Sha256::new();

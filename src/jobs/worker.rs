@@ -123,6 +123,12 @@ impl JobCtx<'_> {
             v["lights"] = serde_json::to_value(lights).map_err(|e| err(&e))?;
             json = serde_json::to_vec(&v).map_err(|e| err(&e))?;
         }
+        // The scene with these lights is kept only while the bakes need it (a scene nobody
+        // holds is swept once no queued or running job uses it), unless the key held it already.
+        let derived = scenes::json_scene_id(&json, &scene.files).map_err(|e| err(&e))?;
+        let held = store
+            .holds(Held::Scene, &derived, &owner)
+            .map_err(|e| err(&e))?;
         let input = scenes::SceneInput::Json {
             scene: json,
             files: scene.files,
@@ -132,8 +138,7 @@ impl JobCtx<'_> {
             .scenes
             .ingest(input, &owner)
             .map_err(|e| err(&e))?;
-        let mut ids = Vec::new();
-        for object in objects {
+        let queue = |object: &String| -> Result<String, String> {
             let spec = JobSpec {
                 kind: JobKind::Bake,
                 method,
@@ -143,10 +148,18 @@ impl JobCtx<'_> {
             };
             let bake = spec.bake_id();
             store.hold(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
-            self.system.submit(&bake, &spec).map_err(|e| err(&e))?;
-            ids.push(bake);
+            let submitted = self.system.submit(&bake, &spec);
+            if submitted.is_err() {
+                let _ = store.release(Held::Job, &bake, &owner);
+            }
+            submitted.map_err(|e| err(&e))?;
+            Ok(bake)
+        };
+        let ids = objects.iter().map(queue).collect::<Result<Vec<_>, _>>();
+        if !held && let Err(e) = store.release(Held::Scene, &info.id, &owner) {
+            tracing::warn!(error = %e, scene = %info.id, "the bakes' scene is still held");
         }
-        Ok(ids)
+        ids
     }
 
     pub fn method_error(&self, e: MethodError) -> JobError {

@@ -559,6 +559,31 @@ async fn a_dynamic_csl_render_queues_the_exact_bake_and_the_next_frame_uses_it()
         "the refined frame is not the static render's"
     );
 
+    // With the light given in the request, the bake's scene is the stored one with that
+    // light, held by nobody (so swept once no job needs it), while the client's scene stays
+    // held (the database read directly).
+    let mut light = scene["lights"][0].clone();
+    light["direction"] = serde_json::json!([-0.2, -1.0, 0.3]);
+    let (rec, _) = render(serde_json::json!({ "lights": [light] })).await;
+    assert_eq!(set(&rec), "interpolated", "{rec}");
+    let id = rec["info"]["refine"]["bakes"][0]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let bake = srv.bake_succeeded(&id, Duration::from_secs(120)).await;
+    let db = rusqlite::Connection::open(srv.dir.join("caustica.sqlite3")).unwrap();
+    let holds = |id: &serde_json::Value| -> i64 {
+        db.query_row(
+            "SELECT COUNT(*) FROM holds WHERE kind = 'scene' AND id = ?1",
+            [id.as_str().unwrap()],
+            |r| r.get(0),
+        )
+        .unwrap()
+    };
+    assert_ne!(bake["scene_id"], rec["scene_id"]);
+    assert_eq!(holds(&bake["scene_id"]), 0, "{bake}");
+    assert_eq!(holds(&rec["scene_id"]), 1, "{rec}");
+
     // `refine` only where it means something.
     let p = problem(
         srv.post_json(
