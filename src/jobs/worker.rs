@@ -87,8 +87,6 @@ impl JobCtx<'_> {
         self.check().is_ok()
     }
 
-    /// The job error for a method's error: a cancelled method stopped for the reason
-    /// [`Self::check`] gives.
     /// Queues a bake of `method` with the canonical `params` for each of `objects`, in this
     /// job's scene with its lights replaced by `lights` (that scene stored too), held by the
     /// key this job runs for; the bakes' ids. A bake already queued, running or done is not
@@ -147,9 +145,10 @@ impl JobCtx<'_> {
                 params: params.clone(),
             };
             let bake = spec.bake_id();
+            let had = store.holds(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
             store.hold(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
             let submitted = self.system.submit(&bake, &spec);
-            if submitted.is_err() {
+            if submitted.is_err() && !had {
                 let _ = store.release(Held::Job, &bake, &owner);
             }
             submitted.map_err(|e| err(&e))?;
@@ -162,6 +161,8 @@ impl JobCtx<'_> {
         ids
     }
 
+    /// The job error for a method's error: a cancelled method stopped for the reason
+    /// [`Self::check`] gives.
     pub fn method_error(&self, e: MethodError) -> JobError {
         match e {
             MethodError::Canceled => self.check().err().unwrap_or(JobError::Canceled),
