@@ -309,7 +309,7 @@ function previewMethod(what: "camera" | "light"): string {
   return "direct";
 }
 
-/** The render request for what the controls say; a preview is a small frame of `use`. */
+/** The render request for what the controls say; with `preview`, a small frame of that method. */
 function request(preview?: string): RenderRequest {
   const m = preview ?? method.value;
   const req: RenderRequest = {

@@ -249,7 +249,7 @@ function previewMethod(what) {
     }
     return "direct";
 }
-/** The render request for what the controls say; a preview is a small frame of `use`. */
+/** The render request for what the controls say; with `preview`, a small frame of that method. */
 function request(preview) {
     const m = preview ?? method.value;
     const req = {
