@@ -292,6 +292,15 @@ async fn shows_the_api_frame(srv: &Server, b: &Browser) -> Vec<u8> {
     px
 }
 
+/// Chooses `kind` in the page's bake menu and presses Bake.
+async fn start_bake(b: &Browser, kind: &str) {
+    b.exec(&format!(
+        "document.getElementById('bake-kind').value = '{kind}';
+         document.getElementById('bake').click()"
+    ))
+    .await;
+}
+
 /// The record of the render whose frame the page shows.
 async fn shown_render(srv: &Server, b: &Browser) -> Value {
     let id = b
@@ -500,11 +509,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     // A dynamic csl bake (12 directions): its progress shown as it comes, then succeeded; the
     // page renders csl from then on, and dragging the light previews csl frames interpolated
     // from the bake (any direction), the full frame on release again the API's.
-    b.exec(
-        "document.getElementById('bake-kind').value = 'csl-dynamic-quick';
-         document.getElementById('bake').click()",
-    )
-    .await;
+    start_bake(&b, "csl-dynamic-quick").await;
     let stage = poll("the bake to finish", Duration::from_secs(300), || async {
         let v = b
             .exec("const p = document.getElementById('bake-progress'); return [document.getElementById('bake-stage').textContent, p.value, p.dataset.events || '0']")
@@ -565,11 +570,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
             "params": {"photons": 200_000_000, "spp": 64, "width": 256, "height": 256}}),
         )
         .await;
-    b.exec(
-        "document.getElementById('bake-kind').value = 'csl-fast';
-         document.getElementById('bake').click()",
-    )
-    .await;
+    start_bake(&b, "csl-fast").await;
     poll("the cancel button", Duration::from_secs(30), || async {
         let v = b
             .exec("return !document.getElementById('cancel').disabled")
@@ -705,11 +706,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .exec("return [document.getElementById('light').selectedOptions[0].textContent, document.getElementById('distance').hidden, document.querySelector('#method option[value=csl]').disabled]")
         .await;
     assert_eq!(v, json!(["1: point", false, true]));
-    b.exec(
-        "document.getElementById('bake-kind').value = 'transport';
-         document.getElementById('bake').click()",
-    )
-    .await;
+    start_bake(&b, "transport").await;
     poll("the transport bake", Duration::from_secs(300), || async {
         let v = b
             .exec("return document.getElementById('bake-stage').textContent")
