@@ -1035,33 +1035,37 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathB
         let keys = hc.keys.len();
         let state = AppState::start(jc, hc)
             .with_context(|| format!("starting the job system in {}", data_dir.display()))?;
+        // Before the line below: a SIGTERM sent as soon as a script has read it is handled.
+        let shutdown = shutdown_signal()?;
         // Tests and scripts read this line to find the port.
         println!("caustica listening on http://{bound}");
         use std::io::Write;
         std::io::stdout().flush()?;
         tracing::info!(%bound, data_dir = %data_dir.display(), keys, "serving");
-        caustica::http::serve(listener, state, shutdown_signal()).await?;
+        caustica::http::serve(listener, state, shutdown).await?;
         Ok(())
     })
 }
 
-async fn shutdown_signal() {
-    let ctrl_c = async {
-        let _ = tokio::signal::ctrl_c().await;
-    };
+/// Resolves on SIGTERM or SIGINT (ctrl-c). The handlers are installed when this is called, not
+/// when the future is first polled, so a signal that comes in between is not lost to the
+/// default action (which would end the process without the graceful shutdown).
+fn shutdown_signal() -> anyhow::Result<impl std::future::Future<Output = ()>> {
     #[cfg(unix)]
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
+    {
+        use tokio::signal::unix::{SignalKind, signal};
+        let mut term = signal(SignalKind::terminate())?;
+        let mut int = signal(SignalKind::interrupt())?;
+        Ok(async move {
+            tokio::select! {
+                _ = int.recv() => tracing::info!("ctrl-c"),
+                _ = term.recv() => tracing::info!("SIGTERM"),
             }
-            Err(_) => std::future::pending::<()>().await,
-        }
-    };
-    #[cfg(not(unix))]
-    let term = std::future::pending::<()>();
-    tokio::select! {
-        _ = ctrl_c => tracing::info!("ctrl-c"),
-        _ = term => tracing::info!("SIGTERM"),
+        })
     }
+    #[cfg(not(unix))]
+    Ok(async {
+        let _ = tokio::signal::ctrl_c().await;
+        tracing::info!("ctrl-c");
+    })
 }
