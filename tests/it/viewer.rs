@@ -252,18 +252,31 @@ async fn shown_request(b: &Browser) -> Value {
 /// bright too (noise-free frames only).
 async fn radiance_focus(b: &Browser) -> (f64, f64) {
     let w = page_state(b, "frame.width").await.as_u64().unwrap() as u32;
-    let floats: Vec<f64> = page_state(b, "frame.rgb.join(',')")
+    let lum = page_radiance(b)
+        .await
+        .chunks(3)
+        .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+        .collect();
+    brightest(lum, w, 1)
+}
+
+/// The radiance the page decoded from the frame's EXR (RGB triples, top row first), as the
+/// page holds it (single precision).
+async fn page_radiance(b: &Browser) -> Vec<f32> {
+    page_state(b, "frame.rgb.join(',')")
         .await
         .as_str()
         .unwrap()
         .split(',')
-        .map(|x| x.parse().unwrap())
-        .collect();
-    let lum = floats
-        .chunks(3)
-        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
-        .collect();
-    brightest(lum, w, 1)
+        .map(|x| x.parse::<f64>().unwrap() as f32)
+        .collect()
+}
+
+/// The stored scene of the frame the page shows, as `GET /v1/scenes/{id}` gives it.
+async fn shown_scene(srv: &Server, b: &Browser) -> Value {
+    let req = shown_request(b).await;
+    let id = req["scene"].as_str().unwrap();
+    srv.get_json(&format!("/v1/scenes/{id}")).await.1
 }
 
 /// The frame the API renders for the request the page shows as its curl line.
@@ -373,13 +386,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .unwrap()
         .to_rgb32f()
         .into_raw();
-    let decoded: Vec<f32> = page_state(&b, "frame.rgb.join(',')")
-        .await
-        .as_str()
-        .unwrap()
-        .split(',')
-        .map(|x| x.parse::<f64>().unwrap() as f32)
-        .collect();
+    let decoded = page_radiance(&b).await;
     assert!(
         decoded == want,
         "the page's EXR decoding differs from image's"
@@ -393,12 +400,7 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
         .exec("return Array.from(document.querySelectorAll('#fits li')).map(li => [li.dataset.method, li.dataset.fits, li.textContent])")
         .await;
     let fits = fits.as_array().unwrap();
-    let (_, info) = srv
-        .get_json(&format!(
-            "/v1/scenes/{}",
-            shown_request(&b).await["scene"].as_str().unwrap()
-        ))
-        .await;
+    let info = shown_scene(&srv, &b).await;
     assert_eq!(fits.len(), info["methods"].as_array().unwrap().len());
     for (li, m) in fits.iter().zip(info["methods"].as_array().unwrap()) {
         assert_eq!(li[0], m["method"]);
@@ -805,18 +807,17 @@ async fn the_viewer_renders_turns_the_light_and_bakes_in_a_browser() {
     let v = b
         .exec("return [document.getElementById('method').value, document.querySelector('#fits li[data-method=photons]').dataset.fits, document.querySelectorAll('#warnings li').length, document.getElementById('object').options.length]")
         .await;
-    assert_eq!(v, json!(["auto", "false", v[2], 0]), "{v}");
+    assert_eq!(
+        (&v[0], &v[1], &v[3]),
+        (&json!("auto"), &json!("false"), &json!(0)),
+        "{v}"
+    );
     assert!(v[2].as_u64().unwrap() > 0, "no warnings listed: {v}");
     shows_the_api_frame(&srv, &b).await;
     b.screenshot("uploaded-gltf").await;
     // The mesh came from the .bin and the base colour from its texture: the server warns of
     // neither missing.
-    let (_, info) = srv
-        .get_json(&format!(
-            "/v1/scenes/{}",
-            shown_request(&b).await["scene"].as_str().unwrap()
-        ))
-        .await;
+    let info = shown_scene(&srv, &b).await;
     assert_eq!(info["triangles"], 3936, "{}", info["objects"]);
     let warnings = info["warnings"].to_string();
     assert!(!warnings.contains("texture"), "{warnings}");

@@ -113,6 +113,8 @@ function chooseLight(i) {
     }
     showSliders();
 }
+/** Pixels between the dial's canvas edge and its horizon circle. */
+const DIAL_MARGIN = 12;
 /** The dial: the sky seen from above, the light's dot where light comes from (or where a
  *  point or spot light sits), the camera's side marked on the rim. */
 function drawDial() {
@@ -120,7 +122,7 @@ function drawDial() {
     if (!g)
         return;
     const { width: w, height: h } = dial;
-    const R = w / 2 - 12;
+    const R = w / 2 - DIAL_MARGIN;
     g.clearRect(0, 0, w, h);
     g.strokeStyle = "#888";
     g.lineWidth = 1;
@@ -130,8 +132,10 @@ function drawDial() {
         g.stroke();
     }
     if (state.camera) {
+        // Where the camera is now (the orbit slider's), not where the scene put it.
         const c = state.camera;
-        const [ex, ez] = [c.eye[0] - c.target[0], c.eye[2] - c.target[2]];
+        const e = eye();
+        const [ex, ez] = [e[0] - c.target[0], e[2] - c.target[2]];
         const n = Math.hypot(ex, ez) || 1;
         g.fillStyle = "#48c";
         g.fillRect(w / 2 + (R + 6) * (ex / n) - 4, h / 2 + (R + 6) * (ez / n) - 4, 8, 8);
@@ -149,7 +153,7 @@ function drawDial() {
 /** Moves the light to where the pointer is on the dial. */
 function dialTo(e) {
     const r = dial.getBoundingClientRect();
-    const R = (r.width / 2) * (1 - 24 / dial.width);
+    const R = (r.width / 2) * (1 - (2 * DIAL_MARGIN) / dial.width);
     let x = (e.clientX - r.left - r.width / 2) / R;
     let z = (e.clientY - r.top - r.height / 2) / R;
     const n = Math.hypot(x, z);
@@ -238,8 +242,8 @@ function previewMethod(what) {
     const m = method.value;
     if (!state.scene || (m !== "csl" && m !== "transport"))
         return "direct";
+    const params = m === "csl" ? cslParams() : {};
     for (const [name, k] of Object.entries(BAKES)) {
-        const params = m === "csl" ? cslParams() : {};
         if (k.method === m &&
             JSON.stringify(k.params) === JSON.stringify(params) &&
             state.baked.has(`${state.scene.id} ${name}`) &&
@@ -297,13 +301,17 @@ function shownAsPng() {
     req.tone_map = toneMap.value;
     return req;
 }
-/** Redraws what is on screen with the picture settings (no new render), and updates the
- *  download link and the curl and Python lines that give the same PNG. */
+/** Redraws what is on screen with the picture settings (no new render). */
 function repaint() {
     if (state.frame)
         paint(frame, state.frame);
     if (state.compared)
         showCompared();
+    showLinks();
+}
+/** The download link and the curl and Python lines for the full frame on screen, as a PNG
+ *  with the picture settings. */
+function showLinks() {
     if (!state.shown || frame.classList.contains("preview"))
         return;
     frame.toBlob((b) => {
@@ -324,10 +332,8 @@ function repaint() {
 }
 /** Puts frame `f` on screen: its EXR decoded, tone-mapped here. */
 async function show(f) {
-    const r = await decodeExr(f.image);
-    state.frame = r;
-    paint(frame, r);
-    return r;
+    state.frame = await decodeExr(f.image);
+    paint(frame, state.frame);
 }
 /** A small frame for the controls as they are now, unless one is on its way: `direct`, or
  *  the chosen method where a bake serves the change (`what` moved). */
@@ -376,13 +382,13 @@ async function render() {
         frame.classList.remove("preview");
         state.shown = req;
         state.renderId = f.renderId;
-        state.exr = f.image;
+        state.full = state.frame;
         URL.revokeObjectURL(exrUrl);
         exrUrl = URL.createObjectURL(new Blob([f.image], { type: "image/x-exr" }));
         const exr = $("download-exr");
         exr.href = exrUrl;
         exr.hidden = false;
-        repaint();
+        showLinks();
         const max = Math.max(...f.timings.filter((t) => t.name !== "request").map((t) => t.ms), 1);
         $("timings").replaceChildren(...f.timings.map((t) => {
             const li = document.createElement("li");
@@ -404,11 +410,9 @@ function showCompared() {
     paint($("cmp-method"), c.a);
     paint($("cmp-reference"), c.b);
     const e = $("cmp-error");
-    const m = errorMap(c.a, c.b);
-    e.width = c.a.width;
-    e.height = c.a.height;
-    e.getContext("2d").putImageData(m.image, 0, 0);
-    e.dataset.mean = m.mean.toFixed(4);
+    e.width = c.error.width;
+    e.height = c.error.height;
+    e.getContext("2d").putImageData(c.error, 0, 0);
 }
 /** The chosen method and the reference rendered as EXR for the controls as they are, shown
  *  side by side with an error map, and measured against each other (`POST /v1/compare`) on
@@ -426,13 +430,17 @@ async function compareWithReference() {
     say(`Comparing ${req.method} with the reference…`);
     try {
         // The frame on screen when it is this request's, else a new one.
-        const same = JSON.stringify(state.shown) === JSON.stringify(req) && state.renderId && state.exr;
-        const a = same ? { renderId: state.renderId, image: state.exr } : await client.render(req);
+        const same = JSON.stringify(state.shown) === JSON.stringify(req) && state.renderId && state.full;
+        const a = same ? { renderId: state.renderId, image: undefined } : await client.render(req);
         const ref = { ...req, method: "reference", photons: Number(photons.value), spp: 4 };
         delete ref.csl;
         const b = await client.render(ref);
         const m = await client.compare(a.renderId, b.renderId, receiver);
-        state.compared = { a: await decodeExr(a.image), b: await decodeExr(b.image) };
+        const ra = a.image ? await decodeExr(a.image) : state.full;
+        const rb = await decodeExr(b.image);
+        const error = errorMap(ra, rb);
+        state.compared = { a: ra, b: rb, error: error.image };
+        $("cmp-error").dataset.mean = error.mean.toFixed(4);
         showCompared();
         $("cmp-method-caption").textContent = req.method ?? "";
         $("compare-view").hidden = false;
@@ -464,9 +472,9 @@ async function upload(files) {
     try {
         const text = async () => new TextDecoder().decode(await main.arrayBuffer());
         let info;
-        if (main.name.toLowerCase().endsWith(".glb"))
+        if (main === named(".glb"))
             info = await client.uploadGlb(await main.arrayBuffer());
-        else if (main.name.toLowerCase().endsWith(".gltf"))
+        else if (main === named(".gltf"))
             info = await client.uploadGltf(await embedded(await text(), others));
         else if (others.length) {
             const parts = Object.fromEntries(others.map((f) => [f.name, f]));
