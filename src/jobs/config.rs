@@ -29,6 +29,15 @@ pub struct JobConfig {
     pub limits: crate::scene::Limits,
     /// Skip the GPU readiness probe at start (tests of the queue alone).
     pub probe_gpu: bool,
+    /// The shared job store (`postgres://…`); `None`: SQLite in the data directory, one
+    /// process.
+    pub database: Option<String>,
+    /// Which lanes this process takes jobs from: (CPU, GPU). An API process with a shared
+    /// store may take none (`--no-workers`).
+    pub lanes: (bool, bool),
+    /// A worker's hold on a job it runs, extended by its heartbeat every third of it; a job
+    /// whose worker stops answering for this long goes back to the queue (shared store).
+    pub lease: Duration,
 }
 
 impl JobConfig {
@@ -52,6 +61,9 @@ impl JobConfig {
                 ..Default::default()
             },
             probe_gpu: true,
+            database: None,
+            lanes: (true, true),
+            lease: Duration::from_secs(30),
         }
     }
 }
@@ -63,8 +75,12 @@ impl JobConfig {
     /// `CAUSTICA_RENDER_TTL_S`, `CAUSTICA_BAKE_TTL_S`, `CAUSTICA_MAX_RENDER_BYTES` (0: keep),
     /// `CAUSTICA_JOB_MEMORY` (bytes),
     /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
-    /// `CAUSTICA_MAX_TRIANGLES`. An unparsable or out-of-range value is an error naming it.
+    /// `CAUSTICA_MAX_TRIANGLES`, `CAUSTICA_LEASE_S`. An unparsable or out-of-range value is an
+    /// error naming it.
     pub fn apply_env(&mut self, get: &dyn Fn(&str) -> Option<String>) -> Result<(), String> {
+        if let Some(v) = env_num(get, "CAUSTICA_LEASE_S", 0.5, 3600.0, false)? {
+            self.lease = Duration::from_secs_f64(v);
+        }
         if let Some(v) = env_num(get, "CAUSTICA_CPU_WORKERS", 1.0, 1024.0, true)? {
             self.cpu_workers = v as usize;
         }

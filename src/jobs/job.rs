@@ -91,7 +91,8 @@ impl std::fmt::Display for JobState {
 }
 
 /// Lower runs first: small renders, then other renders, then bakes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Priority {
     /// A render small enough to be interactive ([`Job::small`]): besides the other workers,
     /// a worker of its own takes only these, so they flow while big renders and bakes run.
@@ -126,6 +127,8 @@ pub enum ErrorCode {
     Encode,
     Panic,
     Store,
+    /// The workers that took it stopped answering (their leases ran out) too many times.
+    WorkerLost,
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -49,6 +49,9 @@ pub struct JobHandle {
     progressed: tokio::sync::watch::Sender<()>,
     /// When it was put in the queue (for the queue-wait timing).
     enqueued: Instant,
+    /// A worker of this process runs it (with a shared store, the other handles follow the
+    /// record).
+    local: AtomicBool,
 }
 
 impl JobHandle {
@@ -60,6 +63,7 @@ impl JobHandle {
             state: tokio::sync::watch::Sender::new(JobState::Queued),
             progressed: tokio::sync::watch::Sender::new(()),
             enqueued: Instant::now(),
+            local: AtomicBool::new(false),
         })
     }
 
@@ -125,8 +129,15 @@ impl JobHandle {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Readiness {
     Starting,
-    Ready { adapter: String },
-    NoGpu { error: String },
+    /// This process runs no GPU worker (an API process over a shared store, or a worker
+    /// without the GPU lane): ready for what it does.
+    NoGpuLane,
+    Ready {
+        adapter: String,
+    },
+    NoGpu {
+        error: String,
+    },
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -195,13 +206,26 @@ pub struct JobSystem {
     gpu: Arc<Mutex<GpuSlot>>,
     /// Bytes of [`JobConfig::job_memory`] that queued and running jobs hold.
     memory: Arc<Mutex<u64>>,
+    /// This process's name as a worker (host, process id, start time): what its leases are
+    /// held under.
+    worker_id: String,
+    /// The store is shared with other processes (PostgreSQL): workers claim jobs from it, and
+    /// handles of jobs run elsewhere follow their records.
+    shared: bool,
 }
 
 impl JobSystem {
     /// Opens the store, re-queues what a previous process left unfinished and starts the
     /// workers.
     pub fn start(cfg: JobConfig) -> Result<Arc<JobSystem>, SubmitError> {
-        let store = Arc::new(Store::open(&cfg.data_dir)?);
+        let store = Arc::new(Store::open_with(&cfg.data_dir, cfg.database.as_deref())?);
+        let shared = cfg.database.is_some();
+        let worker_id = format!(
+            "{}-{}-{}",
+            store::host_tag(),
+            std::process::id(),
+            store::now_ms()
+        );
         let sys = Arc::new(JobSystem {
             scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone()),
             store,
@@ -222,9 +246,18 @@ impl JobSystem {
             threads: Mutex::new(Vec::new()),
             gpu: Arc::new(Mutex::new(GpuSlot::default())),
             memory: Arc::new(Mutex::new(0)),
+            worker_id,
+            shared,
             cfg,
         });
-        for rec in sys.store.unfinished_jobs()? {
+        // With a shared store, jobs left running by a process that died go back to the queue
+        // when their lease runs out (the keeper, below), not at the start of another process.
+        let unfinished = if shared {
+            vec![]
+        } else {
+            sys.store.unfinished_jobs()?
+        };
+        for rec in unfinished {
             let spec = rec.spec();
             tracing::info!(job = %rec.id, kind = rec.kind.as_str(), "re-queueing unfinished job");
             let r = sys
@@ -233,7 +266,8 @@ impl JobSystem {
                 .and_then(|w| build_job(&spec, w, &sys.cfg.limits));
             match r {
                 Ok(job) => {
-                    sys.store.set_queued(&rec.id)?;
+                    sys.store
+                        .set_queued(&rec.id, rec.worker.as_deref().unwrap_or_default())?;
                     // Accepted before the restart: taken back whatever the budget says.
                     let hold = sys.hold_memory(job.memory(), true)?;
                     sys.enqueue(rec.id.clone(), job, hold);
@@ -241,6 +275,7 @@ impl JobSystem {
                 Err(e) => {
                     sys.store.finish(
                         &rec.id,
+                        rec.worker.as_deref().unwrap_or_default(),
                         JobState::Failed,
                         0.0,
                         &[],
@@ -252,7 +287,23 @@ impl JobSystem {
             }
         }
         let mut threads = Vec::new();
-        let n = sys.cfg.cpu_workers.max(1);
+        if shared {
+            let s = sys.clone();
+            let wake = sys.clone();
+            sys.store.listen(Box::new(move |e| wake.heard(e)))?;
+            threads.push(
+                std::thread::Builder::new()
+                    .name("caustica-leases".into())
+                    .spawn(move || s.keeper())
+                    .expect("spawn lease keeper"),
+            );
+        }
+        let (cpu_lane, gpu_lane) = sys.cfg.lanes;
+        let n = if cpu_lane {
+            sys.cfg.cpu_workers.max(1)
+        } else {
+            0
+        };
         // With more than one CPU worker, the first takes only renders, so that a render never
         // waits behind long bakes; one more takes only small renders, so that a preview never
         // waits behind big renders either (it shares the cores for its short run).
@@ -265,7 +316,7 @@ impl JobSystem {
                 };
                 (format!("caustica-cpu-{i}"), up_to)
             })
-            .chain([("caustica-cpu-small".to_string(), Priority::Small)]);
+            .chain(cpu_lane.then(|| ("caustica-cpu-small".to_string(), Priority::Small)));
         for (name, up_to) in roles {
             let s = sys.clone();
             threads.push(
@@ -285,25 +336,34 @@ impl JobSystem {
                 .spawn(move || s.janitor())
                 .expect("spawn janitor"),
         );
-        let s = sys.clone();
-        threads.push(
-            std::thread::Builder::new()
-                .name("caustica-gpu".into())
-                .spawn(move || {
-                    let slot = s.gpu.clone();
-                    if s.cfg.probe_gpu {
-                        s.probe(&slot);
-                    }
-                    s.worker(Lane::Gpu, Some(&slot), Priority::Bake);
-                })
-                .expect("spawn GPU worker"),
-        );
+        if gpu_lane {
+            let s = sys.clone();
+            threads.push(
+                std::thread::Builder::new()
+                    .name("caustica-gpu".into())
+                    .spawn(move || {
+                        let slot = s.gpu.clone();
+                        if s.cfg.probe_gpu {
+                            s.probe(&slot);
+                        }
+                        s.worker(Lane::Gpu, Some(&slot), Priority::Bake);
+                    })
+                    .expect("spawn GPU worker"),
+            );
+        } else {
+            *sys.readiness.lock().unwrap_or_else(|e| e.into_inner()) = Readiness::NoGpuLane;
+        }
         *sys.threads.lock().unwrap_or_else(|e| e.into_inner()) = threads;
         Ok(sys)
     }
 
     pub fn config(&self) -> &JobConfig {
         &self.cfg
+    }
+
+    /// This process's name as a worker: what its leases are held under.
+    pub fn worker_id(&self) -> &str {
+        &self.worker_id
     }
 
     pub fn readiness(&self) -> Readiness {
@@ -321,8 +381,12 @@ impl JobSystem {
             .depth()
     }
 
-    /// Jobs queued in this process, per kind (bake, render).
+    /// Jobs queued, per kind (bake, render): in this process, or in the shared store.
     pub fn queued(&self) -> (usize, usize) {
+        if self.shared {
+            let n = |k| self.store.count_queued(k).unwrap_or(0);
+            return (n(JobKind::Bake), n(JobKind::Render));
+        }
         let q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
         (q.count(JobKind::Bake), q.count(JobKind::Render))
     }
@@ -340,13 +404,176 @@ impl JobSystem {
         n
     }
 
-    /// The live handle of a job queued or running in this process.
+    /// The live handle of a job queued or running in this process; with a shared store, of
+    /// one queued or running anywhere (a handle that follows its record).
     pub fn handle(&self, id: &str) -> Option<Arc<JobHandle>> {
-        self.live
+        let h = self
+            .live
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(id)
+            .cloned();
+        if h.is_some() || !self.shared {
+            return h;
+        }
+        let rec = self.store.get_job(id).ok().flatten()?;
+        if rec.state.is_terminal() {
+            return None;
+        }
+        let h = self
+            .live
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .entry(id.to_string())
+            .or_insert_with(|| JobHandle::new(id.to_string()))
+            .clone();
+        // The record may have moved on between the read and the insertion.
+        self.refresh(id);
+        Some(h)
+    }
+
+    /// Brings the handle of job `id` (one not run here) up to its record; retires it once the
+    /// job ended. A handle never leaves a terminal state.
+    fn refresh(&self, id: &str) {
+        let Some(h) = self
+            .live
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .get(id)
             .cloned()
+        else {
+            return;
+        };
+        if h.local.load(Ordering::SeqCst) {
+            return;
+        }
+        let rec = match self.store.get_job(id) {
+            Ok(Some(r)) => r,
+            Ok(None) => {
+                // Deleted: nothing more will happen to it.
+                self.live
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .remove(id);
+                return;
+            }
+            Err(e) => {
+                tracing::warn!(job = %id, error = %e, "cannot follow the job's record");
+                return;
+            }
+        };
+        h.report(rec.progress, &rec.stage);
+        if rec.state.is_terminal() {
+            self.live
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .remove(id);
+        }
+        h.state.send_if_modified(|s| {
+            if s.is_terminal() || *s == rec.state {
+                false
+            } else {
+                *s = rec.state;
+                true
+            }
+        });
+    }
+
+    /// What the shared store said another process did.
+    fn heard(&self, e: store::StoreEvent) {
+        match e {
+            store::StoreEvent::Job(id) => {
+                let h = self
+                    .live
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .get(&id)
+                    .cloned();
+                match h {
+                    Some(h) if h.local.load(Ordering::SeqCst) => self.beat(),
+                    Some(_) => self.refresh(&id),
+                    None => {}
+                }
+            }
+            store::StoreEvent::Queued(_) => {
+                let _q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+                self.wake.notify_all();
+            }
+            store::StoreEvent::Reconnected => {
+                let ids: Vec<String> = self
+                    .live
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .keys()
+                    .cloned()
+                    .collect();
+                for id in ids {
+                    self.refresh(&id);
+                }
+                let _q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+                self.wake.notify_all();
+            }
+        }
+    }
+
+    /// Extends the leases of the jobs this process runs; passes on cancellations asked of
+    /// them.
+    fn beat(&self) {
+        match self
+            .store
+            .heartbeat(&self.worker_id, self.cfg.lease.as_millis() as i64)
+        {
+            Ok(cancel) => {
+                for id in cancel {
+                    if let Some(h) = self.live.lock().unwrap_or_else(|e| e.into_inner()).get(&id) {
+                        h.request_cancel();
+                    }
+                }
+            }
+            Err(e) => tracing::warn!(error = %e, "lease heartbeat failed"),
+        }
+    }
+
+    /// With a shared store: every third of a lease, extends this process's leases, re-queues
+    /// (or fails) jobs whose worker's lease ran out, and brings the handles of jobs run
+    /// elsewhere up to their records (in case a notification was missed); until shutdown.
+    fn keeper(&self) {
+        let every = self.cfg.lease / 3;
+        let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let (q, _) = self
+                .wake
+                .wait_timeout_while(qs, every, |q| !q.closed)
+                .unwrap_or_else(|e| e.into_inner());
+            if q.closed {
+                return;
+            }
+            drop(q);
+            self.beat();
+            match self.store.reap_expired() {
+                Ok(r) => {
+                    for id in &r.requeued {
+                        tracing::warn!(job = %id, "its worker's lease ran out; queued again");
+                    }
+                    for id in &r.failed {
+                        tracing::error!(job = %id, "its workers' leases ran out too often; failed");
+                    }
+                }
+                Err(e) => tracing::warn!(error = %e, "cannot reap expired leases"),
+            }
+            let ids: Vec<String> = self
+                .live
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .iter()
+                .filter(|(_, h)| !h.local.load(Ordering::SeqCst))
+                .map(|(id, _)| id.clone())
+                .collect();
+            for id in ids {
+                self.refresh(&id);
+            }
+            qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        }
     }
 
     /// Submits a job under `id`. If a record with this id exists and is queued, running or
@@ -373,10 +600,17 @@ impl JobSystem {
             return Ok((self.handle(id), false));
         }
         {
-            let q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
-            let (n, cap) = match spec.kind {
-                JobKind::Render => (q.count(JobKind::Render), self.cfg.max_queued),
-                JobKind::Bake => (q.count(JobKind::Bake), self.cfg.max_queued_bakes),
+            let n = if self.shared {
+                self.store.count_queued(spec.kind)?
+            } else {
+                self.queues
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .count(spec.kind)
+            };
+            let cap = match spec.kind {
+                JobKind::Render => self.cfg.max_queued,
+                JobKind::Bake => self.cfg.max_queued_bakes,
             };
             if n >= cap {
                 return Err(SubmitError::QueueFull(spec.kind, n));
@@ -387,11 +621,22 @@ impl JobSystem {
         if spec.kind == JobKind::Render {
             self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
         }
+        if self.shared {
+            // The workers that claim it hold its memory; this process follows its record.
+            if existing.is_some() {
+                self.store.requeue(id)?;
+            } else {
+                self.store
+                    .insert_job(&JobRecord::new(id, spec, job.lane(), job.priority()))?;
+            }
+            return Ok((self.handle(id), true));
+        }
         let hold = self.hold_memory(job.memory(), false)?;
         if existing.is_some() {
             self.store.requeue(id)?;
         } else {
-            self.store.insert_job(&JobRecord::new(id, spec))?;
+            self.store
+                .insert_job(&JobRecord::new(id, spec, job.lane(), job.priority()))?;
         }
         let h = self.enqueue(id.to_string(), job, hold);
         Ok((Some(h), true))
@@ -443,6 +688,7 @@ impl JobSystem {
             handle: handle.clone(),
             job,
             memory,
+            claimed: false,
         };
         self.queues
             .lock()
@@ -458,6 +704,23 @@ impl JobSystem {
         let Some(h) = self.handle(id) else {
             return Ok(false);
         };
+        if self.shared && !h.local.load(Ordering::SeqCst) {
+            // Queued: canceled in the store at once; running elsewhere: its worker sees the
+            // request at its next heartbeat (at once, when it hears the notification).
+            return Ok(match self.store.request_cancel(id)? {
+                Some(JobState::Canceled) => {
+                    self.metrics
+                        .job_finished("canceled", h.kind().as_str(), Duration::ZERO);
+                    self.retire(&h, JobState::Canceled);
+                    true
+                }
+                Some(_) => true,
+                None => {
+                    self.refresh(id);
+                    false
+                }
+            });
+        }
         h.request_cancel();
         let removed = self
             .queues
@@ -467,6 +730,7 @@ impl JobSystem {
         if removed {
             self.store.finish(
                 id,
+                &self.worker_id,
                 JobState::Canceled,
                 h.progress().0,
                 &[],
@@ -500,7 +764,91 @@ impl JobSystem {
             if let Some(q) = qs.pop(lane, up_to) {
                 return Some(q);
             }
+            if self.shared {
+                drop(qs);
+                if let Some(q) = self.claim(lane, up_to) {
+                    return Some(q);
+                }
+                qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+                if qs.closed {
+                    return None;
+                }
+                // Woken by a notification that a job was queued; the timeout covers one
+                // that was missed.
+                qs = self
+                    .wake
+                    .wait_timeout(qs, CLAIM_POLL)
+                    .unwrap_or_else(|e| e.into_inner())
+                    .0;
+                continue;
+            }
             qs = self.wake.wait(qs).unwrap_or_else(|e| e.into_inner());
+        }
+    }
+
+    /// Claims a job of `lane` from the shared store and builds it; one that cannot be built
+    /// (its scene gone, its spec no longer valid) is failed with the reason.
+    fn claim(&self, lane: Lane, up_to: Priority) -> Option<Queued> {
+        loop {
+            let rec = match self.store.claim(
+                lane,
+                up_to,
+                &self.worker_id,
+                self.cfg.lease.as_millis() as i64,
+            ) {
+                Ok(Some(r)) => r,
+                Ok(None) => return None,
+                Err(e) => {
+                    tracing::warn!(error = %e, "cannot claim a job");
+                    return None;
+                }
+            };
+            let built = self
+                .scenes
+                .world(&rec.scene_id)
+                .and_then(|w| build_job(&rec.spec(), w, &self.cfg.limits));
+            let job = match built {
+                Ok(j) => j,
+                Err(e) => {
+                    tracing::warn!(job = %rec.id, error = %e, "claimed job cannot be built");
+                    let r = self.store.finish(
+                        &rec.id,
+                        &self.worker_id,
+                        JobState::Failed,
+                        0.0,
+                        &[],
+                        &serde_json::json!({ "error_code": e.code() }),
+                        Some(&e.to_string()),
+                        None,
+                    );
+                    if let Err(e) = r {
+                        tracing::error!(job = %rec.id, error = %e, "cannot record the failure");
+                    }
+                    continue;
+                }
+            };
+            let memory = match self.hold_memory(job.memory(), true) {
+                Ok(m) => m,
+                Err(_) => unreachable!("a forced hold always succeeds"),
+            };
+            let handle = self
+                .live
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .entry(rec.id.clone())
+                .or_insert_with(|| JobHandle::new(rec.id.clone()))
+                .clone();
+            handle.local.store(true, Ordering::SeqCst);
+            return Some(Queued {
+                priority: job.priority(),
+                owner: String::new(),
+                tag: 0,
+                seq: self.seq.fetch_add(1, Ordering::SeqCst),
+                handle,
+                job,
+                memory,
+                claimed: true,
+            });
         }
     }
 
@@ -651,6 +999,9 @@ impl JobSystem {
             .push(t);
     }
 }
+
+/// How often an idle worker asks a shared store for a job when no notification woke it.
+const CLAIM_POLL: Duration = Duration::from_secs(1);
 
 /// How long [`JobSystem::shutdown`] waits for interrupted jobs to stop before it abandons
 /// them.

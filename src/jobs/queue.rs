@@ -29,6 +29,8 @@ pub(crate) struct Queued {
     pub handle: Arc<JobHandle>,
     /// Its share of the job memory budget, given back when the job is dropped (run or not).
     pub memory: super::MemoryHold,
+    /// Claimed from a shared store (already running under this process's lease).
+    pub claimed: bool,
 }
 
 impl PartialEq for Queued {
@@ -194,6 +196,7 @@ mod tests {
             seq,
             job: Box::new(Stub(Lane::Cpu, priority)),
             handle: JobHandle::new(id.into()),
+            claimed: false,
             memory: MemoryHold {
                 bytes: 0,
                 pool: Arc::new(Mutex::new(0)),

@@ -255,8 +255,27 @@ impl JobSystem {
         let id = h.id.clone();
         let kind = q.job.kind();
         let queue_wait = h.enqueued.elapsed();
-        if let Err(e) = self.store.set_running(&id) {
-            tracing::error!(job = %id, error = %e, "cannot mark running");
+        h.local.store(true, Ordering::SeqCst);
+        if !q.claimed {
+            match self
+                .store
+                .set_running(&id, &self.worker_id, self.cfg.lease.as_millis() as i64)
+            {
+                Ok(true) => {}
+                Ok(false) => {
+                    // Its record moved on while it waited here (deleted, or ended elsewhere).
+                    tracing::warn!(job = %id, "not queued in the store any more; skipped");
+                    let state = self
+                        .store
+                        .get_job(&id)
+                        .ok()
+                        .flatten()
+                        .map_or(JobState::Canceled, |r| r.state);
+                    self.retire(&h, state);
+                    return;
+                }
+                Err(e) => tracing::error!(job = %id, error = %e, "cannot mark running"),
+            }
         }
         h.state.send_replace(JobState::Running);
         let timeout = match kind {
@@ -299,7 +318,7 @@ impl JobSystem {
             Ok(a) => self.record_success(&id, a, ms(queue_wait), progress),
             Err(JobError::Interrupted) => {
                 tracing::info!("interrupted by shutdown; left queued for the next start");
-                let r = self.store.set_queued(&id);
+                let r = self.store.set_queued(&id, &self.worker_id);
                 if let Err(e) = r {
                     tracing::error!(error = %e, "cannot re-queue");
                 }
@@ -314,6 +333,7 @@ impl JobSystem {
                 JobState::Canceled,
                 self.store.finish(
                     &id,
+                    &self.worker_id,
                     JobState::Canceled,
                     progress,
                     &short,
@@ -328,6 +348,7 @@ impl JobSystem {
                     JobState::Failed,
                     self.store.finish(
                         &id,
+                        &self.worker_id,
                         JobState::Failed,
                         progress,
                         &short,
@@ -338,9 +359,26 @@ impl JobSystem {
                 )
             }
         };
-        if let Err(e) = rec {
-            tracing::error!(error = %e, "cannot record the job's end");
-        }
+        let state = match rec {
+            Ok(true) => state,
+            Ok(false) => {
+                // Its lease ran out and the store gave it to another worker (or it was
+                // deleted): that worker's end stands.
+                tracing::warn!(
+                    "the job is no longer this worker's (its lease ran out); its end here is \
+                     not recorded"
+                );
+                self.store
+                    .get_job(&id)
+                    .ok()
+                    .flatten()
+                    .map_or(state, |r| r.state)
+            }
+            Err(e) => {
+                tracing::error!(error = %e, "cannot record the job's end");
+                state
+            }
+        };
         tracing::info!(
             state = state.as_str(),
             run_ms = ms(run_time),
@@ -359,7 +397,7 @@ impl JobSystem {
         a: Artifact,
         queue_ms: f64,
         progress: f32,
-    ) -> (JobState, Result<(), super::store::StoreError>) {
+    ) -> (JobState, Result<bool, super::store::StoreError>) {
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let mut timings = vec![("queue".to_string(), queue_ms)];
         timings.extend(a.timings.iter().map(|(n, d)| (n.clone(), ms(*d))));
@@ -379,6 +417,7 @@ impl JobSystem {
                 timings.push(("store".to_string(), ms(t.elapsed())));
                 self.store.finish(
                     id,
+                    &self.worker_id,
                     JobState::Succeeded,
                     1.0,
                     &timings,
@@ -388,7 +427,7 @@ impl JobSystem {
                 )
             });
         match r {
-            Ok(()) => (JobState::Succeeded, Ok(())),
+            Ok(done) => (JobState::Succeeded, Ok(done)),
             Err(e) => {
                 let msg = format!("storing the artifact failed: {e}");
                 let info = serde_json::json!({ "error_code": ErrorCode::Store });
@@ -396,6 +435,7 @@ impl JobSystem {
                     JobState::Failed,
                     self.store.finish(
                         id,
+                        &self.worker_id,
                         JobState::Failed,
                         progress,
                         &timings,

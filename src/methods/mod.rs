@@ -153,7 +153,8 @@ fn names(keep: impl Fn(&MethodInfo) -> bool) -> String {
 }
 
 /// Where a job's work runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Lane {
     /// The CPU pool (bakes, reference renders, a baked method's preparation before it borrows
     /// the GPU for its frame).

@@ -10,6 +10,7 @@ pub mod contract;
 pub mod csl_points;
 pub mod gpu;
 pub mod images;
+pub mod pg;
 pub mod scenes;
 pub mod server;
 

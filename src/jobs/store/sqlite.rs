@@ -1,32 +1,17 @@
-//! Persistence: scenes, job records and artifacts under the data directory.
-//!
-//! SQLite (bundled, WAL) keeps scenes, their uploaded files and job records; artifacts are
-//! files under `artifacts/`, written atomically (temp file, fsync, rename, fsync of the
-//! directory) before the record that points at them is marked succeeded, so a record never
-//! names a half-written file. One connection behind a mutex: every statement is short, and
-//! SQLite serialises writers anyway.
+//! The SQLite back-end of [`JobDb`]: one file under the data directory (bundled SQLite, WAL),
+//! one connection behind a mutex (every statement is short, and SQLite serialises writers
+//! anyway). Leases and claims work as on PostgreSQL, so the same suite passes; only one
+//! process uses the file.
 
-use super::job::{ErrorCode, JobKind, JobSpec, JobState};
-use crate::methods::Method;
+use super::{
+    Held, JobDb, JobFilter, JobRecord, MAX_ATTEMPTS, Reaped, StoreError, StoreEvent,
+    StoredArtifact, StoredScene, now_ms,
+};
+use crate::jobs::job::{ErrorCode, JobKind, JobState, Priority};
+use crate::methods::{Lane, Method};
 use rusqlite::{Connection, OptionalExtension, params};
-use serde::{Deserialize, Serialize};
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Mutex;
-use std::time::{SystemTime, UNIX_EPOCH};
-
-#[derive(Debug, thiserror::Error)]
-pub enum StoreError {
-    #[error("database: {0}")]
-    Db(#[from] rusqlite::Error),
-    #[error("file system: {0}")]
-    Io(#[from] std::io::Error),
-    #[error("corrupt record: {0}")]
-    Corrupt(String),
-    /// A stored artifact is missing, a link, or not the bytes that were written.
-    #[error("artifact failed its check: {0}")]
-    Integrity(String),
-}
 
 /// Schema migrations, applied in order; `PRAGMA user_version` records how many ran.
 const MIGRATIONS: &[&str] = &[
@@ -90,153 +75,37 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN accessed_at INTEGER;
     CREATE INDEX jobs_kind_state ON jobs(kind, state);
 "#,
+    // 5: where each job runs (lane, priority) and who holds it (worker, lease, attempts,
+    // a cancellation asked of its worker).
+    r#"
+    ALTER TABLE jobs ADD COLUMN lane TEXT NOT NULL DEFAULT 'cpu';
+    ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 2;
+    ALTER TABLE jobs ADD COLUMN worker TEXT;
+    ALTER TABLE jobs ADD COLUMN lease_until INTEGER;
+    ALTER TABLE jobs ADD COLUMN attempts INTEGER NOT NULL DEFAULT 0;
+    ALTER TABLE jobs ADD COLUMN cancel_requested INTEGER NOT NULL DEFAULT 0;
+    CREATE INDEX jobs_claim ON jobs(state, lane, priority, seq);
+"#,
 ];
-
-/// Which jobs [`Store::list_jobs`] returns.
-#[derive(Clone, Debug)]
-pub struct JobFilter {
-    pub kind: JobKind,
-    /// Only jobs this key holds; `None`: every job.
-    pub owner: Option<String>,
-    pub state: Option<JobState>,
-    pub method: Option<Method>,
-    /// Created at or after (ms since the epoch).
-    pub created_since: Option<i64>,
-    /// Only jobs with a lower sequence number (the cursor of the previous page).
-    pub before_seq: Option<i64>,
-    pub limit: usize,
-}
-
-/// What a hold is on: a scene or a job.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Held {
-    Scene,
-    Job,
-}
-
-impl Held {
-    fn as_str(self) -> &'static str {
-        match self {
-            Held::Scene => "scene",
-            Held::Job => "job",
-        }
-    }
-}
-
-/// An artifact as written: its file name under `artifacts/`, length and SHA-256 (hex).
-#[derive(Clone, Debug, PartialEq)]
-pub struct StoredArtifact {
-    pub name: String,
-    pub len: u64,
-    pub sha256: String,
-}
-
-/// A stored scene: canonical JSON and the files it names.
-#[derive(Clone, Debug)]
-pub struct StoredScene {
-    pub id: String,
-    pub scene_json: Vec<u8>,
-    pub files: Vec<(String, Vec<u8>)>,
-    pub created_at: i64,
-}
-
-/// A job record, as persisted.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct JobRecord {
-    pub id: String,
-    pub kind: JobKind,
-    pub method: Method,
-    pub scene_id: String,
-    pub object: Option<String>,
-    pub params: serde_json::Value,
-    pub state: JobState,
-    pub progress: f32,
-    pub stage: String,
-    /// Stage name and milliseconds, in order.
-    pub timings: Vec<(String, f64)>,
-    /// Adapter, statistics and whatever else the job reports.
-    pub info: serde_json::Value,
-    pub error: Option<String>,
-    pub artifact_type: Option<String>,
-    pub artifact_path: Option<String>,
-    /// Length and SHA-256 of the artifact as written (absent for records older than the
-    /// check).
-    pub artifact_len: Option<u64>,
-    pub artifact_sha256: Option<String>,
-    pub created_at: i64,
-    pub started_at: Option<i64>,
-    pub finished_at: Option<i64>,
-}
-
-impl JobRecord {
-    /// A new, queued job's record.
-    pub fn new(id: &str, spec: &JobSpec) -> JobRecord {
-        JobRecord {
-            id: id.into(),
-            kind: spec.kind,
-            method: spec.method,
-            scene_id: spec.scene_id.clone(),
-            object: spec.object.clone(),
-            params: spec.params.clone(),
-            state: JobState::Queued,
-            progress: 0.0,
-            stage: String::new(),
-            timings: vec![],
-            info: serde_json::json!({}),
-            error: None,
-            artifact_type: None,
-            artifact_path: None,
-            artifact_len: None,
-            artifact_sha256: None,
-            created_at: now_ms(),
-            started_at: None,
-            finished_at: None,
-        }
-    }
-
-    /// The spec the job was submitted with (to rebuild it after a restart).
-    pub fn spec(&self) -> JobSpec {
-        JobSpec {
-            kind: self.kind,
-            method: self.method,
-            scene_id: self.scene_id.clone(),
-            object: self.object.clone(),
-            params: self.params.clone(),
-        }
-    }
-
-    /// The kind of failure of a failed job, as its worker recorded it.
-    pub fn error_code(&self) -> Option<ErrorCode> {
-        serde_json::from_value(self.info.get("error_code")?.clone()).ok()
-    }
-}
-
-/// Milliseconds since the Unix epoch.
-pub fn now_ms() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_millis() as i64)
-        .unwrap_or(0)
-}
-
-pub struct Store {
-    conn: Mutex<Connection>,
-    artifacts: PathBuf,
-    /// What looked wrong with the data directory at start (logged, and shown by `/readyz`).
-    pub warnings: Vec<String>,
-}
 
 /// The SQLite WAL header magic (big-endian; the low bit is the checksum byte order).
 const WAL_MAGIC: [u32; 2] = [0x377f_0682, 0x377f_0683];
 
-impl Store {
-    /// Opens (creating if needed) the database and artifact folder under `dir` and runs the
-    /// migrations.
-    pub fn open(dir: &Path) -> Result<Store, StoreError> {
-        let artifacts = dir.join("artifacts");
-        std::fs::create_dir_all(&artifacts)?;
+/// The columns [`row_to_record`] reads, in its order.
+const COLUMNS: &str = "id, kind, method, scene_id, object, params, state, progress, stage,
+    timings, info, error, artifact_type, artifact_path, created_at, started_at, finished_at,
+    artifact_len, artifact_sha256, lane, priority, worker, attempts";
+
+pub struct SqliteDb {
+    conn: Mutex<Connection>,
+}
+
+impl SqliteDb {
+    /// Opens (creating if needed) `dir/caustica.sqlite3` and runs the migrations; what looks
+    /// wrong with the files is added to `warnings`.
+    pub fn open(dir: &Path, warnings: &mut Vec<String>) -> Result<SqliteDb, StoreError> {
+        std::fs::create_dir_all(dir)?;
         let db = dir.join("caustica.sqlite3");
-        let mut warnings = Vec::new();
         if std::fs::metadata(&db).is_ok_and(|m| m.len() == 0) {
             warnings.push(format!(
                 "the database {} is an empty file: every scene and job record is gone \
@@ -260,13 +129,6 @@ impl Store {
                 ));
             }
         }
-        let removed = remove_temp_files(&artifacts);
-        if removed > 0 {
-            tracing::warn!(
-                removed,
-                "removed temporary artifact files left by an earlier run"
-            );
-        }
         let conn = Connection::open(&db)?;
         conn.busy_timeout(std::time::Duration::from_secs(5))?;
         conn.pragma_update(None, "journal_mode", "WAL")?;
@@ -281,33 +143,22 @@ impl Store {
             tx.pragma_update(None, "user_version", (i + 1) as i64)?;
             tx.commit()?;
         }
-        let jobs: i64 = conn.query_row("SELECT COUNT(*) FROM jobs", [], |r| r.get(0))?;
-        let files = std::fs::read_dir(&artifacts).map_or(0, |d| d.count());
-        if jobs == 0 && files > 0 {
-            warnings.push(format!(
-                "the database holds no jobs but {} holds {files} artifacts: the database was \
-                 lost or replaced",
-                artifacts.display()
-            ));
-        }
-        for w in &warnings {
-            tracing::error!(warning = %w, "data directory");
-        }
-        Ok(Store {
+        Ok(SqliteDb {
             conn: Mutex::new(conn),
-            artifacts,
-            warnings,
         })
     }
 
     fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
         self.conn.lock().unwrap_or_else(|e| e.into_inner())
     }
+}
 
-    /// Stores a scene unless one with this id exists (ids are content hashes).
-    /// `owner` holds the scene from the same transaction on, so that no sweep of unheld scenes
-    /// can take it in between.
-    pub fn put_scene(
+impl JobDb for SqliteDb {
+    fn backend(&self) -> &'static str {
+        "sqlite"
+    }
+
+    fn put_scene(
         &self,
         id: &str,
         scene_json: &[u8],
@@ -336,8 +187,7 @@ impl Store {
         Ok(())
     }
 
-    /// Whether scene `id` is stored (without reading it).
-    pub fn scene_exists(&self, id: &str) -> Result<bool, StoreError> {
+    fn scene_exists(&self, id: &str) -> Result<bool, StoreError> {
         Ok(self
             .conn()
             .query_row("SELECT 1 FROM scenes WHERE id = ?1", [id], |_| Ok(()))
@@ -345,7 +195,7 @@ impl Store {
             .is_some())
     }
 
-    pub fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
+    fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
         let c = self.conn();
         let Some((scene_json, created_at)) = c
             .query_row(
@@ -370,12 +220,12 @@ impl Store {
         }))
     }
 
-    pub fn insert_job(&self, r: &JobRecord) -> Result<(), StoreError> {
+    fn insert_job(&self, r: &JobRecord) -> Result<(), StoreError> {
         self.conn().execute(
             "INSERT INTO jobs (id, kind, method, scene_id, object, params, state, progress, stage,
-                               created_at, seq)
+                               created_at, seq, lane, priority)
              VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, 0, '', ?8,
-                     (SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs))",
+                     (SELECT COALESCE(MAX(seq), 0) + 1 FROM jobs), ?9, ?10)",
             params![
                 r.id,
                 r.kind.as_str(),
@@ -384,31 +234,30 @@ impl Store {
                 r.object,
                 r.params.to_string(),
                 r.state.as_str(),
-                r.created_at
+                r.created_at,
+                lane_str(r.lane),
+                r.priority as i64
             ],
         )?;
         Ok(())
     }
 
-    /// Puts a finished (failed or canceled) job back in the queue.
-    pub fn requeue(&self, id: &str) -> Result<(), StoreError> {
+    fn requeue(&self, id: &str) -> Result<(), StoreError> {
         self.conn().execute(
             "UPDATE jobs SET state = 'queued', progress = 0, stage = '', error = NULL,
-                 started_at = NULL, finished_at = NULL, timings = '[]'
-             WHERE id = ?1",
+                 started_at = NULL, finished_at = NULL, timings = '[]', worker = NULL,
+                 lease_until = NULL, attempts = 0, cancel_requested = 0
+             WHERE id = ?1 AND state IN ('failed', 'canceled')",
             [id],
         )?;
         Ok(())
     }
 
-    pub fn get_job(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
+    fn get_job(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
         let c = self.conn();
         let r = c
             .query_row(
-                "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
-                        timings, info, error, artifact_type, artifact_path, created_at,
-                        started_at, finished_at, artifact_len, artifact_sha256
-                 FROM jobs WHERE id = ?1",
+                &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
                 [id],
                 row_to_record,
             )
@@ -416,17 +265,10 @@ impl Store {
         r.transpose()
     }
 
-    /// One page of jobs, newest first: those of `f.kind` that `f.owner` holds (every one when
-    /// `None`: an admin), filtered, with sequence numbers below `f.before_seq`; each with its
-    /// sequence number (the next page's cursor). A record that cannot be read is left out
-    /// (logged; `unfinished_jobs` quarantines such rows at start).
-    pub fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
+    fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
         let c = self.conn();
-        let mut st = c.prepare(
-            "SELECT id, kind, method, scene_id, object, params, state, progress, stage,
-                    timings, info, error, artifact_type, artifact_path, created_at,
-                    started_at, finished_at, artifact_len, artifact_sha256, seq
-             FROM jobs j
+        let mut st = c.prepare(&format!(
+            "SELECT {COLUMNS}, seq FROM jobs j
              WHERE kind = ?1
                AND (?2 IS NULL OR EXISTS (SELECT 1 FROM holds h
                                           WHERE h.kind = 'job' AND h.id = j.id AND h.owner = ?2))
@@ -435,8 +277,8 @@ impl Store {
                AND (?5 IS NULL OR created_at >= ?5)
                AND (?6 IS NULL OR seq < ?6)
              ORDER BY seq DESC
-             LIMIT ?7",
-        )?;
+             LIMIT ?7"
+        ))?;
         let rows = st.query_map(
             params![
                 f.kind.as_str(),
@@ -447,7 +289,7 @@ impl Store {
                 f.before_seq,
                 f.limit as i64
             ],
-            |r| Ok((r.get::<_, i64>(19)?, row_to_record(r)?)),
+            |r| Ok((r.get::<_, i64>(23)?, row_to_record(r)?)),
         )?;
         let mut out = Vec::new();
         for row in rows {
@@ -462,10 +304,7 @@ impl Store {
         Ok(out)
     }
 
-    /// One page of scenes, newest first: those `owner` holds (every one when `None`),
-    /// created at or after `created_since`, stored before row `before` (the cursor); each as
-    /// (row, id, name, created_at).
-    pub fn list_scenes(
+    fn list_scenes(
         &self,
         owner: Option<&str>,
         created_since: Option<i64>,
@@ -490,10 +329,7 @@ impl Store {
         Ok(rows.collect::<Result<Vec<_>, _>>()?)
     }
 
-    /// Jobs left queued or running by a previous process, oldest first. A record that cannot
-    /// be read (invalid JSON in a column, an unknown method) is quarantined: marked failed with
-    /// the reason, logged, and left out, so that one bad row does not stop the server.
-    pub fn unfinished_jobs(&self) -> Result<Vec<JobRecord>, StoreError> {
+    fn unfinished_jobs(&self) -> Result<Vec<JobRecord>, StoreError> {
         let ids: Vec<String> = {
             let c = self.conn();
             let mut st =
@@ -520,15 +356,141 @@ impl Store {
         Ok(out)
     }
 
-    pub fn set_running(&self, id: &str) -> Result<(), StoreError> {
-        self.conn().execute(
-            "UPDATE jobs SET state = 'running', started_at = ?2 WHERE id = ?1",
-            params![id, now_ms()],
+    fn set_running(&self, id: &str, worker: &str, lease_ms: i64) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let n = self.conn().execute(
+            "UPDATE jobs SET state = 'running', started_at = ?2, worker = ?3, lease_until = ?4,
+                 attempts = attempts + 1
+             WHERE id = ?1 AND state = 'queued'",
+            params![id, now, worker, now + lease_ms],
         )?;
-        Ok(())
+        Ok(n == 1)
     }
 
-    pub fn set_progress(&self, id: &str, progress: f32, stage: &str) -> Result<(), StoreError> {
+    fn claim(
+        &self,
+        lane: Lane,
+        up_to: Priority,
+        worker: &str,
+        lease_ms: i64,
+    ) -> Result<Option<JobRecord>, StoreError> {
+        let mut c = self.conn();
+        // IMMEDIATE: the write lock from the start, so the row read is the row updated.
+        let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        let id: Option<String> = tx
+            .query_row(
+                "SELECT id FROM jobs WHERE state = 'queued' AND lane = ?1 AND priority <= ?2
+                 ORDER BY priority, seq LIMIT 1",
+                params![lane_str(lane), up_to as i64],
+                |r| r.get(0),
+            )
+            .optional()?;
+        let Some(id) = id else {
+            return Ok(None);
+        };
+        let now = now_ms();
+        tx.execute(
+            "UPDATE jobs SET state = 'running', started_at = ?2, worker = ?3, lease_until = ?4,
+                 attempts = attempts + 1
+             WHERE id = ?1",
+            params![id, now, worker, now + lease_ms],
+        )?;
+        let r = tx
+            .query_row(
+                &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
+                [&id],
+                row_to_record,
+            )
+            .optional()?;
+        tx.commit()?;
+        r.transpose()
+    }
+
+    fn heartbeat(&self, worker: &str, lease_ms: i64) -> Result<Vec<String>, StoreError> {
+        let c = self.conn();
+        c.execute(
+            "UPDATE jobs SET lease_until = ?2 WHERE worker = ?1 AND state = 'running'",
+            params![worker, now_ms() + lease_ms],
+        )?;
+        let mut st = c.prepare(
+            "SELECT id FROM jobs WHERE worker = ?1 AND state = 'running' AND cancel_requested",
+        )?;
+        let ids = st
+            .query_map([worker], |r| r.get(0))?
+            .collect::<Result<Vec<String>, _>>()?;
+        Ok(ids)
+    }
+
+    fn reap_expired(&self) -> Result<Reaped, StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        let now = now_ms();
+        let expired: Vec<(String, i64)> = {
+            let mut st = tx.prepare(
+                "SELECT id, attempts FROM jobs
+                 WHERE state = 'running' AND lease_until IS NOT NULL AND lease_until < ?1
+                 ORDER BY seq",
+            )?;
+            st.query_map([now], |r| Ok((r.get(0)?, r.get(1)?)))?
+                .collect::<Result<Vec<_>, _>>()?
+        };
+        let mut out = Reaped::default();
+        let info = serde_json::json!({ "error_code": ErrorCode::WorkerLost }).to_string();
+        for (id, attempts) in expired {
+            if attempts >= MAX_ATTEMPTS as i64 {
+                tx.execute(
+                    "UPDATE jobs SET state = 'failed', stage = 'failed', finished_at = ?2,
+                         error = ?3, info = ?4, worker = NULL, lease_until = NULL
+                     WHERE id = ?1",
+                    params![id, now, lost_message(attempts), info],
+                )?;
+                out.failed.push(id);
+            } else {
+                tx.execute(
+                    "UPDATE jobs SET state = 'queued', progress = 0, stage = '', worker = NULL,
+                         lease_until = NULL
+                     WHERE id = ?1",
+                    [&id],
+                )?;
+                out.requeued.push(id);
+            }
+        }
+        tx.commit()?;
+        Ok(out)
+    }
+
+    fn request_cancel(&self, id: &str) -> Result<Option<JobState>, StoreError> {
+        let c = self.conn();
+        let n = c.execute(
+            "UPDATE jobs SET state = 'canceled', stage = 'canceled', error = 'canceled',
+                 finished_at = ?2
+             WHERE id = ?1 AND state = 'queued'",
+            params![id, now_ms()],
+        )?;
+        if n == 1 {
+            return Ok(Some(JobState::Canceled));
+        }
+        let n = c.execute(
+            "UPDATE jobs SET cancel_requested = 1 WHERE id = ?1 AND state = 'running'",
+            [id],
+        )?;
+        Ok((n == 1).then_some(JobState::Running))
+    }
+
+    fn count_queued(&self, kind: JobKind) -> Result<usize, StoreError> {
+        let n: i64 = self.conn().query_row(
+            "SELECT COUNT(*) FROM jobs WHERE kind = ?1 AND state = 'queued'",
+            [kind.as_str()],
+            |r| r.get(0),
+        )?;
+        Ok(n as usize)
+    }
+
+    fn listen(&self, _on: Box<dyn Fn(StoreEvent) + Send + Sync>) -> Result<bool, StoreError> {
+        Ok(false)
+    }
+
+    fn set_progress(&self, id: &str, progress: f32, stage: &str) -> Result<(), StoreError> {
         self.conn().execute(
             "UPDATE jobs SET progress = ?2, stage = ?3 WHERE id = ?1",
             params![id, progress, stage],
@@ -536,24 +498,24 @@ impl Store {
         Ok(())
     }
 
-    /// Records the end of a job. `artifact`: content type and the written artifact.
     #[allow(clippy::too_many_arguments)]
-    pub fn finish(
+    fn finish(
         &self,
         id: &str,
+        worker: &str,
         state: JobState,
         progress: f32,
         timings: &[(String, f64)],
         info: &serde_json::Value,
         error: Option<&str>,
         artifact: Option<(&str, &StoredArtifact)>,
-    ) -> Result<(), StoreError> {
+    ) -> Result<bool, StoreError> {
         let timings = serde_json::to_string(timings).expect("timings serialise");
-        self.conn().execute(
+        let n = self.conn().execute(
             "UPDATE jobs SET state = ?2, progress = ?3, timings = ?4, info = ?5, error = ?6,
                  artifact_type = ?7, artifact_path = ?8, finished_at = ?9, stage = ?10,
-                 artifact_len = ?11, artifact_sha256 = ?12
-             WHERE id = ?1",
+                 artifact_len = ?11, artifact_sha256 = ?12, worker = NULL, lease_until = NULL
+             WHERE id = ?1 AND (state = 'queued' OR (state = 'running' AND worker = ?13))",
             params![
                 id,
                 state.as_str(),
@@ -571,22 +533,23 @@ impl Store {
                 },
                 artifact.map(|a| a.1.len as i64),
                 artifact.map(|a| a.1.sha256.as_str()),
+                worker,
             ],
         )?;
-        Ok(())
+        Ok(n == 1)
     }
 
-    /// Back to queued (a job interrupted by shutdown runs again at the next start).
-    pub fn set_queued(&self, id: &str) -> Result<(), StoreError> {
+    fn set_queued(&self, id: &str, worker: &str) -> Result<(), StoreError> {
         self.conn().execute(
-            "UPDATE jobs SET state = 'queued', progress = 0, stage = '' WHERE id = ?1",
-            [id],
+            "UPDATE jobs SET state = 'queued', progress = 0, stage = '', worker = NULL,
+                 lease_until = NULL, attempts = MAX(attempts - 1, 0)
+             WHERE id = ?1 AND state = 'running' AND worker = ?2",
+            params![id, worker],
         )?;
         Ok(())
     }
 
-    /// Records that `owner` holds scene or job `id` (again: no change).
-    pub fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError> {
+    fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError> {
         self.conn().execute(
             "INSERT OR IGNORE INTO holds (kind, id, owner) VALUES (?1, ?2, ?3)",
             params![what.as_str(), id, owner],
@@ -594,8 +557,7 @@ impl Store {
         Ok(())
     }
 
-    /// Whether `owner` holds `id`.
-    pub fn holds(&self, what: Held, id: &str, owner: &str) -> Result<bool, StoreError> {
+    fn holds(&self, what: Held, id: &str, owner: &str) -> Result<bool, StoreError> {
         Ok(self
             .conn()
             .query_row(
@@ -607,15 +569,7 @@ impl Store {
             .is_some())
     }
 
-    /// Marks succeeded job `id` failed with `error`, only if it is still the succeeded job
-    /// whose artifact had `sha256`; whether it was (so that two readers of one lost artifact,
-    /// or a reader and a deletion, do not both act on it).
-    pub fn fail_lost(
-        &self,
-        id: &str,
-        sha256: Option<&str>,
-        error: &str,
-    ) -> Result<bool, StoreError> {
+    fn fail_lost(&self, id: &str, sha256: Option<&str>, error: &str) -> Result<bool, StoreError> {
         let info = serde_json::json!({ "error_code": ErrorCode::Store }).to_string();
         let n = self.conn().execute(
             "UPDATE jobs SET state = 'failed', stage = 'failed', error = ?3, info = ?4,
@@ -626,8 +580,7 @@ impl Store {
         Ok(n == 1)
     }
 
-    /// The first key that held `id` (the one that asked for it first), if any holds it.
-    pub fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError> {
+    fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError> {
         Ok(self
             .conn()
             .query_row(
@@ -638,8 +591,7 @@ impl Store {
             .optional()?)
     }
 
-    /// Queued or running jobs `owner` holds.
-    pub fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
+    fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
         let n: i64 = self.conn().query_row(
             "SELECT COUNT(*) FROM holds h JOIN jobs j ON j.id = h.id
              WHERE h.kind = 'job' AND h.owner = ?1 AND j.state IN ('queued', 'running')",
@@ -649,8 +601,7 @@ impl Store {
         Ok(n as usize)
     }
 
-    /// How many hold `id`.
-    pub fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
+    fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
         let n: i64 = self.conn().query_row(
             "SELECT COUNT(*) FROM holds WHERE kind = ?1 AND id = ?2",
             params![what.as_str(), id],
@@ -659,8 +610,7 @@ impl Store {
         Ok(n as usize)
     }
 
-    /// Drops every hold on `id`.
-    pub fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
+    fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
         self.conn().execute(
             "DELETE FROM holds WHERE kind = ?1 AND id = ?2",
             params![what.as_str(), id],
@@ -668,9 +618,7 @@ impl Store {
         Ok(())
     }
 
-    /// Scenes stored before `before_ms` that nobody holds (left over when a job used one past
-    /// its last hold; the age leaves an upload the moment between storing and holding it).
-    pub fn unheld_scenes(&self, before_ms: i64) -> Result<Vec<String>, StoreError> {
+    fn unheld_scenes(&self, before_ms: i64) -> Result<Vec<String>, StoreError> {
         let c = self.conn();
         let mut st = c.prepare(
             "SELECT id FROM scenes WHERE created_at < ?1
@@ -682,8 +630,7 @@ impl Store {
         Ok(ids)
     }
 
-    /// Drops `owner`'s hold on `id`; how many holds remain.
-    pub fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError> {
+    fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError> {
         let c = self.conn();
         c.execute(
             "DELETE FROM holds WHERE kind = ?1 AND id = ?2 AND owner = ?3",
@@ -697,8 +644,7 @@ impl Store {
         Ok(n as usize)
     }
 
-    /// Notes that job `id`'s result was just served (for [`Self::evict_renders`]).
-    pub fn touch(&self, id: &str) -> Result<(), StoreError> {
+    fn touch(&self, id: &str) -> Result<(), StoreError> {
         self.conn().execute(
             "UPDATE jobs SET accessed_at = ?2 WHERE id = ?1",
             params![id, now_ms()],
@@ -706,9 +652,7 @@ impl Store {
         Ok(())
     }
 
-    /// Deletes a finished job: its artifact file, its record, its holds and the idempotency
-    /// keys that name it. False when it is not finished (or not there).
-    pub fn delete_job(&self, id: &str) -> Result<bool, StoreError> {
+    fn delete_job_record(&self, id: &str) -> Result<Option<Option<String>>, StoreError> {
         let mut c = self.conn();
         let tx = c.transaction()?;
         let path: Option<Option<String>> = tx
@@ -720,30 +664,16 @@ impl Store {
             )
             .optional()?;
         let Some(path) = path else {
-            return Ok(false);
+            return Ok(None);
         };
         tx.execute("DELETE FROM jobs WHERE id = ?1", [id])?;
         tx.execute("DELETE FROM holds WHERE kind = 'job' AND id = ?1", [id])?;
         tx.execute("DELETE FROM idempotency WHERE job_id = ?1", [id])?;
         tx.commit()?;
-        drop(c);
-        // After the record is gone: a crash in between leaves a file without a record, which
-        // the next start reports, never a record without its file.
-        if let Some(p) = path.filter(|p| !p.contains('/') && !p.contains(".."))
-            && let Err(e) = std::fs::remove_file(self.artifacts.join(&p))
-            && e.kind() != std::io::ErrorKind::NotFound
-        {
-            tracing::warn!(file = %p, error = %e, "artifact not removed");
-        }
-        Ok(true)
+        Ok(Some(path))
     }
 
-    /// Finished jobs of `kind` that ended before `before_ms` (for the time to live).
-    pub fn finished_before(
-        &self,
-        kind: JobKind,
-        before_ms: i64,
-    ) -> Result<Vec<String>, StoreError> {
+    fn finished_before(&self, kind: JobKind, before_ms: i64) -> Result<Vec<String>, StoreError> {
         let c = self.conn();
         let mut st = c.prepare(
             "SELECT id FROM jobs WHERE kind = ?1 AND state IN ('succeeded', 'failed', 'canceled')
@@ -755,8 +685,7 @@ impl Store {
         Ok(ids)
     }
 
-    /// Succeeded renders, least recently served (or made) first, with their artifact bytes.
-    pub fn renders_by_last_use(&self) -> Result<Vec<(String, u64)>, StoreError> {
+    fn renders_by_last_use(&self) -> Result<Vec<(String, u64)>, StoreError> {
         let c = self.conn();
         let mut st = c.prepare(
             "SELECT id, COALESCE(artifact_len, 0) FROM jobs
@@ -769,9 +698,7 @@ impl Store {
         Ok(rows)
     }
 
-    /// Deletes a scene and its files once nobody holds it and no queued or running job uses
-    /// it; false (and nothing deleted) when one does.
-    pub fn delete_scene(&self, id: &str) -> Result<bool, StoreError> {
+    fn delete_scene(&self, id: &str) -> Result<bool, StoreError> {
         let mut c = self.conn();
         let tx = c.transaction()?;
         let busy: i64 = tx.query_row(
@@ -790,8 +717,7 @@ impl Store {
         Ok(true)
     }
 
-    /// Whether a queued or running job uses scene `id`.
-    pub fn scene_in_use(&self, id: &str) -> Result<bool, StoreError> {
+    fn scene_in_use(&self, id: &str) -> Result<bool, StoreError> {
         let n: i64 = self.conn().query_row(
             "SELECT COUNT(*) FROM jobs WHERE scene_id = ?1 AND state IN ('queued', 'running')",
             [id],
@@ -800,8 +726,7 @@ impl Store {
         Ok(n > 0)
     }
 
-    /// The job an idempotency key was first used for, with the hash of that request.
-    pub fn idempotency(&self, key: &str) -> Result<Option<(String, String)>, StoreError> {
+    fn idempotency(&self, key: &str) -> Result<Option<(String, String)>, StoreError> {
         Ok(self
             .conn()
             .query_row(
@@ -812,7 +737,7 @@ impl Store {
             .optional()?)
     }
 
-    pub fn put_idempotency(
+    fn put_idempotency(
         &self,
         key: &str,
         request_hash: &str,
@@ -825,9 +750,7 @@ impl Store {
         Ok(())
     }
 
-    /// Points `key` at `job_id` for requests hashing to `request_hash`, replacing what it
-    /// pointed at (a job since deleted).
-    pub fn replace_idempotency(
+    fn replace_idempotency(
         &self,
         key: &str,
         request_hash: &str,
@@ -839,109 +762,6 @@ impl Store {
         )?;
         Ok(())
     }
-
-    /// Writes an artifact atomically (temporary file, fsync, rename, fsync of the folder); on
-    /// an error (a full disk) the temporary file is removed and the error returned.
-    pub fn write_artifact(
-        &self,
-        id: &str,
-        ext: &str,
-        bytes: &[u8],
-    ) -> Result<StoredArtifact, StoreError> {
-        let name = format!("{id}.{ext}");
-        let tmp = self.artifacts.join(format!(".{name}.tmp"));
-        let written = (|| -> std::io::Result<()> {
-            let mut f = std::fs::File::create(&tmp)?;
-            f.write_all(bytes)?;
-            f.sync_all()?;
-            std::fs::rename(&tmp, self.artifacts.join(&name))
-        })();
-        if let Err(e) = written {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(e.into());
-        }
-        // Make the rename itself durable.
-        if let Ok(d) = std::fs::File::open(&self.artifacts) {
-            let _ = d.sync_all();
-        }
-        Ok(StoredArtifact {
-            name,
-            len: bytes.len() as u64,
-            sha256: super::scenes::sha256_hex(bytes),
-        })
-    }
-
-    /// Opens artifact `name` (a plain file in the artifact directory, never a link) and checks
-    /// it against `expect` (its length, then its SHA-256, read through a fixed buffer: the
-    /// artifact is never held in memory). The file comes back with its length; reads of it
-    /// should be positional (`read_exact_at`).
-    pub fn open_artifact(
-        &self,
-        name: &str,
-        expect: Option<(u64, &str)>,
-    ) -> Result<(std::fs::File, u64), StoreError> {
-        use sha2::Digest;
-        use std::io::Read;
-        use std::os::unix::fs::OpenOptionsExt;
-        if name.contains('/') || name.contains("..") {
-            return Err(StoreError::Corrupt(format!("artifact path {name:?}")));
-        }
-        let mut f = std::fs::OpenOptions::new()
-            .read(true)
-            .custom_flags(libc::O_NOFOLLOW)
-            .open(self.artifacts.join(name))
-            .map_err(|e| match e.raw_os_error() {
-                Some(libc::ELOOP) => StoreError::Integrity(format!("{name} is a symbolic link")),
-                _ if e.kind() == std::io::ErrorKind::NotFound => {
-                    StoreError::Integrity(format!("{name} is missing"))
-                }
-                _ => StoreError::Io(e),
-            })?;
-        let meta = f.metadata()?;
-        if !meta.is_file() {
-            return Err(StoreError::Integrity(format!("{name} is not a file")));
-        }
-        if let Some((len, _)) = expect
-            && meta.len() != len
-        {
-            return Err(StoreError::Integrity(format!(
-                "{name} is {} bytes, {len} were written",
-                meta.len()
-            )));
-        }
-        if let Some((_, sha)) = expect {
-            let mut h = sha2::Sha256::new();
-            let mut buf = vec![0u8; 256 << 10];
-            loop {
-                let n = f.read(&mut buf)?;
-                if n == 0 {
-                    break;
-                }
-                h.update(&buf[..n]);
-            }
-            if super::scenes::hex(&h.finalize()) != sha {
-                return Err(StoreError::Integrity(format!(
-                    "{name} does not hash to the SHA-256 recorded when it was written"
-                )));
-            }
-        }
-        Ok((f, meta.len()))
-    }
-}
-
-/// Removes `.*.tmp` files (artifact writes a crash interrupted); how many.
-fn remove_temp_files(dir: &Path) -> usize {
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return 0;
-    };
-    rd.filter_map(Result::ok)
-        .filter(|e| {
-            let n = e.file_name();
-            let n = n.to_string_lossy();
-            n.starts_with('.') && n.ends_with(".tmp")
-        })
-        .filter(|e| std::fs::remove_file(e.path()).is_ok())
-        .count()
 }
 
 type RowResult = Result<JobRecord, StoreError>;
@@ -956,6 +776,7 @@ fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
     let kind: String = r.get(1)?;
     let method: String = r.get(2)?;
     let state: String = r.get(6)?;
+    let lane: String = r.get(19)?;
     let rec = (|| -> RowResult {
         Ok(JobRecord {
             id: r.get(0)?,
@@ -980,7 +801,44 @@ fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
             finished_at: r.get(16)?,
             artifact_len: r.get::<_, Option<i64>>(17)?.map(|n| n as u64),
             artifact_sha256: r.get(18)?,
+            lane: parse_lane(&lane)?,
+            priority: parse_priority(r.get(20)?)?,
+            worker: r.get(21)?,
+            attempts: r.get::<_, i64>(22)?.max(0) as u32,
         })
     })();
     Ok(rec)
+}
+
+/// A lane as stored.
+pub(super) fn lane_str(l: Lane) -> &'static str {
+    match l {
+        Lane::Cpu => "cpu",
+        Lane::Gpu => "gpu",
+    }
+}
+
+pub(super) fn parse_lane(s: &str) -> Result<Lane, StoreError> {
+    match s {
+        "cpu" => Ok(Lane::Cpu),
+        "gpu" => Ok(Lane::Gpu),
+        _ => Err(StoreError::Corrupt(format!("lane '{s}'"))),
+    }
+}
+
+pub(super) fn parse_priority(p: i64) -> Result<Priority, StoreError> {
+    match p {
+        0 => Ok(Priority::Small),
+        1 => Ok(Priority::Render),
+        2 => Ok(Priority::Bake),
+        _ => Err(StoreError::Corrupt(format!("priority {p}"))),
+    }
+}
+
+/// The error of a job failed because its workers' leases ran out `attempts` times.
+pub(super) fn lost_message(attempts: i64) -> String {
+    format!(
+        "the worker running it stopped answering {attempts} times (its lease ran out each \
+         time); not tried again"
+    )
 }

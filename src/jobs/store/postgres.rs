@@ -1,0 +1,1125 @@
+//! The PostgreSQL back-end of [`JobDb`], shared by API and worker processes
+//! (`--database postgres://…`).
+//!
+//! The synchronous `postgres` client must not run inside an async runtime, and the store's
+//! callers include the HTTP handlers; so each connection lives on a thread of its own (a small
+//! pool, [`POOL`] threads) and a call is a closure sent to whichever is free, its answer sent
+//! back. A call that finds its connection lost (the server restarted, a network blip) connects
+//! again and runs once more, for up to [`RECONNECT_FOR`]; every state change is conditional
+//! (on the state, and on the worker that holds the job), so running one twice changes nothing
+//! the first did not.
+//!
+//! Claiming is `SELECT … FOR UPDATE SKIP LOCKED` in one transaction with the update, so two
+//! workers never take one job and neither waits for the other's lock. Leases are compared
+//! with the database's clock, not the workers'. A trigger sends `NOTIFY caustica_jobs` (the
+//! job's id) when a job's state, progress or cancellation changes and `NOTIFY caustica_queue`
+//! (its lane) when one is queued: workers wake on the second, and the API replica that holds
+//! a client's connection follows the first ([`JobDb::listen`]).
+
+use super::sqlite::{lane_str, lost_message, parse_lane, parse_priority};
+use super::{
+    Held, JobDb, JobFilter, JobRecord, MAX_ATTEMPTS, Reaped, StoreError, StoreEvent,
+    StoredArtifact, StoredScene, now_ms,
+};
+use crate::jobs::job::{ErrorCode, JobKind, JobState, Priority};
+use crate::methods::{Lane, Method};
+use postgres::{Client, NoTls, Row};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+/// Connections (threads) in the pool.
+pub const POOL: usize = 4;
+/// How long a call keeps trying to reach a database that went away.
+pub const RECONNECT_FOR: Duration = Duration::from_secs(60);
+
+/// Schema migrations, applied in order under an advisory lock (several processes may start
+/// at once); `caustica_migrations` records which ran.
+const MIGRATIONS: &[&str] = &[r#"
+    CREATE TABLE scenes (
+        id TEXT PRIMARY KEY,
+        seq BIGSERIAL NOT NULL,
+        scene_json BYTEA NOT NULL,
+        created_at BIGINT NOT NULL
+    );
+    CREATE TABLE scene_files (
+        scene_id TEXT NOT NULL REFERENCES scenes(id),
+        name TEXT NOT NULL,
+        bytes BYTEA NOT NULL,
+        PRIMARY KEY (scene_id, name)
+    );
+    CREATE SEQUENCE jobs_seq;
+    CREATE TABLE jobs (
+        id TEXT PRIMARY KEY,
+        kind TEXT NOT NULL,
+        method TEXT NOT NULL,
+        scene_id TEXT NOT NULL,
+        object TEXT,
+        params TEXT NOT NULL,
+        state TEXT NOT NULL,
+        progress REAL NOT NULL DEFAULT 0,
+        stage TEXT NOT NULL DEFAULT '',
+        timings TEXT NOT NULL DEFAULT '[]',
+        info TEXT NOT NULL DEFAULT '{}',
+        error TEXT,
+        artifact_type TEXT,
+        artifact_path TEXT,
+        created_at BIGINT NOT NULL,
+        started_at BIGINT,
+        finished_at BIGINT,
+        seq BIGINT NOT NULL DEFAULT nextval('jobs_seq'),
+        artifact_len BIGINT,
+        artifact_sha256 TEXT,
+        accessed_at BIGINT,
+        lane TEXT NOT NULL DEFAULT 'cpu',
+        priority INTEGER NOT NULL DEFAULT 2,
+        worker TEXT,
+        lease_until BIGINT,
+        attempts INTEGER NOT NULL DEFAULT 0,
+        cancel_requested BOOLEAN NOT NULL DEFAULT false
+    );
+    CREATE INDEX jobs_claim ON jobs(state, lane, priority, seq);
+    CREATE INDEX jobs_kind_state ON jobs(kind, state);
+    CREATE INDEX jobs_worker ON jobs(worker) WHERE worker IS NOT NULL;
+    CREATE TABLE idempotency (
+        key TEXT PRIMARY KEY,
+        request_hash TEXT NOT NULL,
+        job_id TEXT NOT NULL
+    );
+    CREATE TABLE holds (
+        kind TEXT NOT NULL,
+        id TEXT NOT NULL,
+        owner TEXT NOT NULL,
+        seq BIGSERIAL NOT NULL,
+        PRIMARY KEY (kind, id, owner)
+    );
+    CREATE FUNCTION caustica_now_ms() RETURNS BIGINT LANGUAGE sql VOLATILE AS
+        $$ SELECT (extract(epoch FROM clock_timestamp()) * 1000)::BIGINT $$;
+    CREATE FUNCTION caustica_notify() RETURNS trigger LANGUAGE plpgsql AS $$
+    BEGIN
+        IF TG_OP = 'INSERT' OR NEW.state IS DISTINCT FROM OLD.state
+           OR NEW.progress IS DISTINCT FROM OLD.progress OR NEW.stage IS DISTINCT FROM OLD.stage
+           OR NEW.cancel_requested IS DISTINCT FROM OLD.cancel_requested THEN
+            PERFORM pg_notify('caustica_jobs', NEW.id);
+        END IF;
+        IF NEW.state = 'queued' AND (TG_OP = 'INSERT' OR OLD.state <> 'queued') THEN
+            PERFORM pg_notify('caustica_queue', NEW.lane);
+        END IF;
+        RETURN NULL;
+    END $$;
+    CREATE TRIGGER jobs_notify AFTER INSERT OR UPDATE ON jobs
+        FOR EACH ROW EXECUTE FUNCTION caustica_notify();
+"#];
+
+/// The columns [`row_to_record`] reads, in its order.
+const COLUMNS: &str = "id, kind, method, scene_id, object, params, state, progress, stage,
+    timings, info, error, artifact_type, artifact_path, created_at, started_at, finished_at,
+    artifact_len, artifact_sha256, lane, priority, worker, attempts";
+
+type Task = Box<dyn FnOnce(&mut Conn) + Send>;
+
+/// One pooled connection, made when first needed and again after it is lost.
+struct Conn {
+    url: String,
+    client: Option<Client>,
+}
+
+impl Conn {
+    fn client(&mut self) -> Result<&mut Client, postgres::Error> {
+        if self.client.as_ref().is_none_or(|c| c.is_closed()) {
+            self.client = Some(Client::connect(&self.url, NoTls)?);
+        }
+        Ok(self.client.as_mut().expect("connected above"))
+    }
+}
+
+/// Whether `e` means the connection is gone (worth connecting again), not that the statement
+/// was refused.
+fn is_connection_error(e: &postgres::Error) -> bool {
+    if e.is_closed() {
+        return true;
+    }
+    match e.code() {
+        // Class 08: connection exceptions; 57P01..03: the server is shutting down or starting.
+        Some(c) => c.code().starts_with("08") || matches!(c.code(), "57P01" | "57P02" | "57P03"),
+        // No SQLSTATE: an I/O error on the socket, or the server could not be reached.
+        None => e.as_db_error().is_none(),
+    }
+}
+
+pub struct PgDb {
+    url: String,
+    tasks: Mutex<Option<mpsc::Sender<Task>>>,
+    /// Set when the store is dropped: the listener stops.
+    stop: Arc<AtomicBool>,
+}
+
+impl Drop for PgDb {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        // Dropping the sender ends the pool's threads once their current task is done.
+        self.tasks.lock().unwrap_or_else(|e| e.into_inner()).take();
+    }
+}
+
+impl PgDb {
+    /// Connects to `url` (waiting up to [`RECONNECT_FOR`] for the server to accept) and runs
+    /// the migrations.
+    pub fn open(url: &str) -> Result<PgDb, StoreError> {
+        let (tx, rx) = mpsc::channel::<Task>();
+        let rx = Arc::new(Mutex::new(rx));
+        for i in 0..POOL {
+            let rx = rx.clone();
+            let url = url.to_string();
+            std::thread::Builder::new()
+                .name(format!("caustica-pg-{i}"))
+                .spawn(move || {
+                    let mut conn = Conn { url, client: None };
+                    loop {
+                        let task = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
+                        match task {
+                            Ok(t) => t(&mut conn),
+                            Err(_) => return,
+                        }
+                    }
+                })
+                .map_err(StoreError::Io)?;
+        }
+        let db = PgDb {
+            url: url.to_string(),
+            tasks: Mutex::new(Some(tx)),
+            stop: Arc::new(AtomicBool::new(false)),
+        };
+        db.run(|c| {
+            let mut tx = c.transaction()?;
+            tx.execute("SELECT pg_advisory_xact_lock(72431)", &[])?;
+            tx.batch_execute(
+                "CREATE TABLE IF NOT EXISTS caustica_migrations (version INTEGER PRIMARY KEY)",
+            )?;
+            let done: i32 = tx
+                .query_one(
+                    "SELECT COALESCE(MAX(version), 0) FROM caustica_migrations",
+                    &[],
+                )?
+                .get(0);
+            for (i, m) in MIGRATIONS.iter().enumerate().skip(done as usize) {
+                tx.batch_execute(m)?;
+                tx.execute(
+                    "INSERT INTO caustica_migrations (version) VALUES ($1)",
+                    &[&((i + 1) as i32)],
+                )?;
+            }
+            tx.commit()
+        })?;
+        Ok(db)
+    }
+
+    /// Runs `f` on a pooled connection; on a lost connection, connects again and runs it once
+    /// more, for up to [`RECONNECT_FOR`].
+    fn run<T: Send + 'static>(
+        &self,
+        f: impl FnMut(&mut Client) -> Result<T, postgres::Error> + Send + 'static,
+    ) -> Result<T, StoreError> {
+        let (back, answer) = mpsc::sync_channel(1);
+        let mut f = f;
+        let task: Task = Box::new(move |conn: &mut Conn| {
+            let start = Instant::now();
+            let mut wait = Duration::from_millis(50);
+            let r = loop {
+                let r = conn.client().and_then(&mut f);
+                match r {
+                    Err(e) if is_connection_error(&e) && start.elapsed() < RECONNECT_FOR => {
+                        tracing::warn!(
+                            error = %super::pg_detail(&e),
+                            "database connection lost; connecting again"
+                        );
+                        conn.client = None;
+                        std::thread::sleep(wait);
+                        wait = (wait * 2).min(Duration::from_secs(2));
+                    }
+                    r => break r,
+                }
+            };
+            let _ = back.send(r);
+        });
+        let sent = self
+            .tasks
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_ref()
+            .map(|t| t.send(task).is_ok());
+        if sent != Some(true) {
+            return Err(StoreError::Unavailable("the store is closed".into()));
+        }
+        match answer.recv() {
+            Ok(Ok(v)) => Ok(v),
+            Ok(Err(e)) if is_connection_error(&e) => {
+                Err(StoreError::Unavailable(super::pg_detail(&e)))
+            }
+            Ok(Err(e)) => Err(e.into()),
+            Err(_) => Err(StoreError::Unavailable(
+                "the database thread stopped".into(),
+            )),
+        }
+    }
+
+    /// Reads one record (or none) with `sql` and its parameters.
+    fn record(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
+        let id = id.to_string();
+        let row = self.run(move |c| {
+            c.query_opt(&format!("SELECT {COLUMNS} FROM jobs WHERE id = $1"), &[&id])
+        })?;
+        row.map(|r| row_to_record(&r)).transpose()
+    }
+}
+
+fn row_to_record(r: &Row) -> Result<JobRecord, StoreError> {
+    let parse = |what: &str, s: &str| -> Result<serde_json::Value, StoreError> {
+        serde_json::from_str(s).map_err(|e| StoreError::Corrupt(format!("{what}: {e}")))
+    };
+    let get = |i: usize| -> Result<String, StoreError> { Ok(r.try_get::<_, String>(i)?) };
+    let kind = get(1)?;
+    let method = get(2)?;
+    let state = get(6)?;
+    let timings = get(9)?;
+    Ok(JobRecord {
+        id: get(0)?,
+        kind: JobKind::parse(&kind).ok_or_else(|| StoreError::Corrupt(format!("kind '{kind}'")))?,
+        method: Method::parse(&method).map_err(|e| StoreError::Corrupt(e.to_string()))?,
+        scene_id: get(3)?,
+        object: r.try_get(4)?,
+        params: parse("params", &get(5)?)?,
+        state: JobState::parse(&state)
+            .ok_or_else(|| StoreError::Corrupt(format!("state '{state}'")))?,
+        progress: r.try_get(7)?,
+        stage: get(8)?,
+        timings: serde_json::from_str(&timings)
+            .map_err(|e| StoreError::Corrupt(format!("timings: {e}")))?,
+        info: parse("info", &get(10)?)?,
+        error: r.try_get(11)?,
+        artifact_type: r.try_get(12)?,
+        artifact_path: r.try_get(13)?,
+        created_at: r.try_get(14)?,
+        started_at: r.try_get(15)?,
+        finished_at: r.try_get(16)?,
+        artifact_len: r.try_get::<_, Option<i64>>(17)?.map(|n| n as u64),
+        artifact_sha256: r.try_get(18)?,
+        lane: parse_lane(&get(19)?)?,
+        priority: parse_priority(r.try_get::<_, i32>(20)? as i64)?,
+        worker: r.try_get(21)?,
+        attempts: r.try_get::<_, i32>(22)?.max(0) as u32,
+    })
+}
+
+fn held_str(h: Held) -> &'static str {
+    match h {
+        Held::Scene => "scene",
+        Held::Job => "job",
+    }
+}
+
+impl JobDb for PgDb {
+    fn backend(&self) -> &'static str {
+        "postgres"
+    }
+
+    fn put_scene(
+        &self,
+        id: &str,
+        scene_json: &[u8],
+        files: &[(String, Vec<u8>)],
+        owner: &str,
+    ) -> Result<(), StoreError> {
+        let (id, json, files, owner) = (
+            id.to_string(),
+            scene_json.to_vec(),
+            files.to_vec(),
+            owner.to_string(),
+        );
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            tx.execute(
+                "INSERT INTO holds (kind, id, owner) VALUES ('scene', $1, $2)
+                 ON CONFLICT DO NOTHING",
+                &[&id, &owner],
+            )?;
+            let n = tx.execute(
+                "INSERT INTO scenes (id, scene_json, created_at) VALUES ($1, $2, $3)
+                 ON CONFLICT DO NOTHING",
+                &[&id, &json, &now_ms()],
+            )?;
+            if n == 1 {
+                for (name, bytes) in &files {
+                    tx.execute(
+                        "INSERT INTO scene_files (scene_id, name, bytes) VALUES ($1, $2, $3)",
+                        &[&id, name, bytes],
+                    )?;
+                }
+            }
+            tx.commit()
+        })
+    }
+
+    fn scene_exists(&self, id: &str) -> Result<bool, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            Ok(c.query_opt("SELECT 1 FROM scenes WHERE id = $1", &[&id])?
+                .is_some())
+        })
+    }
+
+    fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            let Some(row) = tx.query_opt(
+                "SELECT scene_json, created_at FROM scenes WHERE id = $1",
+                &[&id],
+            )?
+            else {
+                return Ok(None);
+            };
+            let files = tx
+                .query(
+                    "SELECT name, bytes FROM scene_files WHERE scene_id = $1 ORDER BY name",
+                    &[&id],
+                )?
+                .iter()
+                .map(|r| (r.get(0), r.get(1)))
+                .collect();
+            tx.commit()?;
+            Ok(Some(StoredScene {
+                id: id.clone(),
+                scene_json: row.get(0),
+                files,
+                created_at: row.get(1),
+            }))
+        })
+    }
+
+    fn insert_job(&self, r: &JobRecord) -> Result<(), StoreError> {
+        let r = r.clone();
+        self.run(move |c| {
+            c.execute(
+                "INSERT INTO jobs (id, kind, method, scene_id, object, params, state, created_at,
+                                   lane, priority)
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)",
+                &[
+                    &r.id,
+                    &r.kind.as_str(),
+                    &r.method.name(),
+                    &r.scene_id,
+                    &r.object,
+                    &r.params.to_string(),
+                    &r.state.as_str(),
+                    &r.created_at,
+                    &lane_str(r.lane),
+                    &(r.priority as i32),
+                ],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn requeue(&self, id: &str) -> Result<(), StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            c.execute(
+                "UPDATE jobs SET state = 'queued', progress = 0, stage = '', error = NULL,
+                     started_at = NULL, finished_at = NULL, timings = '[]', worker = NULL,
+                     lease_until = NULL, attempts = 0, cancel_requested = false,
+                     seq = nextval('jobs_seq')
+                 WHERE id = $1 AND state IN ('failed', 'canceled')",
+                &[&id],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn get_job(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
+        self.record(id)
+    }
+
+    fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
+        let f = f.clone();
+        let rows = self.run(move |c| {
+            c.query(
+                &format!(
+                    "SELECT {COLUMNS}, seq FROM jobs j
+                     WHERE kind = $1
+                       AND ($2::TEXT IS NULL OR EXISTS (SELECT 1 FROM holds h
+                            WHERE h.kind = 'job' AND h.id = j.id AND h.owner = $2))
+                       AND ($3::TEXT IS NULL OR state = $3)
+                       AND ($4::TEXT IS NULL OR method = $4)
+                       AND ($5::BIGINT IS NULL OR created_at >= $5)
+                       AND ($6::BIGINT IS NULL OR seq < $6)
+                     ORDER BY seq DESC
+                     LIMIT $7"
+                ),
+                &[
+                    &f.kind.as_str(),
+                    &f.owner,
+                    &f.state.map(|s| s.as_str()),
+                    &f.method.map(|m| m.name()),
+                    &f.created_since,
+                    &f.before_seq,
+                    &(f.limit as i64),
+                ],
+            )
+        })?;
+        let mut out = Vec::new();
+        for r in rows {
+            let seq: i64 = r.get(23);
+            match row_to_record(&r) {
+                Ok(rec) => out.push((seq, rec)),
+                Err(e) => {
+                    tracing::error!(seq, error = %e, "unreadable job record left out of a list")
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    fn list_scenes(
+        &self,
+        owner: Option<&str>,
+        created_since: Option<i64>,
+        before: Option<i64>,
+        limit: usize,
+    ) -> Result<Vec<(i64, String, String, i64)>, StoreError> {
+        let owner = owner.map(str::to_string);
+        self.run(move |c| {
+            let rows = c.query(
+                "SELECT seq, id,
+                        COALESCE(convert_from(scene_json, 'UTF8')::jsonb ->> 'name', ''),
+                        created_at
+                 FROM scenes s
+                 WHERE ($1::TEXT IS NULL OR EXISTS (SELECT 1 FROM holds h
+                        WHERE h.kind = 'scene' AND h.id = s.id AND h.owner = $1))
+                   AND ($2::BIGINT IS NULL OR created_at >= $2)
+                   AND ($3::BIGINT IS NULL OR seq < $3)
+                 ORDER BY seq DESC
+                 LIMIT $4",
+                &[&owner, &created_since, &before, &(limit as i64)],
+            )?;
+            Ok(rows
+                .iter()
+                .map(|r| (r.get(0), r.get(1), r.get(2), r.get(3)))
+                .collect())
+        })
+    }
+
+    fn unfinished_jobs(&self) -> Result<Vec<JobRecord>, StoreError> {
+        let ids: Vec<String> = self.run(|c| {
+            Ok(c.query(
+                "SELECT id FROM jobs WHERE state IN ('queued', 'running') ORDER BY seq",
+                &[],
+            )?
+            .iter()
+            .map(|r| r.get(0))
+            .collect())
+        })?;
+        let mut out = Vec::new();
+        for id in ids {
+            match self.record(&id) {
+                Ok(Some(r)) => out.push(r),
+                Ok(None) => {}
+                Err(StoreError::Corrupt(e)) => {
+                    tracing::error!(job = %id, error = %e, "quarantining an unreadable job record");
+                    let msg = format!("quarantined at start: corrupt record: {e}");
+                    self.run(move |c| {
+                        c.execute(
+                            "UPDATE jobs SET state = 'failed', finished_at = $2, stage = 'failed',
+                                 error = $3
+                             WHERE id = $1",
+                            &[&id, &now_ms(), &msg],
+                        )
+                    })?;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(out)
+    }
+
+    fn set_running(&self, id: &str, worker: &str, lease_ms: i64) -> Result<bool, StoreError> {
+        let (id, worker) = (id.to_string(), worker.to_string());
+        self.run(move |c| {
+            let n = c.execute(
+                "UPDATE jobs SET state = 'running', started_at = $2, worker = $3,
+                     lease_until = caustica_now_ms() + $4, attempts = attempts + 1
+                 WHERE id = $1 AND state = 'queued'",
+                &[&id, &now_ms(), &worker, &lease_ms],
+            )?;
+            Ok(n == 1)
+        })
+    }
+
+    fn claim(
+        &self,
+        lane: Lane,
+        up_to: Priority,
+        worker: &str,
+        lease_ms: i64,
+    ) -> Result<Option<JobRecord>, StoreError> {
+        let worker = worker.to_string();
+        let row = self.run(move |c| {
+            // The row the subquery picks may be claimed and committed by another worker between
+            // its snapshot and its lock, which leaves nothing to update though other jobs wait:
+            // look again then.
+            for _ in 0..8 {
+                let r = c.query_opt(
+                    &format!(
+                        "UPDATE jobs SET state = 'running', started_at = $4, worker = $3,
+                             lease_until = caustica_now_ms() + $5, attempts = attempts + 1
+                         WHERE id = (SELECT id FROM jobs
+                                     WHERE state = 'queued' AND lane = $1 AND priority <= $2
+                                     ORDER BY priority, seq
+                                     LIMIT 1
+                                     FOR UPDATE SKIP LOCKED)
+                         RETURNING {COLUMNS}"
+                    ),
+                    &[
+                        &lane_str(lane),
+                        &(up_to as i32),
+                        &worker,
+                        &now_ms(),
+                        &lease_ms,
+                    ],
+                )?;
+                if r.is_some() {
+                    return Ok(r);
+                }
+                let waiting = c.query_opt(
+                    "SELECT 1 FROM jobs WHERE state = 'queued' AND lane = $1 AND priority <= $2
+                     LIMIT 1",
+                    &[&lane_str(lane), &(up_to as i32)],
+                )?;
+                if waiting.is_none() {
+                    return Ok(None);
+                }
+            }
+            Ok(None)
+        })?;
+        row.map(|r| row_to_record(&r)).transpose()
+    }
+
+    fn heartbeat(&self, worker: &str, lease_ms: i64) -> Result<Vec<String>, StoreError> {
+        let worker = worker.to_string();
+        self.run(move |c| {
+            Ok(c.query(
+                "UPDATE jobs SET lease_until = caustica_now_ms() + $2
+                 WHERE worker = $1 AND state = 'running'
+                 RETURNING id, cancel_requested",
+                &[&worker, &lease_ms],
+            )?
+            .iter()
+            .filter(|r| r.get::<_, bool>(1))
+            .map(|r| r.get(0))
+            .collect())
+        })
+    }
+
+    fn reap_expired(&self) -> Result<Reaped, StoreError> {
+        let info = serde_json::json!({ "error_code": ErrorCode::WorkerLost }).to_string();
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            let expired = tx.query(
+                "SELECT id, attempts FROM jobs
+                 WHERE state = 'running' AND lease_until < caustica_now_ms()
+                 ORDER BY seq
+                 FOR UPDATE SKIP LOCKED",
+                &[],
+            )?;
+            let mut out = Reaped::default();
+            for r in expired {
+                let id: String = r.get(0);
+                let attempts: i32 = r.get(1);
+                if attempts as u32 >= MAX_ATTEMPTS {
+                    tx.execute(
+                        "UPDATE jobs SET state = 'failed', stage = 'failed', finished_at = $2,
+                             error = $3, info = $4, worker = NULL, lease_until = NULL
+                         WHERE id = $1",
+                        &[&id, &now_ms(), &lost_message(attempts as i64), &info],
+                    )?;
+                    out.failed.push(id);
+                } else {
+                    tx.execute(
+                        "UPDATE jobs SET state = 'queued', progress = 0, stage = '',
+                             worker = NULL, lease_until = NULL
+                         WHERE id = $1",
+                        &[&id],
+                    )?;
+                    out.requeued.push(id);
+                }
+            }
+            tx.commit()?;
+            Ok(out)
+        })
+    }
+
+    fn request_cancel(&self, id: &str) -> Result<Option<JobState>, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let n = c.execute(
+                "UPDATE jobs SET state = 'canceled', stage = 'canceled', error = 'canceled',
+                     finished_at = $2
+                 WHERE id = $1 AND state = 'queued'",
+                &[&id, &now_ms()],
+            )?;
+            if n == 1 {
+                return Ok(Some(JobState::Canceled));
+            }
+            let n = c.execute(
+                "UPDATE jobs SET cancel_requested = true WHERE id = $1 AND state = 'running'",
+                &[&id],
+            )?;
+            Ok((n == 1).then_some(JobState::Running))
+        })
+    }
+
+    fn count_queued(&self, kind: JobKind) -> Result<usize, StoreError> {
+        self.run(move |c| {
+            let n: i64 = c
+                .query_one(
+                    "SELECT COUNT(*) FROM jobs WHERE kind = $1 AND state = 'queued'",
+                    &[&kind.as_str()],
+                )?
+                .get(0);
+            Ok(n as usize)
+        })
+    }
+
+    fn set_progress(&self, id: &str, progress: f32, stage: &str) -> Result<(), StoreError> {
+        let (id, stage) = (id.to_string(), stage.to_string());
+        self.run(move |c| {
+            c.execute(
+                "UPDATE jobs SET progress = $2, stage = $3 WHERE id = $1 AND state = 'running'",
+                &[&id, &progress, &stage],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn finish(
+        &self,
+        id: &str,
+        worker: &str,
+        state: JobState,
+        progress: f32,
+        timings: &[(String, f64)],
+        info: &serde_json::Value,
+        error: Option<&str>,
+        artifact: Option<(&str, &StoredArtifact)>,
+    ) -> Result<bool, StoreError> {
+        let timings = serde_json::to_string(timings).expect("timings serialise");
+        let (id, worker, info, error) = (
+            id.to_string(),
+            worker.to_string(),
+            info.to_string(),
+            error.map(str::to_string),
+        );
+        let artifact = artifact.map(|(t, a)| (t.to_string(), a.clone()));
+        let stage = if state == JobState::Succeeded {
+            "done"
+        } else {
+            state.as_str()
+        };
+        self.run(move |c| {
+            let n = c.execute(
+                "UPDATE jobs SET state = $2, progress = $3, timings = $4, info = $5, error = $6,
+                     artifact_type = $7, artifact_path = $8, finished_at = $9, stage = $10,
+                     artifact_len = $11, artifact_sha256 = $12, worker = NULL,
+                     lease_until = NULL
+                 WHERE id = $1 AND (state = 'queued' OR (state = 'running' AND worker = $13))",
+                &[
+                    &id,
+                    &state.as_str(),
+                    &progress,
+                    &timings,
+                    &info,
+                    &error,
+                    &artifact.as_ref().map(|a| a.0.as_str()),
+                    &artifact.as_ref().map(|a| a.1.name.as_str()),
+                    &now_ms(),
+                    &stage,
+                    &artifact.as_ref().map(|a| a.1.len as i64),
+                    &artifact.as_ref().map(|a| a.1.sha256.as_str()),
+                    &worker,
+                ],
+            )?;
+            Ok(n == 1)
+        })
+    }
+
+    fn set_queued(&self, id: &str, worker: &str) -> Result<(), StoreError> {
+        let (id, worker) = (id.to_string(), worker.to_string());
+        self.run(move |c| {
+            c.execute(
+                "UPDATE jobs SET state = 'queued', progress = 0, stage = '', worker = NULL,
+                     lease_until = NULL, attempts = GREATEST(attempts - 1, 0)
+                 WHERE id = $1 AND state = 'running' AND worker = $2",
+                &[&id, &worker],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError> {
+        let (id, owner) = (id.to_string(), owner.to_string());
+        self.run(move |c| {
+            c.execute(
+                "INSERT INTO holds (kind, id, owner) VALUES ($1, $2, $3) ON CONFLICT DO NOTHING",
+                &[&held_str(what), &id, &owner],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn holds(&self, what: Held, id: &str, owner: &str) -> Result<bool, StoreError> {
+        let (id, owner) = (id.to_string(), owner.to_string());
+        self.run(move |c| {
+            Ok(c.query_opt(
+                "SELECT 1 FROM holds WHERE kind = $1 AND id = $2 AND owner = $3",
+                &[&held_str(what), &id, &owner],
+            )?
+            .is_some())
+        })
+    }
+
+    fn fail_lost(&self, id: &str, sha256: Option<&str>, error: &str) -> Result<bool, StoreError> {
+        let info = serde_json::json!({ "error_code": ErrorCode::Store }).to_string();
+        let (id, sha, error) = (
+            id.to_string(),
+            sha256.map(str::to_string),
+            error.to_string(),
+        );
+        self.run(move |c| {
+            let n = c.execute(
+                "UPDATE jobs SET state = 'failed', stage = 'failed', error = $3, info = $4,
+                     finished_at = $5, artifact_type = NULL, artifact_path = NULL
+                 WHERE id = $1 AND state = 'succeeded' AND artifact_sha256 IS NOT DISTINCT FROM $2",
+                &[&id, &sha, &error, &info, &now_ms()],
+            )?;
+            Ok(n == 1)
+        })
+    }
+
+    fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            Ok(c.query_opt(
+                "SELECT owner FROM holds WHERE kind = $1 AND id = $2 ORDER BY seq LIMIT 1",
+                &[&held_str(what), &id],
+            )?
+            .map(|r| r.get(0)))
+        })
+    }
+
+    fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
+        let owner = owner.to_string();
+        self.run(move |c| {
+            let n: i64 = c
+                .query_one(
+                    "SELECT COUNT(*) FROM holds h JOIN jobs j ON j.id = h.id
+                     WHERE h.kind = 'job' AND h.owner = $1 AND j.state IN ('queued', 'running')",
+                    &[&owner],
+                )?
+                .get(0);
+            Ok(n as usize)
+        })
+    }
+
+    fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let n: i64 = c
+                .query_one(
+                    "SELECT COUNT(*) FROM holds WHERE kind = $1 AND id = $2",
+                    &[&held_str(what), &id],
+                )?
+                .get(0);
+            Ok(n as usize)
+        })
+    }
+
+    fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            c.execute(
+                "DELETE FROM holds WHERE kind = $1 AND id = $2",
+                &[&held_str(what), &id],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn unheld_scenes(&self, before_ms: i64) -> Result<Vec<String>, StoreError> {
+        self.run(move |c| {
+            Ok(c.query(
+                "SELECT id FROM scenes s WHERE created_at < $1
+                     AND NOT EXISTS (SELECT 1 FROM holds h WHERE h.kind = 'scene' AND h.id = s.id)",
+                &[&before_ms],
+            )?
+            .iter()
+            .map(|r| r.get(0))
+            .collect())
+        })
+    }
+
+    fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError> {
+        let (id, owner) = (id.to_string(), owner.to_string());
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            tx.execute(
+                "DELETE FROM holds WHERE kind = $1 AND id = $2 AND owner = $3",
+                &[&held_str(what), &id, &owner],
+            )?;
+            let n: i64 = tx
+                .query_one(
+                    "SELECT COUNT(*) FROM holds WHERE kind = $1 AND id = $2",
+                    &[&held_str(what), &id],
+                )?
+                .get(0);
+            tx.commit()?;
+            Ok(n as usize)
+        })
+    }
+
+    fn touch(&self, id: &str) -> Result<(), StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            c.execute(
+                "UPDATE jobs SET accessed_at = $2 WHERE id = $1",
+                &[&id, &now_ms()],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn delete_job_record(&self, id: &str) -> Result<Option<Option<String>>, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            let Some(row) = tx.query_opt(
+                "SELECT artifact_path FROM jobs
+                 WHERE id = $1 AND state IN ('succeeded', 'failed', 'canceled')
+                 FOR UPDATE",
+                &[&id],
+            )?
+            else {
+                return Ok(None);
+            };
+            tx.execute("DELETE FROM jobs WHERE id = $1", &[&id])?;
+            tx.execute("DELETE FROM holds WHERE kind = 'job' AND id = $1", &[&id])?;
+            tx.execute("DELETE FROM idempotency WHERE job_id = $1", &[&id])?;
+            tx.commit()?;
+            Ok(Some(row.get(0)))
+        })
+    }
+
+    fn finished_before(&self, kind: JobKind, before_ms: i64) -> Result<Vec<String>, StoreError> {
+        self.run(move |c| {
+            Ok(c.query(
+                "SELECT id FROM jobs WHERE kind = $1
+                     AND state IN ('succeeded', 'failed', 'canceled')
+                     AND COALESCE(finished_at, created_at) < $2",
+                &[&kind.as_str(), &before_ms],
+            )?
+            .iter()
+            .map(|r| r.get(0))
+            .collect())
+        })
+    }
+
+    fn renders_by_last_use(&self) -> Result<Vec<(String, u64)>, StoreError> {
+        self.run(|c| {
+            Ok(c.query(
+                "SELECT id, COALESCE(artifact_len, 0) FROM jobs
+                 WHERE kind = 'render' AND state = 'succeeded'
+                 ORDER BY COALESCE(accessed_at, finished_at, created_at), seq",
+                &[],
+            )?
+            .iter()
+            .map(|r| (r.get(0), r.get::<_, i64>(1) as u64))
+            .collect())
+        })
+    }
+
+    fn delete_scene(&self, id: &str) -> Result<bool, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            // Lock the scene's row so that no job or hold takes it while it goes.
+            if tx
+                .query_opt("SELECT 1 FROM scenes WHERE id = $1 FOR UPDATE", &[&id])?
+                .is_none()
+            {
+                return Ok(true);
+            }
+            let busy: i64 = tx
+                .query_one(
+                    "SELECT (SELECT COUNT(*) FROM holds WHERE kind = 'scene' AND id = $1)
+                          + (SELECT COUNT(*) FROM jobs WHERE scene_id = $1
+                                 AND state IN ('queued', 'running'))",
+                    &[&id],
+                )?
+                .get(0);
+            if busy > 0 {
+                return Ok(false);
+            }
+            tx.execute("DELETE FROM scene_files WHERE scene_id = $1", &[&id])?;
+            tx.execute("DELETE FROM scenes WHERE id = $1", &[&id])?;
+            tx.commit()?;
+            Ok(true)
+        })
+    }
+
+    fn scene_in_use(&self, id: &str) -> Result<bool, StoreError> {
+        let id = id.to_string();
+        self.run(move |c| {
+            let n: i64 = c
+                .query_one(
+                    "SELECT COUNT(*) FROM jobs WHERE scene_id = $1
+                         AND state IN ('queued', 'running')",
+                    &[&id],
+                )?
+                .get(0);
+            Ok(n > 0)
+        })
+    }
+
+    fn idempotency(&self, key: &str) -> Result<Option<(String, String)>, StoreError> {
+        let key = key.to_string();
+        self.run(move |c| {
+            Ok(c.query_opt(
+                "SELECT request_hash, job_id FROM idempotency WHERE key = $1",
+                &[&key],
+            )?
+            .map(|r| (r.get(0), r.get(1))))
+        })
+    }
+
+    fn put_idempotency(
+        &self,
+        key: &str,
+        request_hash: &str,
+        job_id: &str,
+    ) -> Result<(), StoreError> {
+        let (k, h, j) = (
+            key.to_string(),
+            request_hash.to_string(),
+            job_id.to_string(),
+        );
+        self.run(move |c| {
+            c.execute(
+                "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3)
+                 ON CONFLICT DO NOTHING",
+                &[&k, &h, &j],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn replace_idempotency(
+        &self,
+        key: &str,
+        request_hash: &str,
+        job_id: &str,
+    ) -> Result<(), StoreError> {
+        let (k, h, j) = (
+            key.to_string(),
+            request_hash.to_string(),
+            job_id.to_string(),
+        );
+        self.run(move |c| {
+            c.execute(
+                "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3)
+                 ON CONFLICT (key) DO UPDATE SET request_hash = $2, job_id = $3",
+                &[&k, &h, &j],
+            )?;
+            Ok(())
+        })
+    }
+
+    fn listen(&self, on: Box<dyn Fn(StoreEvent) + Send + Sync>) -> Result<bool, StoreError> {
+        let url = self.url.clone();
+        let stop = self.stop.clone();
+        // The first connection is made on the thread (the synchronous client must not run on a
+        // thread that drives async tasks) and its result sent back, so that a caller learns at
+        // once when it cannot listen; later losses are retried on the thread.
+        let (first, started) = mpsc::sync_channel::<Result<(), StoreError>>(1);
+        std::thread::Builder::new()
+            .name("caustica-pg-listen".into())
+            .spawn(move || {
+                let mut client = match listen_client(&url) {
+                    Ok(c) => {
+                        let _ = first.send(Ok(()));
+                        Some(c)
+                    }
+                    Err(e) => {
+                        let _ = first.send(Err(e));
+                        return;
+                    }
+                };
+                let mut wait = Duration::from_millis(100);
+                while !stop.load(Ordering::SeqCst) {
+                    let c = match client.as_mut() {
+                        Some(c) => c,
+                        None => match listen_client(&url) {
+                            Ok(c) => {
+                                wait = Duration::from_millis(100);
+                                on(StoreEvent::Reconnected);
+                                client.insert(c)
+                            }
+                            Err(e) => {
+                                tracing::warn!(error = %e, "cannot listen to the database yet");
+                                std::thread::sleep(wait);
+                                wait = (wait * 2).min(Duration::from_secs(2));
+                                continue;
+                            }
+                        },
+                    };
+                    let mut lost = false;
+                    {
+                        let mut n = c.notifications();
+                        let mut it = n.timeout_iter(Duration::from_millis(500));
+                        loop {
+                            match postgres::fallible_iterator::FallibleIterator::next(&mut it) {
+                                Ok(Some(m)) => on(match m.channel() {
+                                    "caustica_queue" => StoreEvent::Queued(
+                                        parse_lane(m.payload()).unwrap_or(Lane::Cpu),
+                                    ),
+                                    _ => StoreEvent::Job(m.payload().to_string()),
+                                }),
+                                Ok(None) => break,
+                                Err(e) => {
+                                    tracing::warn!(
+                                        error = %super::pg_detail(&e),
+                                        "listening connection lost"
+                                    );
+                                    lost = true;
+                                    break;
+                                }
+                            }
+                        }
+                    }
+                    if lost || c.is_closed() {
+                        client = None;
+                    }
+                }
+            })
+            .map_err(StoreError::Io)?;
+        started
+            .recv()
+            .map_err(|_| StoreError::Unavailable("the listening thread stopped".into()))??;
+        Ok(true)
+    }
+}
+
+/// A connection that listens on both channels.
+fn listen_client(url: &str) -> Result<Client, StoreError> {
+    let mut c = Client::connect(url, NoTls)?;
+    c.batch_execute("LISTEN caustica_jobs; LISTEN caustica_queue")?;
+    Ok(c)
+}
