@@ -238,6 +238,32 @@ enum Cmd {
         /// CAUSTICA_RENDER_WAIT_S, CAUSTICA_SHUTDOWN_GRACE_S, CAUSTICA_CORS_ORIGINS.
         #[arg(long)]
         log_json: bool,
+        /// The shared job store, `postgres://USER@HOST:PORT/DB` [env: CAUSTICA_DATABASE_URL]:
+        /// API and worker processes (`caustica worker`) share it and the data directory
+        /// (a shared volume). Default: SQLite in the data directory, this process alone.
+        #[arg(long)]
+        database: Option<String>,
+        /// Run no workers here: `caustica worker` processes run the jobs (needs --database).
+        #[arg(long)]
+        no_workers: bool,
+    },
+    /// Run jobs from a shared job store (no HTTP): claims them, keeps their leases, stores
+    /// artifacts in the shared data directory. Stops gracefully on SIGTERM (running jobs get
+    /// CAUSTICA_SHUTDOWN_GRACE_S, then go back to the queue).
+    Worker {
+        /// The shared job store, `postgres://…` [env: CAUSTICA_DATABASE_URL].
+        #[arg(long)]
+        database: Option<String>,
+        /// The data directory the API processes use (a shared volume) [env:
+        /// CAUSTICA_DATA_DIR] (default ./caustica-data).
+        #[arg(long)]
+        data_dir: Option<PathBuf>,
+        /// Which lanes to take jobs from: `cpu`, `gpu` or `cpu,gpu` (one process per GPU).
+        #[arg(long, default_value = "cpu,gpu")]
+        lanes: String,
+        /// JSON logs (also CAUSTICA_LOG_FORMAT=json).
+        #[arg(long)]
+        log_json: bool,
     },
     /// API keys for `serve`.
     #[command(subcommand)]
@@ -328,8 +354,11 @@ fn main() -> std::process::ExitCode {
 
 fn run() -> Result<()> {
     let cli = Cli::parse();
-    let json_logs = matches!(cli.cmd, Cmd::Serve { log_json: true, .. })
-        || std::env::var("CAUSTICA_LOG_FORMAT").is_ok_and(|v| v.eq_ignore_ascii_case("json"));
+    let json_logs = matches!(
+        cli.cmd,
+        Cmd::Serve { log_json: true, .. } | Cmd::Worker { log_json: true, .. }
+    ) || std::env::var("CAUSTICA_LOG_FORMAT")
+        .is_ok_and(|v| v.eq_ignore_ascii_case("json"));
     init_logging(json_logs);
     match cli.cmd {
         Cmd::Openapi => {
@@ -340,8 +369,16 @@ fn run() -> Result<()> {
             addr,
             data_dir,
             api_keys,
+            database,
+            no_workers,
             ..
-        } => serve(addr, data_dir, api_keys),
+        } => serve(addr, data_dir, api_keys, database, no_workers),
+        Cmd::Worker {
+            database,
+            data_dir,
+            lanes,
+            ..
+        } => worker(database, data_dir, &lanes),
         Cmd::Key(KeyCmd::New { name, admin }) => {
             use caustica::http::auth::{Keys, hash_key, new_key};
             let key = new_key()?;
@@ -999,10 +1036,23 @@ fn init_logging(json: bool) {
 }
 
 /// `caustica serve`: flags, then environment, then defaults.
-fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathBuf>) -> Result<()> {
+fn serve(
+    addr: Option<String>,
+    data_dir: Option<PathBuf>,
+    api_keys: Option<PathBuf>,
+    database: Option<String>,
+    no_workers: bool,
+) -> Result<()> {
     use caustica::http::{AppState, HttpConfig};
     use caustica::jobs::JobConfig;
     let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
+    let database = database.or_else(|| env("CAUSTICA_DATABASE_URL"));
+    if no_workers && database.is_none() {
+        anyhow::bail!(
+            "--no-workers needs a shared job store (--database postgres://…): with the embedded \
+             SQLite store no other process can run the jobs"
+        );
+    }
     let addr = addr
         .or_else(|| env("CAUSTICA_ADDR"))
         .unwrap_or_else(|| "127.0.0.1:8080".into());
@@ -1016,6 +1066,10 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathB
         let get = |k: &str| std::env::var(k).ok();
         let mut jc = JobConfig::new(&data_dir);
         jc.apply_env(&get).map_err(anyhow::Error::msg)?;
+        jc.database = database;
+        if no_workers {
+            jc.lanes = (false, false);
+        }
         let mut hc = HttpConfig::default();
         hc.apply_env(&get).map_err(anyhow::Error::msg)?;
         hc.max_connections = caustica::http::server::fit_file_limit(hc.max_connections);
@@ -1045,6 +1099,53 @@ fn serve(addr: Option<String>, data_dir: Option<PathBuf>, api_keys: Option<PathB
         caustica::http::serve(listener, state, shutdown).await?;
         Ok(())
     })
+}
+
+/// `caustica worker`: claims jobs from the shared store until SIGTERM or SIGINT.
+fn worker(database: Option<String>, data_dir: Option<PathBuf>, lanes: &str) -> Result<()> {
+    use caustica::jobs::{JobConfig, JobSystem, env_num};
+    let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
+    let database = database.or_else(|| env("CAUSTICA_DATABASE_URL")).context(
+        "a worker needs the shared job store: --database postgres://… or CAUSTICA_DATABASE_URL",
+    )?;
+    let data_dir = data_dir
+        .or_else(|| env("CAUSTICA_DATA_DIR").map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("caustica-data"));
+    let mut jc = JobConfig::new(&data_dir);
+    let get = |k: &str| std::env::var(k).ok();
+    jc.apply_env(&get).map_err(anyhow::Error::msg)?;
+    jc.database = Some(database);
+    let mut l = (false, false);
+    for lane in lanes.split(',').map(str::trim) {
+        match lane {
+            "cpu" => l.0 = true,
+            "gpu" => l.1 = true,
+            other => anyhow::bail!("--lanes: unknown lane {other:?} (cpu, gpu or cpu,gpu)"),
+        }
+    }
+    jc.lanes = l;
+    let grace = env_num(&get, "CAUSTICA_SHUTDOWN_GRACE_S", 0.0, 86400.0, false)
+        .map_err(anyhow::Error::msg)?
+        .map_or(
+            std::time::Duration::from_secs(30),
+            std::time::Duration::from_secs_f64,
+        );
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    let shutdown = rt.block_on(async { shutdown_signal() })?;
+    let sys = JobSystem::start(jc)
+        .with_context(|| format!("starting the worker with {}", data_dir.display()))?;
+    // Tests and scripts read this line to know the worker is up.
+    println!("caustica worker {} running", sys.worker_id());
+    use std::io::Write;
+    std::io::stdout().flush()?;
+    rt.block_on(shutdown);
+    let abandoned = sys.shutdown(grace);
+    if abandoned > 0 {
+        anyhow::bail!("{abandoned} jobs did not stop; their leases will run out");
+    }
+    Ok(())
 }
 
 /// Resolves on SIGTERM or SIGINT (ctrl-c). The handlers are installed when this is called, not

@@ -236,6 +236,15 @@ impl From<SceneError> for AppError {
 impl From<StoreError> for AppError {
     fn from(e: StoreError) -> Self {
         tracing::error!(error = %e, "storage error");
+        if let StoreError::Unavailable(why) = &e {
+            return AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "store-unavailable",
+                "Job store unavailable",
+                format!("the job store cannot be reached: {why}"),
+            )
+            .retry_after(5);
+        }
         AppError::internal(format!("storage: {e}"))
     }
 }

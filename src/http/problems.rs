@@ -245,6 +245,13 @@ pub const PROBLEMS: &[ProblemDoc] = &[
         "Retry after the seconds in Retry-After, against the restarted server.",
     ),
     doc(
+        "store-unavailable",
+        "Job store unavailable",
+        &[503],
+        "The shared job store (PostgreSQL) cannot be reached: the server tried again for a minute.",
+        "Retry after the seconds in Retry-After; the jobs already accepted are kept.",
+    ),
+    doc(
         "too-big",
         "Job too big",
         &[422],

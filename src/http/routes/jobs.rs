@@ -40,7 +40,7 @@ pub struct JobView {
     pub timings: Vec<Timing>,
     /// What the job learned: adapter, statistics, image size, notes...; for a failed job
     /// `error_code`, one of canceled, timeout, interrupted, invalid_input, invalid_params,
-    /// no_gpu, render, encode, panic, store.
+    /// no_gpu, render, encode, panic, store, worker_lost.
     #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub info: serde_json::Value,
     /// Why it failed or was canceled; null otherwise.

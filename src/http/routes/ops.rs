@@ -24,32 +24,36 @@ pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value
             AppError::new(e.status, e.kind, e.title, d)
         }
     };
-    match st.jobs.readiness() {
-        Readiness::Ready { adapter } => {
-            let (qb, qr) = st.jobs.queued();
-            let (rb, rr) = st.jobs.running();
-            Ok(Json(serde_json::json!({
-                "status": "ready",
-                "adapter": adapter,
-                "storage_warnings": warnings,
-                "queued": {"bakes": qb, "renders": qr},
-                "running": {"bakes": rb, "renders": rr},
-            })))
+    let adapter = match st.jobs.readiness() {
+        Readiness::Ready { adapter } => adapter,
+        Readiness::NoGpuLane => "none in this process (worker processes run the jobs)".into(),
+        Readiness::Starting => {
+            return Err(note(AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "not-ready",
+                "Not ready",
+                "the GPU worker is still probing the adapter",
+            ))
+            .retry_after(1));
         }
-        Readiness::Starting => Err(note(AppError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "not-ready",
-            "Not ready",
-            "the GPU worker is still probing the adapter",
-        ))
-        .retry_after(1)),
-        Readiness::NoGpu { error } => Err(note(AppError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "no-gpu",
-            "No GPU",
-            format!("no GPU adapter renders: {error}"),
-        ))),
-    }
+        Readiness::NoGpu { error } => {
+            return Err(note(AppError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "no-gpu",
+                "No GPU",
+                format!("no GPU adapter renders: {error}"),
+            )));
+        }
+    };
+    let (qb, qr) = st.jobs.queued();
+    let (rb, rr) = st.jobs.running();
+    Ok(Json(serde_json::json!({
+        "status": "ready",
+        "adapter": adapter,
+        "storage_warnings": warnings,
+        "queued": {"bakes": qb, "renders": qr},
+        "running": {"bakes": rb, "renders": rr},
+    })))
 }
 
 pub async fn metrics(State(st): State<AppState>) -> Response {

@@ -1,0 +1,271 @@
+//! Beyond one machine: `caustica serve --no-workers` and `caustica worker` processes sharing a
+//! PostgreSQL job store (a throwaway cluster) and one data directory (the shared volume).
+//! Real processes: jobs reach a terminal state exactly once in effect, a worker killed with
+//! SIGKILL loses its lease and another finishes its job under the same id, the API can be
+//! killed and replaced while workers go on, and a restart of PostgreSQL under load loses
+//! nothing.
+
+use crate::support::contract::AnswerLog;
+use crate::support::pg::PgCluster;
+use crate::support::scenes::scene_sized;
+use crate::support::server::*;
+use crate::support::{Cleanup, caustica_command, temp_dir};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::Stdio;
+use std::time::Duration;
+
+/// Leases in these tests: short, so a dead worker's job is taken again within seconds.
+const LEASE_S: &str = "1.5";
+
+fn api(dir: &Path, db: &str, log: &AnswerLog) -> (ChildGuard, String) {
+    let mut child = caustica_command()
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--no-workers",
+            "--database",
+            db,
+        ])
+        .arg("--data-dir")
+        .arg(dir)
+        .env("CAUSTICA_LOG", "warn")
+        .env("CAUSTICA_LEASE_S", LEASE_S)
+        .env("CAUSTICA_ANSWER_LOG", log.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("starts");
+    let url = listening_on(&mut child);
+    (ChildGuard(child, None), url)
+}
+
+/// A worker process; returns once it printed that it runs (its id names its process id).
+fn worker(dir: &Path, db: &str, lanes: &str) -> ChildGuard {
+    let mut child = caustica_command()
+        .args(["worker", "--database", db, "--lanes", lanes, "--data-dir"])
+        .arg(dir)
+        .env("CAUSTICA_LOG", "warn")
+        .env("CAUSTICA_LEASE_S", LEASE_S)
+        .env("CAUSTICA_CPU_WORKERS", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("starts");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert!(
+        line.starts_with("caustica worker ") && line.trim_end().ends_with(" running"),
+        "{line:?}"
+    );
+    ChildGuard(child, None)
+}
+
+fn render(seed: u64) -> serde_json::Value {
+    serde_json::json!({"scene": scene_sized(8, 8), "method": "reference", "photons": 2000,
+                       "spp": 1, "seed": seed, "wait": false})
+}
+
+fn bake(photons: u64) -> serde_json::Value {
+    serde_json::json!({"scene": scene_sized(16, 16), "object": "glass", "method": "reference",
+                       "params": {"photons": photons, "spp": 1, "width": 16, "height": 16}})
+}
+
+/// The record's state once terminal.
+async fn terminal(c: &reqwest::Client, url: &str, limit: Duration) -> serde_json::Value {
+    poll(&format!("{url} to end"), limit, || async {
+        let (s, v) = get_json(c, url).await;
+        assert_eq!(s, 200, "{v}");
+        ["succeeded", "failed", "canceled"]
+            .contains(&v["state"].as_str().unwrap_or(""))
+            .then_some(v)
+    })
+    .await
+}
+
+/// Worker and attempts of job `id`, read from the store.
+fn holder(db: &str, id: &str) -> (Option<String>, i32) {
+    crate::support::pg::sync(|| {
+        let mut c = postgres::Client::connect(db, postgres::NoTls).unwrap();
+        let r = c
+            .query_one("SELECT worker, attempts FROM jobs WHERE id = $1", &[&id])
+            .unwrap();
+        (r.get(0), r.get(1))
+    })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_api_and_three_workers_run_mixed_jobs_through_a_postgres_restart() {
+    let pg = PgCluster::start("cluster-mixed");
+    let db = pg.url("caustica");
+    let dir = temp_dir("cluster-mixed");
+    let _cleanup = Cleanup(dir.clone());
+    let log = AnswerLog::new("cluster-mixed-answers");
+    let (_api, base) = api(&dir, &db, &log);
+    let _w: Vec<_> = ["cpu,gpu", "cpu", "cpu"]
+        .iter()
+        .map(|l| worker(&dir, &db, l))
+        .collect();
+    let c = client();
+
+    // 160 renders and 8 distinct bakes asked for 5 times each: 200 submissions. Half go in
+    // before PostgreSQL restarts, half after.
+    let mut renders = vec![];
+    let mut bakes = vec![];
+    for round in 0..2u64 {
+        for i in 0..80u64 {
+            let r = c
+                .post(format!("{base}/v1/renders"))
+                .json(&render(round * 1000 + i))
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(r.status(), 202, "{}", r.text().await.unwrap());
+            renders.push(r.headers()["location"].to_str().unwrap().to_string());
+        }
+        for i in 0..20u64 {
+            let photons = 20_000 + 1000 * (round * 4 + i % 4);
+            let r = c
+                .post(format!("{base}/v1/bakes"))
+                .json(&bake(photons))
+                .send()
+                .await
+                .unwrap();
+            assert!(
+                [200, 202].contains(&r.status().as_u16()),
+                "{}",
+                r.text().await.unwrap()
+            );
+            let v: serde_json::Value = r.json().await.unwrap();
+            bakes.push(v["id"].as_str().unwrap().to_string());
+        }
+        if round == 0 {
+            // Under load: jobs queued and running while the database goes away and comes back.
+            pg.restart();
+        }
+    }
+    let unique: std::collections::BTreeSet<_> = bakes.iter().cloned().collect();
+    assert_eq!(unique.len(), 8, "one job per distinct bake");
+    // A render waited for in the request: the API gets the frame from a worker's record.
+    let r = c
+        .post(format!("{base}/v1/renders"))
+        .json(
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                  "photons": 2000, "spp": 1, "seed": 7}),
+        )
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(&r.bytes().await.unwrap()[1..4], b"PNG");
+
+    for loc in &renders {
+        let v = terminal(&c, &format!("{base}{loc}"), Duration::from_secs(300)).await;
+        assert_eq!(v["state"], "succeeded", "{v}");
+    }
+    for id in &unique {
+        let v = terminal(
+            &c,
+            &format!("{base}/v1/bakes/{id}"),
+            Duration::from_secs(300),
+        )
+        .await;
+        assert_eq!(v["state"], "succeeded", "{v}");
+        let (w, attempts) = holder(&db, id);
+        assert_eq!((w, attempts), (None, 1), "{id} ran once");
+    }
+    // One artifact file per job: 8 bakes, 161 renders, no temporary file left.
+    let files: Vec<_> = std::fs::read_dir(dir.join("artifacts"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    assert_eq!(
+        files.iter().filter(|f| f.starts_with("bk_")).count(),
+        8,
+        "{files:?}"
+    );
+    assert!(!files.iter().any(|f| f.ends_with(".tmp")), "{files:?}");
+
+    // The bake's bytes are those of the same bake in one embedded server.
+    let one = crate::support::server::Server::start("cluster-single", |_, _| {}).await;
+    let id = one.submit_bake(&bake(20_000)).await;
+    assert!(unique.contains(&id), "same spec, same id");
+    one.bake_succeeded(&id, Duration::from_secs(120)).await;
+    let single = one.bake_artifact(&id).await.bytes().await.unwrap();
+    let r = c
+        .get(format!("{base}/v1/bakes/{id}/artifact"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    assert!(
+        r.bytes().await.unwrap() == single,
+        "the cluster's bake differs from the single process's"
+    );
+    one.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_worker_loses_its_lease_and_a_new_api_serves_the_result() {
+    let pg = PgCluster::start("cluster-kill");
+    let db = pg.url("caustica");
+    let dir = temp_dir("cluster-kill");
+    let _cleanup = Cleanup(dir.clone());
+    let log = AnswerLog::new("cluster-kill-answers");
+    let (mut api1, base) = api(&dir, &db, &log);
+    let mut workers = vec![worker(&dir, &db, "cpu"), worker(&dir, &db, "cpu")];
+    let c = client();
+    // A bake of a few seconds.
+    let r = c
+        .post(format!("{base}/v1/bakes"))
+        .json(&bake(3_000_000))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 202);
+    let v: serde_json::Value = r.json().await.unwrap();
+    let id = v["id"].as_str().unwrap().to_string();
+    let url = format!("{base}/v1/bakes/{id}");
+    poll("the bake to run", Duration::from_secs(60), || async {
+        let (_, v) = get_json(&c, &url).await;
+        (v["state"] == "running" && v["progress"].as_f64().unwrap() > 0.0).then_some(())
+    })
+    .await;
+    // SIGKILL the worker that holds it (its id names its process).
+    let (first, attempts) = holder(&db, &id);
+    let first = first.expect("held");
+    assert_eq!(attempts, 1);
+    let victim = workers
+        .iter()
+        .position(|w| first.contains(&format!("-{}-", w.0.id())))
+        .expect("the holder is one of ours");
+    let mut dead = workers.remove(victim);
+    dead.0.kill().unwrap();
+    dead.0.wait().unwrap();
+    // And the API: the other worker goes on without it.
+    api1.0.kill().unwrap();
+    api1.0.wait().unwrap();
+    // The lease runs out; the other worker takes the job again under the same id.
+    let (api2, base2) = api(&dir, &db, &log);
+    let url2 = format!("{base2}/v1/bakes/{id}");
+    let done = terminal(&c, &url2, Duration::from_secs(300)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert_eq!(done["info"]["statistics"]["photons_traced"], 3_000_000);
+    let (w, attempts) = holder(&db, &id);
+    assert_eq!(
+        (w, attempts),
+        (None, 2),
+        "taken twice: the second time by the survivor"
+    );
+    let r = c.get(format!("{url2}/artifact")).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    // SIGTERM: the survivor and the new API stop gracefully.
+    sigterm(&workers[0].0);
+    assert!(workers[0].0.wait().unwrap().success());
+    sigterm(&api2.0);
+    let mut api2 = api2;
+    assert!(api2.0.wait().unwrap().success());
+}
