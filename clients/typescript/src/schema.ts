@@ -686,7 +686,7 @@ export interface components {
             /**
              * @description What the job learned: adapter, statistics, image size, notes...; for a failed job
              *     `error_code`, one of canceled, timeout, interrupted, invalid_input, invalid_params,
-             *     no_gpu, render, encode, panic, store.
+             *     no_gpu, render, encode, panic, store, worker_lost.
              */
             info: {
                 [key: string]: unknown;
@@ -983,7 +983,7 @@ export interface components {
             title: string;
             /**
              * Format: uri-reference
-             * @description A reference relative to the server (`/problems/{slug}`) whose page documents the type. The slugs: already-finished, artifact-lost, bad-request, busy, canceled, forbidden, headers-too-large, idempotency-key-reused, internal, invalid-render, invalid-request, invalid-scene, job-timeout, limit-exceeded, malformed-request, method-not-allowed, no-gpu, no-memory, not-acceptable, not-found, not-ready, overloaded, payload-too-large, queue-full, quota, range-not-satisfiable, render-failed, request-timeout, scene-in-use, shutting-down, too-big, unauthorized, unsupported-media-type, uri-too-long.
+             * @description A reference relative to the server (`/problems/{slug}`) whose page documents the type. The slugs: already-finished, artifact-lost, bad-request, busy, canceled, forbidden, headers-too-large, idempotency-key-reused, internal, invalid-render, invalid-request, invalid-scene, job-timeout, limit-exceeded, malformed-request, method-not-allowed, no-gpu, no-memory, not-acceptable, not-found, not-ready, overloaded, payload-too-large, queue-full, quota, range-not-satisfiable, render-failed, request-timeout, scene-in-use, shutting-down, store-unavailable, too-big, unauthorized, unsupported-media-type, uri-too-long.
              */
             type: string;
         };

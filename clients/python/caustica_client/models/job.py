@@ -39,7 +39,7 @@ class Job:
             id (str):
             info (JobInfo): What the job learned: adapter, statistics, image size, notes...; for a failed job
                 `error_code`, one of canceled, timeout, interrupted, invalid_input, invalid_params,
-                no_gpu, render, encode, panic, store.
+                no_gpu, render, encode, panic, store, worker_lost.
             kind (JobKind): The two kinds of job.
 
                 - `bake`: Precomputation whose artifact is kept (`POST /v1/bakes`).

@@ -22,7 +22,7 @@ T = TypeVar("T", bound="JobInfo")
 class JobInfo:
     """ What the job learned: adapter, statistics, image size, notes...; for a failed job
     `error_code`, one of canceled, timeout, interrupted, invalid_input, invalid_params,
-    no_gpu, render, encode, panic, store.
+    no_gpu, render, encode, panic, store, worker_lost.
 
      """
 
