@@ -158,10 +158,15 @@ impl ArtifactStore {
         let (Some(dir), Some(path)) = (&self.dir, self.path(kind, hash)) else {
             return;
         };
-        // Unique per process and call: two renders saving the same artifact never share a file.
+        // Unique per host, process and call: two renders saving the same artifact never share
+        // a file, nor do two workers on a shared volume (in containers, process ids repeat).
         static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let tmp = path.with_extension(format!("tmp{}-{n}", std::process::id()));
+        let tmp = path.with_extension(format!(
+            "tmp{}-{}-{n}",
+            crate::jobs::store::host_tag(),
+            std::process::id()
+        ));
         let r = std::fs::create_dir_all(dir)
             .and_then(|_| std::fs::write(&tmp, bytes))
             .and_then(|_| std::fs::rename(&tmp, &path));

@@ -489,10 +489,19 @@ impl JobSystem {
                     .unwrap_or_else(|e| e.into_inner())
                     .get(&id)
                     .cloned();
-                match h {
-                    Some(h) if h.local.load(Ordering::SeqCst) => self.beat(),
-                    Some(_) => self.refresh(&id),
-                    None => {}
+                if h.is_some_and(|h| !h.local.load(Ordering::SeqCst)) {
+                    self.refresh(&id);
+                }
+            }
+            store::StoreEvent::Cancel(id) => {
+                let h = self
+                    .live
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .get(&id)
+                    .cloned();
+                if let Some(h) = h.filter(|h| h.local.load(Ordering::SeqCst)) {
+                    h.request_cancel();
                 }
             }
             store::StoreEvent::Queued(_) => {
@@ -688,7 +697,7 @@ impl JobSystem {
             handle: handle.clone(),
             job,
             memory,
-            claimed: false,
+            claimed: None,
         };
         self.queues
             .lock()
@@ -847,7 +856,9 @@ impl JobSystem {
                 handle,
                 job,
                 memory,
-                claimed: true,
+                claimed: Some(Duration::from_millis(
+                    (rec.started_at.unwrap_or(rec.created_at) - rec.created_at).max(0) as u64,
+                )),
             });
         }
     }

@@ -29,8 +29,9 @@ pub(crate) struct Queued {
     pub handle: Arc<JobHandle>,
     /// Its share of the job memory budget, given back when the job is dropped (run or not).
     pub memory: super::MemoryHold,
-    /// Claimed from a shared store (already running under this process's lease).
-    pub claimed: bool,
+    /// Claimed from a shared store (already running under this process's lease): how long
+    /// it waited there, from its record (submission to claim, by the two processes' clocks).
+    pub claimed: Option<std::time::Duration>,
 }
 
 impl PartialEq for Queued {
@@ -196,7 +197,7 @@ mod tests {
             seq,
             job: Box::new(Stub(Lane::Cpu, priority)),
             handle: JobHandle::new(id.into()),
-            claimed: false,
+            claimed: None,
             memory: MemoryHold {
                 bytes: 0,
                 pool: Arc::new(Mutex::new(0)),

@@ -254,9 +254,9 @@ impl JobSystem {
         let h = q.handle.clone();
         let id = h.id.clone();
         let kind = q.job.kind();
-        let queue_wait = h.enqueued.elapsed();
+        let queue_wait = q.claimed.unwrap_or_else(|| h.enqueued.elapsed());
         h.local.store(true, Ordering::SeqCst);
-        if !q.claimed {
+        if q.claimed.is_none() {
             match self
                 .store
                 .set_running(&id, &self.worker_id, self.cfg.lease.as_millis() as i64)

@@ -5,9 +5,10 @@
 //! killed and replaced while workers go on, and a restart of PostgreSQL under load loses
 //! nothing.
 
+use crate::http_api::read_events;
 use crate::support::contract::AnswerLog;
 use crate::support::pg::PgCluster;
-use crate::support::scenes::scene_sized;
+use crate::support::scenes::{long_bake, scene_sized};
 use crate::support::server::*;
 use crate::support::{Cleanup, caustica_command, temp_dir};
 use std::io::{BufRead, BufReader};
@@ -228,12 +229,28 @@ async fn a_killed_worker_loses_its_lease_and_a_new_api_serves_the_result() {
     assert_eq!(r.status(), 202);
     let v: serde_json::Value = r.json().await.unwrap();
     let id = v["id"].as_str().unwrap().to_string();
-    let url = format!("{base}/v1/bakes/{id}");
-    poll("the bake to run", Duration::from_secs(60), || async {
-        let (_, v) = get_json(&c, &url).await;
-        (v["state"] == "running" && v["progress"].as_f64().unwrap() > 0.0).then_some(())
+    // Live progress through the API, which runs no job: it follows the worker's record.
+    let ev = c
+        .get(format!("{base}/v1/bakes/{id}/events"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(ev.status(), 200);
+    let mut rises = 0;
+    let mut last = -1.0;
+    let (_, ended) = read_events(ev, Duration::from_secs(120), |name, v| {
+        assert_eq!(name, "progress", "{v}");
+        let p = v["progress"].as_f64().unwrap();
+        if v["state"] == "running" {
+            if p > last && last >= 0.0 {
+                rises += 1;
+            }
+            last = p;
+        }
+        rises >= 2
     })
     .await;
+    assert!(!ended, "the stream goes on while the bake runs");
     // SIGKILL the worker that holds it (its id names its process).
     let (first, attempts) = holder(&db, &id);
     let first = first.expect("held");
@@ -261,6 +278,35 @@ async fn a_killed_worker_loses_its_lease_and_a_new_api_serves_the_result() {
         "taken twice: the second time by the survivor"
     );
     let r = c.get(format!("{url2}/artifact")).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    // Cancelling a bake another process runs: the worker hears it and stops.
+    let r = c
+        .post(format!("{base2}/v1/bakes"))
+        .json(&long_bake(31))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 202);
+    let long = r.headers()["location"].to_str().unwrap().to_string();
+    poll("the long bake to run", Duration::from_secs(60), || async {
+        let (_, v) = get_json(&c, &format!("{base2}{long}")).await;
+        (v["state"] == "running").then_some(())
+    })
+    .await;
+    let r = c.delete(format!("{base2}{long}")).send().await.unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    let v = terminal(&c, &format!("{base2}{long}"), Duration::from_secs(30)).await;
+    assert_eq!(v["state"], "canceled", "{v}");
+    // The worker is free again: a render runs on it.
+    let r = c
+        .post(format!("{base2}/v1/renders"))
+        .json(
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                  "photons": 2000, "spp": 1}),
+        )
+        .send()
+        .await
+        .unwrap();
     assert_eq!(r.status(), 200);
     // SIGTERM: the survivor and the new API stop gracefully.
     sigterm(&workers[0].0);

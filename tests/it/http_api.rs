@@ -120,7 +120,7 @@ async fn lists_page_newest_first_and_filter() {
 
 /// Reads server-sent events (name, JSON data) from a response until `until` says stop or the
 /// stream ends; at most `limit` for the lot.
-async fn read_events(
+pub(crate) async fn read_events(
     r: reqwest::Response,
     limit: Duration,
     mut until: impl FnMut(&str, &serde_json::Value) -> bool,

@@ -5,7 +5,9 @@
 //! test waits on a clock), attempts and their limit, state changes conditional on the worker.
 
 use crate::support::pg::PgCluster;
-use caustica::jobs::store::{Held, JobFilter, JobRecord, MAX_ATTEMPTS, Store, StoredArtifact};
+use caustica::jobs::store::{
+    Held, JobFilter, JobRecord, MAX_ATTEMPTS, Store, StoreEvent, StoredArtifact,
+};
 use caustica::jobs::{JobKind, JobSpec, JobState, Lane, Priority};
 use caustica::methods::Method;
 use std::collections::HashSet;
@@ -405,11 +407,51 @@ fn concurrent_claims(s: Arc<Store>) {
     assert_eq!(s.count_queued(JobKind::Render).unwrap(), 0);
 }
 
+/// What other processes hear: a queued job's lane, a job's changes, a cancellation asked of
+/// a running job. SQLite has no other processes and says so.
+fn notifications(s: &Store) {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let tx = std::sync::Mutex::new(tx);
+    let listening = s
+        .listen(Box::new(move |e| {
+            let _ = tx.lock().unwrap().send(e);
+        }))
+        .unwrap();
+    if s.backend() == "sqlite" {
+        assert!(!listening);
+        return;
+    }
+    assert!(listening);
+    let next = || {
+        rx.recv_timeout(std::time::Duration::from_secs(30))
+            .expect("a notification")
+    };
+    insert(s, "rn_n", JobKind::Render, Lane::Gpu, Priority::Render);
+    let mut heard = vec![next(), next()];
+    heard.sort_by_key(|e| format!("{e:?}"));
+    assert_eq!(
+        heard,
+        [
+            StoreEvent::Job("rn_n".into()),
+            StoreEvent::Queued(Lane::Gpu)
+        ]
+    );
+    s.claim(Lane::Gpu, Priority::Bake, "w1", 60_000)
+        .unwrap()
+        .unwrap();
+    assert_eq!(next(), StoreEvent::Job("rn_n".into()));
+    assert_eq!(s.request_cancel("rn_n").unwrap(), Some(JobState::Running));
+    assert_eq!(next(), StoreEvent::Cancel("rn_n".into()));
+    s.set_progress("rn_n", 0.25, "x").unwrap();
+    assert_eq!(next(), StoreEvent::Job("rn_n".into()));
+}
+
 fn run_suite(open: &dyn Fn(&str) -> Store) {
     scenes_holds_and_keys(&open("scenes"));
     records(&open("records"));
     claims_and_leases(&open("claims"));
     concurrent_claims(Arc::new(open("concurrent")));
+    notifications(&open("notify"));
 }
 
 fn temp(name: &str) -> std::path::PathBuf {

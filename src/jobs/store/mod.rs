@@ -213,6 +213,8 @@ pub struct Reaped {
 pub enum StoreEvent {
     /// Job `id` changed state or progress.
     Job(String),
+    /// Job `id`'s cancellation was asked for (its worker stops it).
+    Cancel(String),
     /// A job was queued in this lane.
     Queued(Lane),
     /// The connection that listens was lost and made again: changes in between were missed.

@@ -12,9 +12,10 @@
 //! Claiming is `SELECT … FOR UPDATE SKIP LOCKED` in one transaction with the update, so two
 //! workers never take one job and neither waits for the other's lock. Leases are compared
 //! with the database's clock, not the workers'. A trigger sends `NOTIFY caustica_jobs` (the
-//! job's id) when a job's state, progress or cancellation changes and `NOTIFY caustica_queue`
-//! (its lane) when one is queued: workers wake on the second, and the API replica that holds
-//! a client's connection follows the first ([`JobDb::listen`]).
+//! job's id) when a job's state or progress changes, `NOTIFY caustica_cancel` (its id) when
+//! its cancellation is asked for, and `NOTIFY caustica_queue` (its lane) when one is queued:
+//! workers wake on the last and stop a job on the second, and the API replica that holds a
+//! client's connection follows the first ([`JobDb::listen`]).
 
 use super::sqlite::{lane_str, lost_message, parse_lane, parse_priority};
 use super::{
@@ -98,9 +99,11 @@ const MIGRATIONS: &[&str] = &[r#"
     CREATE FUNCTION caustica_notify() RETURNS trigger LANGUAGE plpgsql AS $$
     BEGIN
         IF TG_OP = 'INSERT' OR NEW.state IS DISTINCT FROM OLD.state
-           OR NEW.progress IS DISTINCT FROM OLD.progress OR NEW.stage IS DISTINCT FROM OLD.stage
-           OR NEW.cancel_requested IS DISTINCT FROM OLD.cancel_requested THEN
+           OR NEW.progress IS DISTINCT FROM OLD.progress OR NEW.stage IS DISTINCT FROM OLD.stage THEN
             PERFORM pg_notify('caustica_jobs', NEW.id);
+        END IF;
+        IF TG_OP = 'UPDATE' AND NEW.cancel_requested AND NOT OLD.cancel_requested THEN
+            PERFORM pg_notify('caustica_cancel', NEW.id);
         END IF;
         IF NEW.state = 'queued' AND (TG_OP = 'INSERT' OR OLD.state <> 'queued') THEN
             PERFORM pg_notify('caustica_queue', NEW.lane);
@@ -1090,6 +1093,9 @@ impl JobDb for PgDb {
                                     "caustica_queue" => StoreEvent::Queued(
                                         parse_lane(m.payload()).unwrap_or(Lane::Cpu),
                                     ),
+                                    "caustica_cancel" => {
+                                        StoreEvent::Cancel(m.payload().to_string())
+                                    }
                                     _ => StoreEvent::Job(m.payload().to_string()),
                                 }),
                                 Ok(None) => break,
@@ -1117,9 +1123,9 @@ impl JobDb for PgDb {
     }
 }
 
-/// A connection that listens on both channels.
+/// A connection that listens on the three channels.
 fn listen_client(url: &str) -> Result<Client, StoreError> {
     let mut c = Client::connect(url, NoTls)?;
-    c.batch_execute("LISTEN caustica_jobs; LISTEN caustica_queue")?;
+    c.batch_execute("LISTEN caustica_jobs; LISTEN caustica_queue; LISTEN caustica_cancel")?;
     Ok(c)
 }
