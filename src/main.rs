@@ -246,6 +246,11 @@ enum Cmd {
         /// Run no workers here: `caustica worker` processes run the jobs (needs --database).
         #[arg(long)]
         no_workers: bool,
+        /// Keep artifacts in S3-compatible object storage, `s3://BUCKET/PREFIX` [env:
+        /// CAUSTICA_ARTIFACTS; endpoint and credentials from AWS_*]; the data directory is
+        /// then a local cache. Default: the data directory alone (a shared volume).
+        #[arg(long)]
+        artifacts: Option<String>,
     },
     /// Run jobs from a shared job store (no HTTP): claims them, keeps their leases, stores
     /// artifacts in the shared data directory. Stops gracefully on SIGTERM (running jobs get
@@ -261,6 +266,10 @@ enum Cmd {
         /// Which lanes to take jobs from: `cpu`, `gpu` or `cpu,gpu` (one process per GPU).
         #[arg(long, default_value = "cpu,gpu")]
         lanes: String,
+        /// Artifacts in S3-compatible object storage, `s3://BUCKET/PREFIX` [env:
+        /// CAUSTICA_ARTIFACTS], as the API processes use.
+        #[arg(long)]
+        artifacts: Option<String>,
         /// JSON logs (also CAUSTICA_LOG_FORMAT=json).
         #[arg(long)]
         log_json: bool,
@@ -371,14 +380,16 @@ fn run() -> Result<()> {
             api_keys,
             database,
             no_workers,
+            artifacts,
             ..
-        } => serve(addr, data_dir, api_keys, database, no_workers),
+        } => serve(addr, data_dir, api_keys, database, no_workers, artifacts),
         Cmd::Worker {
             database,
             data_dir,
             lanes,
+            artifacts,
             ..
-        } => worker(database, data_dir, &lanes),
+        } => worker(database, data_dir, &lanes, artifacts),
         Cmd::Key(KeyCmd::New { name, admin }) => {
             use caustica::http::auth::{Keys, hash_key, new_key};
             let key = new_key()?;
@@ -1042,6 +1053,7 @@ fn serve(
     api_keys: Option<PathBuf>,
     database: Option<String>,
     no_workers: bool,
+    artifacts: Option<String>,
 ) -> Result<()> {
     use caustica::http::{AppState, HttpConfig};
     use caustica::jobs::JobConfig;
@@ -1067,6 +1079,7 @@ fn serve(
         let mut jc = JobConfig::new(&data_dir);
         jc.apply_env(&get).map_err(anyhow::Error::msg)?;
         jc.database = database;
+        jc.artifacts = artifacts.or_else(|| env("CAUSTICA_ARTIFACTS"));
         if no_workers {
             jc.lanes = (false, false);
         }
@@ -1102,7 +1115,12 @@ fn serve(
 }
 
 /// `caustica worker`: claims jobs from the shared store until SIGTERM or SIGINT.
-fn worker(database: Option<String>, data_dir: Option<PathBuf>, lanes: &str) -> Result<()> {
+fn worker(
+    database: Option<String>,
+    data_dir: Option<PathBuf>,
+    lanes: &str,
+    artifacts: Option<String>,
+) -> Result<()> {
     use caustica::jobs::{JobConfig, JobSystem, env_num};
     let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
     let database = database.or_else(|| env("CAUSTICA_DATABASE_URL")).context(
@@ -1115,6 +1133,7 @@ fn worker(database: Option<String>, data_dir: Option<PathBuf>, lanes: &str) -> R
     let get = |k: &str| std::env::var(k).ok();
     jc.apply_env(&get).map_err(anyhow::Error::msg)?;
     jc.database = Some(database);
+    jc.artifacts = artifacts.or_else(|| env("CAUSTICA_ARTIFACTS"));
     let mut l = (false, false);
     for lane in lanes.split(',').map(str::trim) {
         match lane {

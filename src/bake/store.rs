@@ -53,6 +53,8 @@ impl ArtifactKind {
 pub struct ArtifactStore {
     dir: Option<PathBuf>,
     decoded: Arc<Mutex<Decoded>>,
+    /// Object storage the folder caches ([`Self::with_remote`]).
+    remote: Option<Arc<dyn Remote>>,
 }
 
 /// A decoded artifact, its artifact's bytes and when it was last used.
@@ -108,7 +110,27 @@ impl Decoded {
     }
 }
 
+/// Object storage shared by several processes (a bucket): what [`ArtifactStore`] keeps is also
+/// put there, and what it lacks locally is looked for there.
+pub trait Remote: Send + Sync + std::fmt::Debug {
+    fn put(&self, key: &str, bytes: &[u8]) -> Result<(), String>;
+    /// None when there is no such object.
+    fn get(&self, key: &str) -> Result<Option<Vec<u8>>, String>;
+}
+
 impl ArtifactStore {
+    /// The same store, also keeping its artifacts in `remote` under `bakes/` (its folder the
+    /// local cache of them).
+    pub fn with_remote(mut self, remote: Arc<dyn Remote>) -> ArtifactStore {
+        self.remote = Some(remote);
+        self
+    }
+
+    /// The key of (`kind`, `hash`) in the remote store.
+    fn remote_key(kind: ArtifactKind, hash: u64) -> String {
+        format!("bakes/{}-{hash:016x}.{}", kind.prefix(), kind.ext())
+    }
+
     /// A store in `dir` (created on the first save), keeping up to [`DECODED_BUDGET`] of what it
     /// decodes in memory.
     pub fn new(dir: impl Into<PathBuf>) -> ArtifactStore {
@@ -123,6 +145,7 @@ impl ArtifactStore {
                 budget: bytes,
                 ..Decoded::default()
             })),
+            remote: None,
         }
     }
 
@@ -146,15 +169,39 @@ impl ArtifactStore {
         Some(d.join(format!("{}-{hash:016x}.{}", kind.prefix(), kind.ext())))
     }
 
-    /// The bytes kept for (`kind`, `hash`), if any.
+    /// The bytes kept for (`kind`, `hash`), if any: from the folder, else from the remote store
+    /// (then kept in the folder too).
     pub fn load(&self, kind: ArtifactKind, hash: u64) -> Option<Vec<u8>> {
-        std::fs::read(self.path(kind, hash)?).ok()
+        if let Ok(b) = std::fs::read(self.path(kind, hash)?) {
+            return Some(b);
+        }
+        let remote = self.remote.as_ref()?;
+        match remote.get(&Self::remote_key(kind, hash)) {
+            Ok(Some(b)) => {
+                self.save_local(kind, hash, &b);
+                Some(b)
+            }
+            Ok(None) => None,
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot read a bake from the object store");
+                None
+            }
+        }
     }
 
     /// Keeps `bytes` as (`kind`, `hash`): a temporary file, then a rename, so that a reader
     /// never sees half a file. Failing to keep it is logged, not an error: the caller has the
     /// bake in hand, and the next render bakes again.
     pub fn save(&self, kind: ArtifactKind, hash: u64, bytes: &[u8]) {
+        self.save_local(kind, hash, bytes);
+        if let Some(remote) = &self.remote
+            && let Err(e) = remote.put(&Self::remote_key(kind, hash), bytes)
+        {
+            tracing::warn!(error = %e, "could not keep the bake in the object store");
+        }
+    }
+
+    fn save_local(&self, kind: ArtifactKind, hash: u64, bytes: &[u8]) {
         let (Some(dir), Some(path)) = (&self.dir, self.path(kind, hash)) else {
             return;
         };
@@ -227,6 +274,56 @@ impl ArtifactStore {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Object storage in memory.
+    #[derive(Debug, Default)]
+    struct Memory(Mutex<std::collections::HashMap<String, Vec<u8>>>);
+
+    impl Remote for Memory {
+        fn put(&self, key: &str, bytes: &[u8]) -> Result<(), String> {
+            self.0.lock().unwrap().insert(key.into(), bytes.to_vec());
+            Ok(())
+        }
+        fn get(&self, key: &str) -> Result<Option<Vec<u8>>, String> {
+            Ok(self.0.lock().unwrap().get(key).cloned())
+        }
+    }
+
+    /// Two processes with folders of their own and one bucket: what one bakes, the other finds
+    /// without baking, and keeps in its folder.
+    #[test]
+    fn a_store_finds_what_another_kept_in_the_shared_remote() {
+        let root = std::env::temp_dir().join(format!("caustica-remote-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let remote: Arc<dyn Remote> = Arc::new(Memory::default());
+        let a = ArtifactStore::new(root.join("a")).with_remote(remote.clone());
+        let b = ArtifactStore::new(root.join("b")).with_remote(remote);
+        let k = ArtifactKind::Csl;
+        let (v, cached) = a
+            .find_or_bake(
+                k,
+                7,
+                |b| Some(b.to_vec()),
+                || Ok::<_, ()>(b"set".to_vec()),
+                |t| t.clone(),
+            )
+            .unwrap();
+        assert!(!cached);
+        assert_eq!(*v, b"set");
+        let (v, cached) = b
+            .find_or_bake(
+                k,
+                7,
+                |b| Some(b.to_vec()),
+                || Err(()),
+                |t: &Vec<u8>| t.clone(),
+            )
+            .unwrap();
+        assert!(cached, "found in the remote, not baked");
+        assert_eq!(*v, b"set");
+        assert!(b.path(k, 7).unwrap().exists(), "kept in b's folder too");
+        let _ = std::fs::remove_dir_all(&root);
+    }
 
     #[test]
     fn finds_what_it_kept_and_bakes_over_damage() {

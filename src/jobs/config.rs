@@ -32,6 +32,9 @@ pub struct JobConfig {
     /// The shared job store (`postgres://…`); `None`: SQLite in the data directory, one
     /// process.
     pub database: Option<String>,
+    /// Object storage for artifacts (`s3://BUCKET/PREFIX`), the data directory its cache;
+    /// `None`: the data directory alone (a shared volume when several processes use it).
+    pub artifacts: Option<String>,
     /// Which lanes this process takes jobs from: (CPU, GPU). An API process with a shared
     /// store may take none (`--no-workers`).
     pub lanes: (bool, bool),
@@ -62,6 +65,7 @@ impl JobConfig {
             },
             probe_gpu: true,
             database: None,
+            artifacts: None,
             lanes: (true, true),
             lease: Duration::from_secs(30),
         }

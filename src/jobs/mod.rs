@@ -218,7 +218,11 @@ impl JobSystem {
     /// Opens the store, re-queues what a previous process left unfinished and starts the
     /// workers.
     pub fn start(cfg: JobConfig) -> Result<Arc<JobSystem>, SubmitError> {
-        let store = Arc::new(Store::open_with(&cfg.data_dir, cfg.database.as_deref())?);
+        let store = Arc::new(Store::open_with(
+            &cfg.data_dir,
+            cfg.database.as_deref(),
+            cfg.artifacts.as_deref(),
+        )?);
         let shared = cfg.database.is_some();
         let worker_id = format!(
             "{}-{}-{}",
@@ -226,11 +230,16 @@ impl JobSystem {
             std::process::id(),
             store::now_ms()
         );
+        // Bakes renders find by content hash; with a bucket, kept there too.
+        let bakes = match store.bucket() {
+            Some(b) => ArtifactStore::new(cfg.data_dir.join("bakes")).with_remote(b),
+            None => ArtifactStore::new(cfg.data_dir.join("bakes")),
+        };
         let sys = Arc::new(JobSystem {
             scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone()),
             store,
             metrics: Arc::new(Metrics::new(cfg.bake_timeout, cfg.render_timeout)),
-            bakes: ArtifactStore::new(cfg.data_dir.join("bakes")),
+            bakes,
             queues: Mutex::new(Queues::default()),
             wake: Condvar::new(),
             live: Mutex::new(HashMap::new()),

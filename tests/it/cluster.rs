@@ -11,6 +11,7 @@ use crate::support::pg::PgCluster;
 use crate::support::scenes::{long_bake, scene_sized};
 use crate::support::server::*;
 use crate::support::{Cleanup, caustica_command, temp_dir};
+use object_store::ObjectStoreExt;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::Stdio;
@@ -314,4 +315,154 @@ async fn a_killed_worker_loses_its_lease_and_a_new_api_serves_the_result() {
     sigterm(&api2.0);
     let mut api2 = api2;
     assert!(api2.0.wait().unwrap().success());
+}
+
+/// `moto_server` (moto's S3-compatible server, from PyPI) on a loopback port, killed when
+/// dropped; its base URL.
+fn moto() -> (ChildGuard, String) {
+    let exe = crate::support::python_tool("MOTO_SERVER", "moto_server", "moto[server]==5.2.6");
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let child = std::process::Command::new(exe)
+        .args(["-H", "127.0.0.1", "-p", &port.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("moto_server starts");
+    (ChildGuard(child, None), format!("http://127.0.0.1:{port}"))
+}
+
+/// The settings object_store reads to reach `endpoint` (moto accepts any key).
+fn s3_env(c: &mut std::process::Command, endpoint: &str) {
+    c.env("AWS_ENDPOINT", endpoint)
+        .env("AWS_ALLOW_HTTP", "true")
+        .env("AWS_ACCESS_KEY_ID", "test")
+        .env("AWS_SECRET_ACCESS_KEY", "test")
+        .env("AWS_DEFAULT_REGION", "us-east-1");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn artifacts_in_an_s3_bucket_need_no_shared_volume() {
+    let (_s3, endpoint) = moto();
+    let c = client();
+    poll("moto_server to answer", Duration::from_secs(60), || async {
+        c.get(&endpoint).send().await.ok().map(|_| ())
+    })
+    .await;
+    let r = c.put(format!("{endpoint}/caustica")).send().await.unwrap();
+    assert!(r.status().is_success(), "create the bucket: {}", r.status());
+    let pg = PgCluster::start("cluster-s3");
+    let db = pg.url("caustica");
+    // The API and the worker each with a data directory of its own: only the bucket joins them.
+    let (api_dir, worker_dir) = (temp_dir("cluster-s3-api"), temp_dir("cluster-s3-worker"));
+    let _cleanup = (Cleanup(api_dir.clone()), Cleanup(worker_dir.clone()));
+    let mut cmd = caustica_command();
+    cmd.args([
+        "serve",
+        "--addr",
+        "127.0.0.1:0",
+        "--no-workers",
+        "--database",
+        &db,
+    ])
+    .args(["--artifacts", "s3://caustica/run"])
+    .arg("--data-dir")
+    .arg(&api_dir)
+    .env("CAUSTICA_LOG", "warn")
+    .stdout(Stdio::piped());
+    s3_env(&mut cmd, &endpoint);
+    let mut api = cmd.spawn().unwrap();
+    let base = listening_on(&mut api);
+    let _api = ChildGuard(api, None);
+    let mut cmd = caustica_command();
+    cmd.args(["worker", "--lanes", "cpu", "--database", &db])
+        .args(["--artifacts", "s3://caustica/run"])
+        .arg("--data-dir")
+        .arg(&worker_dir)
+        .env("CAUSTICA_LOG", "warn")
+        .env("CAUSTICA_CPU_WORKERS", "1")
+        .stdout(Stdio::piped());
+    s3_env(&mut cmd, &endpoint);
+    let mut w = cmd.spawn().unwrap();
+    let mut line = String::new();
+    BufReader::new(w.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let _worker = ChildGuard(w, None);
+
+    // A render the worker makes and the API serves: through the bucket.
+    let r = c
+        .post(format!("{base}/v1/renders"))
+        .json(
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                  "photons": 2000, "spp": 1}),
+        )
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let png = r.bytes().await.unwrap();
+    let id = loc.rsplit('/').next().unwrap();
+    let name = format!("{id}.png");
+    let bucket = object_store::aws::AmazonS3Builder::new()
+        .with_endpoint(&endpoint)
+        .with_allow_http(true)
+        .with_bucket_name("caustica")
+        .with_access_key_id("test")
+        .with_secret_access_key("test")
+        .with_region("us-east-1")
+        .build()
+        .unwrap();
+    let object = object_store::path::Path::from(format!("run/artifacts/{name}"));
+    let stored = bucket
+        .get(&object)
+        .await
+        .expect("the object is in the bucket");
+    assert_eq!(stored.bytes().await.unwrap(), png);
+    assert!(worker_dir.join("artifacts").join(&name).exists());
+    assert!(
+        api_dir.join("artifacts").join(&name).exists(),
+        "the API cached what it fetched"
+    );
+    // Served again after the API's cache lost it: fetched again, the same bytes.
+    std::fs::remove_file(api_dir.join("artifacts").join(&name)).unwrap();
+    let r = c.get(format!("{base}{loc}/image")).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    assert_eq!(r.bytes().await.unwrap(), png);
+    // A bake's artifact likewise.
+    let r = c
+        .post(format!("{base}/v1/bakes"))
+        .json(&bake(20_000))
+        .send()
+        .await
+        .unwrap();
+    let v: serde_json::Value = r.json().await.unwrap();
+    let bake_id = v["id"].as_str().unwrap().to_string();
+    let done = terminal(
+        &c,
+        &format!("{base}/v1/bakes/{bake_id}"),
+        Duration::from_secs(120),
+    )
+    .await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let r = c
+        .get(format!("{base}/v1/bakes/{bake_id}/artifact"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    // Deleting the render deletes its object.
+    let r = c.delete(format!("{base}{loc}")).send().await.unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    assert!(
+        matches!(
+            bucket.get(&object).await,
+            Err(object_store::Error::NotFound { .. })
+        ),
+        "the object is gone"
+    );
 }

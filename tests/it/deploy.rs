@@ -7,47 +7,18 @@
 
 use crate::support::{caustica_command, repo_path};
 use std::path::{Path, PathBuf};
+
 use std::process::Command;
 
 /// The validator's version when this test installs it (its schemas: Kubernetes 1.37).
 const VALIDATE_VERSION: &str = "1.37.0";
 
-/// The validator: `KUBERNETES_VALIDATE`, else `kubernetes-validate` on the PATH, else one
-/// installed from PyPI into `target/kubernetes-validate` (needs `python3` with `venv`).
 fn validator() -> PathBuf {
-    if let Some(p) = std::env::var_os("KUBERNETES_VALIDATE") {
-        return PathBuf::from(p);
-    }
-    let on_path = Command::new("kubernetes-validate")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if on_path {
-        return PathBuf::from("kubernetes-validate");
-    }
-    let venv = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .unwrap()
-        .join("kubernetes-validate");
-    let exe = venv.join("bin/kubernetes-validate");
-    if !exe.exists() {
-        let run = |c: &mut Command| {
-            let out = c.output().unwrap_or_else(|e| panic!("{c:?}: {e}"));
-            assert!(
-                out.status.success(),
-                "{c:?} failed (python3 with venv, and PyPI, are needed to install \
-                 kubernetes-validate): {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        };
-        run(Command::new("python3").args(["-m", "venv"]).arg(&venv));
-        run(Command::new(venv.join("bin/pip")).args([
-            "install",
-            "--quiet",
-            &format!("kubernetes-validate=={VALIDATE_VERSION}"),
-        ]));
-    }
-    exe
+    crate::support::python_tool(
+        "KUBERNETES_VALIDATE",
+        "kubernetes-validate",
+        &format!("kubernetes-validate=={VALIDATE_VERSION}"),
+    )
 }
 
 /// The files a kustomization lists, following `..`-style bases to theirs.

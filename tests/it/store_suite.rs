@@ -471,10 +471,10 @@ fn the_sqlite_store_passes_the_suite() {
 fn the_postgres_store_passes_the_suite() {
     let pg = PgCluster::start("suite");
     let root = temp("pg");
-    run_suite(&|name| Store::open_with(&root.join(name), Some(&pg.url(name))).unwrap());
+    run_suite(&|name| Store::open_with(&root.join(name), Some(&pg.url(name)), None).unwrap());
     // Migrations are versioned: opening again (a second process) changes nothing.
     let url = format!("postgres://caustica@127.0.0.1:{}/records", pg.port);
-    let again = Store::open_with(&root.join("again"), Some(&url)).unwrap();
+    let again = Store::open_with(&root.join("again"), Some(&url), None).unwrap();
     assert_eq!(
         again.get_job("rn_1").unwrap().unwrap().state,
         JobState::Queued

@@ -17,6 +17,7 @@
 //! state changes are conditional on still holding the job, so a late worker cannot overwrite
 //! a newer state.
 
+pub mod bucket;
 pub mod postgres;
 pub mod sqlite;
 
@@ -367,6 +368,8 @@ pub trait JobDb: Send + Sync {
 pub struct Store {
     db: Box<dyn JobDb>,
     artifacts: PathBuf,
+    /// Object storage the artifact folder caches (`--artifacts s3://…`).
+    bucket: Option<std::sync::Arc<bucket::Bucket>>,
     /// What looked wrong with the data directory at start (logged, and shown by `/readyz`).
     pub warnings: Vec<String>,
 }
@@ -381,13 +384,22 @@ impl std::ops::Deref for Store {
 impl Store {
     /// Opens the embedded store: SQLite and artifacts under `dir`.
     pub fn open(dir: &Path) -> Result<Store, StoreError> {
-        Store::open_with(dir, None)
+        Store::open_with(dir, None, None)
     }
 
     /// Opens the store: records in the database at `database` (a `postgres://` URL), or in
-    /// SQLite under `dir` when `None`; artifacts under `dir/artifacts` either way. Runs the
-    /// migrations.
-    pub fn open_with(dir: &Path, database: Option<&str>) -> Result<Store, StoreError> {
+    /// SQLite under `dir` when `None`; artifacts under `dir/artifacts`, a cache of the bucket
+    /// `artifacts` (`s3://BUCKET/PREFIX`) when there is one. Runs the migrations.
+    pub fn open_with(
+        dir: &Path,
+        database: Option<&str>,
+        artifacts_url: Option<&str>,
+    ) -> Result<Store, StoreError> {
+        let bucket = artifacts_url
+            .map(bucket::Bucket::open)
+            .transpose()
+            .map_err(StoreError::Unavailable)?
+            .map(std::sync::Arc::new);
         let artifacts = dir.join("artifacts");
         std::fs::create_dir_all(&artifacts)?;
         let mut warnings = Vec::new();
@@ -441,12 +453,18 @@ impl Store {
         Ok(Store {
             db,
             artifacts,
+            bucket,
             warnings,
         })
     }
 
+    /// The bucket the artifacts are kept in, if any.
+    pub fn bucket(&self) -> Option<std::sync::Arc<bucket::Bucket>> {
+        self.bucket.clone()
+    }
+
     /// Deletes a finished job: its record, its holds and the idempotency keys that name it,
-    /// then its artifact file. False when it is not finished (or not there).
+    /// then its artifact file (and object). False when it is not finished (or not there).
     pub fn delete_job(&self, id: &str) -> Result<bool, StoreError> {
         let Some(path) = self.db.delete_job_record(id)? else {
             return Ok(false);
@@ -454,11 +472,18 @@ impl Store {
         // After the record is gone: a crash in between leaves a file without a record, which
         // the next start reports, never a record without its file. A bake's file may be
         // another record's too (the same content hash) only if that record is the same job.
-        if let Some(p) = path.filter(|p| !p.contains('/') && !p.contains(".."))
-            && let Err(e) = std::fs::remove_file(self.artifacts.join(&p))
+        let Some(p) = path.filter(|p| !p.contains('/') && !p.contains("..")) else {
+            return Ok(true);
+        };
+        if let Err(e) = std::fs::remove_file(self.artifacts.join(&p))
             && e.kind() != std::io::ErrorKind::NotFound
         {
             tracing::warn!(file = %p, error = %e, "artifact not removed");
+        }
+        if let Some(b) = &self.bucket
+            && let Err(e) = b.delete(&format!("artifacts/{p}"))
+        {
+            tracing::warn!(error = %e, "artifact not removed from the bucket");
         }
         Ok(true)
     }
@@ -472,6 +497,22 @@ impl Store {
         bytes: &[u8],
     ) -> Result<StoredArtifact, StoreError> {
         let name = format!("{id}.{ext}");
+        self.write_local(&name, bytes)?;
+        if let Some(b) = &self.bucket
+            && let Err(e) = b.put(&format!("artifacts/{name}"), bytes)
+        {
+            let _ = std::fs::remove_file(self.artifacts.join(&name));
+            return Err(StoreError::Unavailable(e));
+        }
+        Ok(StoredArtifact {
+            name,
+            len: bytes.len() as u64,
+            sha256: super::scenes::sha256_hex(bytes),
+        })
+    }
+
+    /// Writes `bytes` as artifact file `name` atomically.
+    fn write_local(&self, name: &str, bytes: &[u8]) -> Result<(), StoreError> {
         // A temporary name of this writer's own: two workers writing the same artifact on a
         // shared volume each rename a whole file into place, and the last rename wins with
         // the same bytes.
@@ -486,7 +527,7 @@ impl Store {
             let mut f = std::fs::File::create(&tmp)?;
             f.write_all(bytes)?;
             f.sync_all()?;
-            std::fs::rename(&tmp, self.artifacts.join(&name))
+            std::fs::rename(&tmp, self.artifacts.join(name))
         })();
         if let Err(e) = written {
             let _ = std::fs::remove_file(&tmp);
@@ -496,18 +537,40 @@ impl Store {
         if let Ok(d) = std::fs::File::open(&self.artifacts) {
             let _ = d.sync_all();
         }
-        Ok(StoredArtifact {
-            name,
-            len: bytes.len() as u64,
-            sha256: super::scenes::sha256_hex(bytes),
-        })
+        Ok(())
     }
 
     /// Opens artifact `name` (a plain file in the artifact directory, never a link) and checks
     /// it against `expect` (its length, then its SHA-256, read through a fixed buffer: the
     /// artifact is never held in memory). The file comes back with its length; reads of it
     /// should be positional (`read_exact_at`).
+    /// With a bucket, the folder is its cache: an artifact missing there (or failing its
+    /// check) is fetched from the bucket and checked again.
     pub fn open_artifact(
+        &self,
+        name: &str,
+        expect: Option<(u64, &str)>,
+    ) -> Result<(std::fs::File, u64), StoreError> {
+        let local = self.open_local(name, expect);
+        let (Err(StoreError::Integrity(why)), Some(b)) = (&local, &self.bucket) else {
+            return local;
+        };
+        if name.contains('/') || name.contains("..") {
+            return local;
+        }
+        match b.get(&format!("artifacts/{name}")) {
+            Ok(Some(bytes)) => {
+                self.write_local(name, &bytes)?;
+                self.open_local(name, expect)
+            }
+            Ok(None) => Err(StoreError::Integrity(format!(
+                "{why}, and the bucket has no such object"
+            ))),
+            Err(e) => Err(StoreError::Unavailable(e)),
+        }
+    }
+
+    fn open_local(
         &self,
         name: &str,
         expect: Option<(u64, &str)>,

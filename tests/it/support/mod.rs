@@ -77,3 +77,40 @@ pub fn caustica(args: &[&str]) -> Output {
 pub fn quiet(_: Progress) -> bool {
     true
 }
+
+/// A command-line tool from PyPI: the one the environment variable `var` names, else `exe` on
+/// the PATH, else `exe` from a virtual environment under `target/` made for it (needs `python3`
+/// with `venv`, and PyPI) with `requirement` installed.
+pub fn python_tool(var: &str, exe: &str, requirement: &str) -> PathBuf {
+    if let Some(p) = std::env::var_os(var) {
+        return PathBuf::from(p);
+    }
+    let on_path = Command::new(exe)
+        .arg("--help")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if on_path {
+        return PathBuf::from(exe);
+    }
+    let venv = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .unwrap()
+        .join(format!("venv-{exe}"));
+    let path = venv.join("bin").join(exe);
+    // One test at a time makes a given environment.
+    static MAKING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = MAKING.lock().unwrap_or_else(|e| e.into_inner());
+    if !path.exists() {
+        let run = |c: &mut Command| {
+            let out = c.output().unwrap_or_else(|e| panic!("{c:?}: {e}"));
+            assert!(
+                out.status.success(),
+                "{c:?} failed (python3 with venv, and PyPI, are needed to install {requirement}): {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        };
+        run(Command::new("python3").args(["-m", "venv"]).arg(&venv));
+        run(Command::new(venv.join("bin/pip")).args(["install", "--quiet", requirement]));
+    }
+    path
+}
