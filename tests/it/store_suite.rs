@@ -367,6 +367,28 @@ fn claims_and_leases(s: &Store) {
     assert_eq!((r.state, r.attempts, r.worker), (JobState::Queued, 0, None));
 }
 
+/// Within a priority, the key with the fewest jobs running goes first, then the oldest job.
+fn fair_claims(s: &Store) {
+    for (id, owner) in [
+        ("a1", "alice"),
+        ("a2", "alice"),
+        ("a3", "alice"),
+        ("b1", "bob"),
+    ] {
+        s.hold(Held::Job, id, owner).unwrap();
+        insert(s, id, JobKind::Render, Lane::Cpu, Priority::Render);
+    }
+    let mut order = vec![];
+    while let Some(r) = s.claim(Lane::Cpu, Priority::Bake, "w", 60_000).unwrap() {
+        order.push(r.id);
+    }
+    assert_eq!(
+        order,
+        ["a1", "b1", "a2", "a3"],
+        "bob's one job does not wait for alice's"
+    );
+}
+
 /// Eight threads claim from one store at once: every job is taken exactly once.
 fn concurrent_claims(s: Arc<Store>) {
     let n = 120;
@@ -450,6 +472,7 @@ fn run_suite(open: &dyn Fn(&str) -> Store) {
     scenes_holds_and_keys(&open("scenes"));
     records(&open("records"));
     claims_and_leases(&open("claims"));
+    fair_claims(&open("fair"));
     concurrent_claims(Arc::new(open("concurrent")));
     notifications(&open("notify"));
 }

@@ -267,9 +267,10 @@ pub trait JobDb: Send + Sync {
     /// Queued job `id` starts running under `worker` with a lease of `lease_ms`; false (and
     /// nothing changed) when it is not queued.
     fn set_running(&self, id: &str, worker: &str, lease_ms: i64) -> Result<bool, StoreError>;
-    /// Claims the oldest queued job of the highest priority (lowest number, at most `up_to`)
-    /// in `lane` for `worker`, with a lease of `lease_ms`: it turns running under the worker's
-    /// id, its attempts counted. Two workers never claim the same job.
+    /// Claims a queued job in `lane` of priority at most `up_to` for `worker`, with a lease of
+    /// `lease_ms`: the highest priority (lowest number) first, then the job whose key (its
+    /// first holder) has the fewest jobs running, then the oldest. It turns running under the
+    /// worker's id, its attempts counted. Two workers never claim the same job.
     fn claim(
         &self,
         lane: Lane,

@@ -17,7 +17,7 @@
 //! workers wake on the last and stop a job on the second, and the API replica that holds a
 //! client's connection follows the first ([`JobDb::listen`]).
 
-use super::sqlite::{lane_str, lost_message, parse_lane, parse_priority};
+use super::sqlite::{fair_order, lane_str, lost_message, parse_lane, parse_priority};
 use super::{
     Held, JobDb, JobFilter, JobRecord, MAX_ATTEMPTS, Reaped, StoreError, StoreEvent,
     StoredArtifact, StoredScene, now_ms,
@@ -575,12 +575,13 @@ impl JobDb for PgDb {
                     &format!(
                         "UPDATE jobs SET state = 'running', started_at = $4, worker = $3,
                              lease_until = caustica_now_ms() + $5, attempts = attempts + 1
-                         WHERE id = (SELECT id FROM jobs
+                         WHERE id = (SELECT id FROM jobs j
                                      WHERE state = 'queued' AND lane = $1 AND priority <= $2
-                                     ORDER BY priority, seq
+                                     ORDER BY priority, {fair}, seq
                                      LIMIT 1
                                      FOR UPDATE SKIP LOCKED)
-                         RETURNING {COLUMNS}"
+                         RETURNING {COLUMNS}",
+                        fair = fair_order("seq")
                     ),
                     &[
                         &lane_str(lane),

@@ -379,8 +379,11 @@ impl JobDb for SqliteDb {
         let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
         let id: Option<String> = tx
             .query_row(
-                "SELECT id FROM jobs WHERE state = 'queued' AND lane = ?1 AND priority <= ?2
-                 ORDER BY priority, seq LIMIT 1",
+                &format!(
+                    "SELECT id FROM jobs j WHERE state = 'queued' AND lane = ?1 AND priority <= ?2
+                     ORDER BY priority, {}, seq LIMIT 1",
+                    fair_order("rowid")
+                ),
                 params![lane_str(lane), up_to as i64],
                 |r| r.get(0),
             )
@@ -840,5 +843,26 @@ pub(super) fn lost_message(attempts: i64) -> String {
     format!(
         "the worker running it stopped answering {attempts} times (its lease ran out each \
          time); not tried again"
+    )
+}
+
+/// The claim order's middle term: how many jobs of the job's key (its first holder) are
+/// running, so that within a priority the key running fewest goes first (and among its jobs,
+/// the oldest); `order` is what orders a job's holds (`rowid` in SQLite, `seq` in
+/// PostgreSQL). The queue of one process orders keys by start-time fair queueing
+/// ([`crate::jobs::queue`]); across processes this is its equivalent: a key that queued a
+/// hundred jobs does not hold the workers while another key's one job waits.
+pub(super) fn fair_order(order: &str) -> String {
+    let owner = |job: &str| {
+        format!(
+            "(SELECT h.owner FROM holds h WHERE h.kind = 'job' AND h.id = {job}.id \
+             ORDER BY h.{order} LIMIT 1)"
+        )
+    };
+    format!(
+        "(SELECT COUNT(*) FROM jobs r WHERE r.state = 'running' \
+          AND {} IS NOT DISTINCT FROM {})",
+        owner("r"),
+        owner("j")
     )
 }
