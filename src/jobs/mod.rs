@@ -443,7 +443,7 @@ impl JobSystem {
 
     /// Brings the handle of job `id` (one not run here) up to its record; retires it once the
     /// job ended. A handle never leaves a terminal state.
-    fn refresh(&self, id: &str) {
+    pub(super) fn refresh(&self, id: &str) {
         let Some(h) = self
             .live
             .lock()

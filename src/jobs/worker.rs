@@ -368,11 +368,16 @@ impl JobSystem {
                     "the job is no longer this worker's (its lease ran out); its end here is \
                      not recorded"
                 );
-                self.store
-                    .get_job(&id)
-                    .ok()
-                    .flatten()
-                    .map_or(state, |r| r.state)
+                let now = self.store.get_job(&id).ok().flatten().map(|r| r.state);
+                if let Some(s) = now.filter(|s| !s.is_terminal()) {
+                    // Another worker runs it: this process's handle follows its record from
+                    // now on, so that whoever waits here sees that worker's end.
+                    tracing::info!(state = s.as_str(), "job handed over");
+                    h.local.store(false, Ordering::SeqCst);
+                    self.refresh(&id);
+                    return;
+                }
+                now.unwrap_or(state)
             }
             Err(e) => {
                 tracing::error!(error = %e, "cannot record the job's end");

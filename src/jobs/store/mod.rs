@@ -308,6 +308,8 @@ pub trait JobDb: Send + Sync {
         artifact: Option<(&str, &StoredArtifact)>,
     ) -> Result<bool, StoreError>;
     /// Running job `id` goes back to queued (interrupted by a shutdown), if `worker` holds it.
+    /// Here and in [`Self::finish`], the worker `""` holds a running job no worker is recorded
+    /// for (one left running by a version without leases).
     fn set_queued(&self, id: &str, worker: &str) -> Result<(), StoreError>;
     /// Records that `owner` holds scene or job `id` (again: no change).
     fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError>;

@@ -735,7 +735,8 @@ impl JobDb for PgDb {
                      artifact_type = $7, artifact_path = $8, finished_at = $9, stage = $10,
                      artifact_len = $11, artifact_sha256 = $12, worker = NULL,
                      lease_until = NULL
-                 WHERE id = $1 AND (state = 'queued' OR (state = 'running' AND worker = $13))",
+                 WHERE id = $1
+                   AND (state = 'queued' OR (state = 'running' AND COALESCE(worker, '') = $13))",
                 &[
                     &id,
                     &state.as_str(),
@@ -762,7 +763,7 @@ impl JobDb for PgDb {
             c.execute(
                 "UPDATE jobs SET state = 'queued', progress = 0, stage = '', worker = NULL,
                      lease_until = NULL, attempts = GREATEST(attempts - 1, 0)
-                 WHERE id = $1 AND state = 'running' AND worker = $2",
+                 WHERE id = $1 AND state = 'running' AND COALESCE(worker, '') = $2",
                 &[&id, &worker],
             )?;
             Ok(())

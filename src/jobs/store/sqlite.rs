@@ -518,7 +518,8 @@ impl JobDb for SqliteDb {
             "UPDATE jobs SET state = ?2, progress = ?3, timings = ?4, info = ?5, error = ?6,
                  artifact_type = ?7, artifact_path = ?8, finished_at = ?9, stage = ?10,
                  artifact_len = ?11, artifact_sha256 = ?12, worker = NULL, lease_until = NULL
-             WHERE id = ?1 AND (state = 'queued' OR (state = 'running' AND worker = ?13))",
+             WHERE id = ?1
+               AND (state = 'queued' OR (state = 'running' AND COALESCE(worker, '') = ?13))",
             params![
                 id,
                 state.as_str(),
@@ -546,7 +547,7 @@ impl JobDb for SqliteDb {
         self.conn().execute(
             "UPDATE jobs SET state = 'queued', progress = 0, stage = '', worker = NULL,
                  lease_until = NULL, attempts = MAX(attempts - 1, 0)
-             WHERE id = ?1 AND state = 'running' AND worker = ?2",
+             WHERE id = ?1 AND state = 'running' AND COALESCE(worker, '') = ?2",
             params![id, worker],
         )?;
         Ok(())
