@@ -537,9 +537,20 @@ impl JobSystem {
     /// Extends the leases of the jobs this process runs; passes on cancellations asked of
     /// them.
     fn beat(&self) {
+        let running: Vec<String> = self
+            .live
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .values()
+            .filter(|h| h.local.load(Ordering::SeqCst))
+            .map(|h| h.id.clone())
+            .collect();
+        if running.is_empty() {
+            return;
+        }
         match self
             .store
-            .heartbeat(&self.worker_id, self.cfg.lease.as_millis() as i64)
+            .heartbeat(&self.worker_id, &running, self.cfg.lease.as_millis() as i64)
         {
             Ok(cancel) => {
                 for id in cancel {
@@ -640,7 +651,15 @@ impl JobSystem {
             self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
         }
         if self.shared {
-            // The workers that claim it hold its memory; this process follows its record.
+            // The workers that claim it hold its memory (each its own budget, this process's
+            // settings presumed theirs); this process refuses only a job bigger than a whole
+            // budget, and follows the record.
+            if job.memory() > self.cfg.job_memory {
+                return Err(SubmitError::TooBig {
+                    need: job.memory() >> 20,
+                    total: self.cfg.job_memory >> 20,
+                });
+            }
             if existing.is_some() {
                 self.store.requeue(id)?;
             } else {

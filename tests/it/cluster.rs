@@ -34,6 +34,8 @@ fn api(dir: &Path, db: &str, log: &AnswerLog) -> (ChildGuard, String) {
         .arg(dir)
         .env("CAUSTICA_LOG", "warn")
         .env("CAUSTICA_LEASE_S", LEASE_S)
+        // Jobs get 2 GiB: a job estimated above it is refused by the API, not by a worker.
+        .env("CAUSTICA_JOB_MEMORY", (2u64 << 30).to_string())
         .env("CAUSTICA_ANSWER_LOG", log.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
@@ -220,6 +222,19 @@ async fn a_killed_worker_loses_its_lease_and_a_new_api_serves_the_result() {
     let (mut api1, base) = api(&dir, &db, &log);
     let mut workers = vec![worker(&dir, &db, "cpu"), worker(&dir, &db, "cpu")];
     let c = client();
+    // A job bigger than a whole memory budget is refused at once (10⁸ photons through glass:
+    // ~3.8 GiB).
+    let r = c
+        .post(format!("{base}/v1/renders"))
+        .json(
+            &serde_json::json!({"scene": scene_sized(8, 8), "method": "reference",
+                                  "photons": 100_000_000, "spp": 1, "wait": false}),
+        )
+        .send()
+        .await
+        .unwrap();
+    let p = problem(r, 422).await;
+    assert!(p["type"].as_str().unwrap().ends_with("too-big"), "{p}");
     // A bake of a few seconds.
     let r = c
         .post(format!("{base}/v1/bakes"))

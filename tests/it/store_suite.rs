@@ -320,11 +320,16 @@ fn claims_and_leases(s: &Store) {
         .unwrap()
     );
     // A live worker's heartbeat keeps its jobs: nothing expires.
-    assert!(s.heartbeat("w4", 60_000).unwrap().is_empty());
+    let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    assert!(
+        s.heartbeat("w4", &ids(&["bk_a"]), 60_000)
+            .unwrap()
+            .is_empty()
+    );
     assert_eq!(s.reap_expired().unwrap(), Default::default());
     // A heartbeat with a lease already over lets the reaper take it; after MAX_ATTEMPTS the
     // job fails instead of going round again.
-    s.heartbeat("w4", -1).unwrap();
+    s.heartbeat("w4", &ids(&["bk_a"]), -1).unwrap();
     assert_eq!(s.reap_expired().unwrap().requeued, ["bk_a"]);
     for n in 3..=MAX_ATTEMPTS {
         let r = s
@@ -356,8 +361,15 @@ fn claims_and_leases(s: &Store) {
 
     // Cancellation of a running job reaches its worker through the heartbeat.
     assert_eq!(s.request_cancel("bk_a").unwrap(), Some(JobState::Running));
-    assert_eq!(s.heartbeat("w6", 60_000).unwrap(), ["bk_a"]);
-    assert!(s.heartbeat("w1", 60_000).unwrap().is_empty());
+    assert_eq!(
+        s.heartbeat("w6", &ids(&["bk_a"]), 60_000).unwrap(),
+        ["bk_a"]
+    );
+    assert!(
+        s.heartbeat("w1", &ids(&["rn_b", "rn_g"]), 60_000)
+            .unwrap()
+            .is_empty()
+    );
     // Interrupted by a shutdown: back to the queue, the attempt not counted; only its worker
     // may do that.
     s.set_queued("bk_a", "w1").unwrap();
@@ -365,6 +377,16 @@ fn claims_and_leases(s: &Store) {
     s.set_queued("bk_a", "w6").unwrap();
     let r = s.get_job("bk_a").unwrap().unwrap();
     assert_eq!((r.state, r.attempts, r.worker), (JobState::Queued, 0, None));
+    // A job the store says w7 holds but w7 does not run (its claim's answer was lost) is not
+    // kept alive by w7's heartbeat: its lease runs out and it is queued again.
+    insert(s, "rn_lost", JobKind::Render, Lane::Cpu, Priority::Render);
+    let r = s
+        .claim(Lane::Cpu, Priority::Bake, "w7", -1)
+        .unwrap()
+        .unwrap();
+    assert_eq!(r.id, "rn_lost");
+    s.heartbeat("w7", &ids(&["another"]), 60_000).unwrap();
+    assert_eq!(s.reap_expired().unwrap().requeued, ["rn_lost"]);
 }
 
 /// Within a priority, the key with the fewest jobs running goes first, then the oldest job.

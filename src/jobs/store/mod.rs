@@ -278,9 +278,16 @@ pub trait JobDb: Send + Sync {
         worker: &str,
         lease_ms: i64,
     ) -> Result<Option<JobRecord>, StoreError>;
-    /// Extends the lease of every job `worker` runs to `lease_ms` from now; the ids of those
-    /// whose cancellation was asked for.
-    fn heartbeat(&self, worker: &str, lease_ms: i64) -> Result<Vec<String>, StoreError>;
+    /// Extends to `lease_ms` from now the leases `worker` holds on the jobs `running` (those it
+    /// really runs: a job the store says it holds but it does not run, say a claim whose
+    /// answer was lost with the connection, is left to run out); the ids of those whose
+    /// cancellation was asked for.
+    fn heartbeat(
+        &self,
+        worker: &str,
+        running: &[String],
+        lease_ms: i64,
+    ) -> Result<Vec<String>, StoreError>;
     /// Running jobs whose lease has run out go back to the queue, or fail once taken
     /// [`MAX_ATTEMPTS`] times.
     fn reap_expired(&self) -> Result<Reaped, StoreError>;

@@ -608,14 +608,19 @@ impl JobDb for PgDb {
         row.map(|r| row_to_record(&r)).transpose()
     }
 
-    fn heartbeat(&self, worker: &str, lease_ms: i64) -> Result<Vec<String>, StoreError> {
-        let worker = worker.to_string();
+    fn heartbeat(
+        &self,
+        worker: &str,
+        running: &[String],
+        lease_ms: i64,
+    ) -> Result<Vec<String>, StoreError> {
+        let (worker, running) = (worker.to_string(), running.to_vec());
         self.run(move |c| {
             Ok(c.query(
                 "UPDATE jobs SET lease_until = caustica_now_ms() + $2
-                 WHERE worker = $1 AND state = 'running'
+                 WHERE worker = $1 AND state = 'running' AND id = ANY($3)
                  RETURNING id, cancel_requested",
-                &[&worker, &lease_ms],
+                &[&worker, &lease_ms, &running],
             )?
             .iter()
             .filter(|r| r.get::<_, bool>(1))

@@ -409,17 +409,25 @@ impl JobDb for SqliteDb {
         r.transpose()
     }
 
-    fn heartbeat(&self, worker: &str, lease_ms: i64) -> Result<Vec<String>, StoreError> {
+    fn heartbeat(
+        &self,
+        worker: &str,
+        running: &[String],
+        lease_ms: i64,
+    ) -> Result<Vec<String>, StoreError> {
+        let ids = serde_json::to_string(running).expect("ids serialise");
         let c = self.conn();
         c.execute(
-            "UPDATE jobs SET lease_until = ?2 WHERE worker = ?1 AND state = 'running'",
-            params![worker, now_ms() + lease_ms],
+            "UPDATE jobs SET lease_until = ?2 WHERE worker = ?1 AND state = 'running'
+                 AND id IN (SELECT value FROM json_each(?3))",
+            params![worker, now_ms() + lease_ms, ids],
         )?;
         let mut st = c.prepare(
-            "SELECT id FROM jobs WHERE worker = ?1 AND state = 'running' AND cancel_requested",
+            "SELECT id FROM jobs WHERE worker = ?1 AND state = 'running' AND cancel_requested
+                 AND id IN (SELECT value FROM json_each(?2))",
         )?;
         let ids = st
-            .query_map([worker], |r| r.get(0))?
+            .query_map(params![worker, ids], |r| r.get(0))?
             .collect::<Result<Vec<String>, _>>()?;
         Ok(ids)
     }
