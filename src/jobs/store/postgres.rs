@@ -145,8 +145,13 @@ fn is_connection_error(e: &postgres::Error) -> bool {
     match e.code() {
         // Class 08: connection exceptions; 57P01..03: the server is shutting down or starting.
         Some(c) => c.code().starts_with("08") || matches!(c.code(), "57P01" | "57P02" | "57P03"),
-        // No SQLSTATE: an I/O error on the socket, or the server could not be reached.
-        None => e.as_db_error().is_none(),
+        // No SQLSTATE: an I/O error on the socket, or the server could not be reached (not a
+        // type mismatch or another mistake of the caller's, which no retry mends).
+        None => {
+            std::error::Error::source(e).is_some_and(|s| s.is::<std::io::Error>())
+                || e.to_string().starts_with("error connecting")
+                || e.to_string().starts_with("connection closed")
+        }
     }
 }
 
