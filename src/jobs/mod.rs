@@ -567,17 +567,7 @@ impl JobSystem {
     /// (or fails) jobs whose worker's lease ran out, and brings the handles of jobs run
     /// elsewhere up to their records (in case a notification was missed); until shutdown.
     fn keeper(&self) {
-        let every = self.cfg.lease / 3;
-        let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
-        loop {
-            let (q, _) = self
-                .wake
-                .wait_timeout_while(qs, every, |q| !q.closed)
-                .unwrap_or_else(|e| e.into_inner());
-            if q.closed {
-                return;
-            }
-            drop(q);
+        self.every(self.cfg.lease / 3, || {
             self.beat();
             match self.store.reap_expired() {
                 Ok(r) => {
@@ -601,6 +591,22 @@ impl JobSystem {
             for id in ids {
                 self.refresh(&id);
             }
+        });
+    }
+
+    /// Runs `f` every `period` until the queues close (from the thread that calls it).
+    fn every(&self, period: Duration, mut f: impl FnMut()) {
+        let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let (q, _) = self
+                .wake
+                .wait_timeout_while(qs, period, |q| !q.closed)
+                .unwrap_or_else(|e| e.into_inner());
+            if q.closed {
+                return;
+            }
+            drop(q);
+            f();
             qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
         }
     }
@@ -972,24 +978,11 @@ impl JobSystem {
 
     /// Runs [`Self::sweep`] every `retention.sweep_every` until the queues close.
     fn janitor(&self) {
-        let every = self.cfg.retention.sweep_every;
-        let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
-        loop {
-            let (q, _) = self
-                .wake
-                .wait_timeout_while(qs, every, |q| !q.closed)
-                .unwrap_or_else(|e| e.into_inner());
-            if q.closed {
-                return;
-            }
-            drop(q);
-            match self.sweep() {
-                Ok(n) if n > 0 => tracing::info!(deleted = n, "retention sweep"),
-                Ok(_) => {}
-                Err(e) => tracing::warn!(error = %e, "retention sweep failed"),
-            }
-            qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
-        }
+        self.every(self.cfg.retention.sweep_every, || match self.sweep() {
+            Ok(n) if n > 0 => tracing::info!(deleted = n, "retention sweep"),
+            Ok(_) => {}
+            Err(e) => tracing::warn!(error = %e, "retention sweep failed"),
+        });
     }
 
     /// Deletes finished jobs past their time to live, then the least recently served renders

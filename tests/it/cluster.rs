@@ -14,49 +14,55 @@ use crate::support::{Cleanup, caustica_command, temp_dir};
 use object_store::ObjectStoreExt;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::Stdio;
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
 /// Leases in these tests: short, so a dead worker's job is taken again within seconds.
 const LEASE_S: &str = "1.5";
 
-fn api(dir: &Path, db: &str, log: &AnswerLog) -> (ChildGuard, String) {
-    let mut child = caustica_command()
-        .args([
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--no-workers",
-            "--database",
-            db,
-        ])
-        .arg("--data-dir")
-        .arg(dir)
-        .env("CAUSTICA_LOG", "warn")
-        .env("CAUSTICA_LEASE_S", LEASE_S)
-        // Jobs get 2 GiB: a job estimated above it is refused by the API, not by a worker.
-        .env("CAUSTICA_JOB_MEMORY", (2u64 << 30).to_string())
+/// `caustica serve --no-workers` over `db` and `dir`, with `more` (arguments and environment);
+/// its answers go to `log`.
+fn api_with(dir: &Path, db: &str, log: &AnswerLog, more: &More) -> (ChildGuard, String) {
+    let mut c = caustica_command();
+    c.args(["serve", "--addr", "127.0.0.1:0", "--no-workers"])
         .env("CAUSTICA_ANSWER_LOG", log.path())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("starts");
+        // Jobs get 2 GiB: a job estimated above it is refused by the API, not by a worker.
+        .env("CAUSTICA_JOB_MEMORY", (2u64 << 30).to_string());
+    let mut child = common(&mut c, dir, db, more).spawn().expect("starts");
     let url = listening_on(&mut child);
     (ChildGuard(child, None), url)
 }
 
-/// A worker process; returns once it printed that it runs (its id names its process id).
-fn worker(dir: &Path, db: &str, lanes: &str) -> ChildGuard {
-    let mut child = caustica_command()
-        .args(["worker", "--database", db, "--lanes", lanes, "--data-dir"])
+fn api(dir: &Path, db: &str, log: &AnswerLog) -> (ChildGuard, String) {
+    api_with(dir, db, log, &More::default())
+}
+
+/// Arguments and environment variables a test adds to a process.
+#[derive(Default)]
+struct More {
+    args: Vec<String>,
+    env: Vec<(&'static str, String)>,
+}
+
+/// What every process of these tests gets: the store, the data directory, short leases, quiet
+/// logs, stdout piped (the first line says it is up).
+fn common<'a>(c: &'a mut Command, dir: &Path, db: &str, more: &More) -> &'a mut Command {
+    c.args(["--database", db, "--data-dir"])
         .arg(dir)
+        .args(&more.args)
+        .envs(more.env.iter().map(|(k, v)| (k, v)))
         .env("CAUSTICA_LOG", "warn")
         .env("CAUSTICA_LEASE_S", LEASE_S)
-        .env("CAUSTICA_CPU_WORKERS", "1")
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
-        .spawn()
-        .expect("starts");
+}
+
+/// A worker process; returns once it printed that it runs (its id names its process id).
+fn worker_with(dir: &Path, db: &str, lanes: &str, more: &More) -> ChildGuard {
+    let mut c = caustica_command();
+    c.args(["worker", "--lanes", lanes])
+        .env("CAUSTICA_CPU_WORKERS", "1");
+    let mut child = common(&mut c, dir, db, more).spawn().expect("starts");
     let mut line = String::new();
     BufReader::new(child.stdout.take().unwrap())
         .read_line(&mut line)
@@ -66,6 +72,10 @@ fn worker(dir: &Path, db: &str, lanes: &str) -> ChildGuard {
         "{line:?}"
     );
     ChildGuard(child, None)
+}
+
+fn worker(dir: &Path, db: &str, lanes: &str) -> ChildGuard {
+    worker_with(dir, db, lanes, &More::default())
 }
 
 fn render(seed: u64) -> serde_json::Value {
@@ -351,12 +361,17 @@ fn moto() -> (ChildGuard, String) {
 }
 
 /// The settings object_store reads to reach `endpoint` (moto accepts any key).
-fn s3_env(c: &mut std::process::Command, endpoint: &str) {
-    c.env("AWS_ENDPOINT", endpoint)
-        .env("AWS_ALLOW_HTTP", "true")
-        .env("AWS_ACCESS_KEY_ID", "test")
-        .env("AWS_SECRET_ACCESS_KEY", "test")
-        .env("AWS_DEFAULT_REGION", "us-east-1");
+fn s3_env(endpoint: &str) -> Vec<(&'static str, String)> {
+    [
+        ("AWS_ENDPOINT", endpoint),
+        ("AWS_ALLOW_HTTP", "true"),
+        ("AWS_ACCESS_KEY_ID", "test"),
+        ("AWS_SECRET_ACCESS_KEY", "test"),
+        ("AWS_DEFAULT_REGION", "us-east-1"),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k, v.to_string()))
+    .collect()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -374,39 +389,13 @@ async fn artifacts_in_an_s3_bucket_need_no_shared_volume() {
     // The API and the worker each with a data directory of its own: only the bucket joins them.
     let (api_dir, worker_dir) = (temp_dir("cluster-s3-api"), temp_dir("cluster-s3-worker"));
     let _cleanup = (Cleanup(api_dir.clone()), Cleanup(worker_dir.clone()));
-    let mut cmd = caustica_command();
-    cmd.args([
-        "serve",
-        "--addr",
-        "127.0.0.1:0",
-        "--no-workers",
-        "--database",
-        &db,
-    ])
-    .args(["--artifacts", "s3://caustica/run"])
-    .arg("--data-dir")
-    .arg(&api_dir)
-    .env("CAUSTICA_LOG", "warn")
-    .stdout(Stdio::piped());
-    s3_env(&mut cmd, &endpoint);
-    let mut api = cmd.spawn().unwrap();
-    let base = listening_on(&mut api);
-    let _api = ChildGuard(api, None);
-    let mut cmd = caustica_command();
-    cmd.args(["worker", "--lanes", "cpu", "--database", &db])
-        .args(["--artifacts", "s3://caustica/run"])
-        .arg("--data-dir")
-        .arg(&worker_dir)
-        .env("CAUSTICA_LOG", "warn")
-        .env("CAUSTICA_CPU_WORKERS", "1")
-        .stdout(Stdio::piped());
-    s3_env(&mut cmd, &endpoint);
-    let mut w = cmd.spawn().unwrap();
-    let mut line = String::new();
-    BufReader::new(w.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let _worker = ChildGuard(w, None);
+    let more = More {
+        args: vec!["--artifacts".into(), "s3://caustica/run".into()],
+        env: s3_env(&endpoint),
+    };
+    let log = AnswerLog::new("cluster-s3-answers");
+    let (_api, base) = api_with(&api_dir, &db, &log, &more);
+    let _worker = worker_with(&worker_dir, &db, "cpu", &more);
 
     // A render the worker makes and the API serves: through the bucket.
     let r = c

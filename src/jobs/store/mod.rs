@@ -427,27 +427,19 @@ impl Store {
             );
         }
         if database.is_none() {
-            let jobs = db
-                .list_jobs(&JobFilter {
-                    kind: JobKind::Render,
+            let any = |kind| {
+                db.list_jobs(&JobFilter {
+                    kind,
                     owner: None,
                     state: None,
                     method: None,
                     created_since: None,
                     before_seq: None,
                     limit: 1,
-                })?
-                .len()
-                + db.list_jobs(&JobFilter {
-                    kind: JobKind::Bake,
-                    owner: None,
-                    state: None,
-                    method: None,
-                    created_since: None,
-                    before_seq: None,
-                    limit: 1,
-                })?
-                .len();
+                })
+                .map(|v| v.len())
+            };
+            let jobs = any(JobKind::Render)? + any(JobKind::Bake)?;
             let files = std::fs::read_dir(&artifacts).map_or(0, |d| d.count());
             if jobs == 0 && files > 0 {
                 warnings.push(format!(
