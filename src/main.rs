@@ -1121,7 +1121,7 @@ fn worker(
     lanes: &str,
     artifacts: Option<String>,
 ) -> Result<()> {
-    use caustica::jobs::{JobConfig, JobSystem, env_num};
+    use caustica::jobs::{JobConfig, JobSystem};
     let env = |k: &str| std::env::var(k).ok().filter(|v| !v.trim().is_empty());
     let database = database.or_else(|| env("CAUSTICA_DATABASE_URL")).context(
         "a worker needs the shared job store: --database postgres://… or CAUSTICA_DATABASE_URL",
@@ -1143,12 +1143,10 @@ fn worker(
         }
     }
     jc.lanes = l;
-    let grace = env_num(&get, "CAUSTICA_SHUTDOWN_GRACE_S", 0.0, 86400.0, false)
-        .map_err(anyhow::Error::msg)?
-        .map_or(
-            std::time::Duration::from_secs(30),
-            std::time::Duration::from_secs_f64,
-        );
+    // The server's job grace (CAUSTICA_SHUTDOWN_GRACE_S), read as `serve` reads it.
+    let mut hc = caustica::http::HttpConfig::default();
+    hc.apply_env(&get).map_err(anyhow::Error::msg)?;
+    let grace = hc.shutdown_grace;
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;

@@ -413,15 +413,19 @@ impl JobSystem {
         n
     }
 
-    /// The live handle of a job queued or running in this process; with a shared store, of
-    /// one queued or running anywhere (a handle that follows its record).
-    pub fn handle(&self, id: &str) -> Option<Arc<JobHandle>> {
-        let h = self
-            .live
+    /// The handle of `id` in the live map, if any.
+    fn live_handle(&self, id: &str) -> Option<Arc<JobHandle>> {
+        self.live
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .get(id)
-            .cloned();
+            .cloned()
+    }
+
+    /// The live handle of a job queued or running in this process; with a shared store, of
+    /// one queued or running anywhere (a handle that follows its record).
+    pub fn handle(&self, id: &str) -> Option<Arc<JobHandle>> {
+        let h = self.live_handle(id);
         if h.is_some() || !self.shared {
             return h;
         }
@@ -444,13 +448,7 @@ impl JobSystem {
     /// Brings the handle of job `id` (one not run here) up to its record; retires it once the
     /// job ended. A handle never leaves a terminal state.
     pub(super) fn refresh(&self, id: &str) {
-        let Some(h) = self
-            .live
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .get(id)
-            .cloned()
-        else {
+        let Some(h) = self.live_handle(id) else {
             return;
         };
         if h.local.load(Ordering::SeqCst) {
@@ -491,25 +489,13 @@ impl JobSystem {
     /// What the shared store said another process did.
     fn heard(&self, e: store::StoreEvent) {
         match e {
-            store::StoreEvent::Job(id) => {
-                let h = self
-                    .live
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .get(&id)
-                    .cloned();
-                if h.is_some_and(|h| !h.local.load(Ordering::SeqCst)) {
-                    self.refresh(&id);
-                }
-            }
+            // `refresh` passes over the jobs run here.
+            store::StoreEvent::Job(id) => self.refresh(&id),
             store::StoreEvent::Cancel(id) => {
-                let h = self
-                    .live
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .get(&id)
-                    .cloned();
-                if let Some(h) = h.filter(|h| h.local.load(Ordering::SeqCst)) {
+                if let Some(h) = self
+                    .live_handle(&id)
+                    .filter(|h| h.local.load(Ordering::SeqCst))
+                {
                     h.request_cancel();
                 }
             }
@@ -518,19 +504,25 @@ impl JobSystem {
                 self.wake.notify_all();
             }
             store::StoreEvent::Reconnected => {
-                let ids: Vec<String> = self
-                    .live
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .keys()
-                    .cloned()
-                    .collect();
-                for id in ids {
-                    self.refresh(&id);
-                }
+                self.refresh_followed();
                 let _q = self.queues.lock().unwrap_or_else(|e| e.into_inner());
                 self.wake.notify_all();
             }
+        }
+    }
+
+    /// Brings every handle of a job run elsewhere up to its record.
+    fn refresh_followed(&self) {
+        let ids: Vec<String> = self
+            .live
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .iter()
+            .filter(|(_, h)| !h.local.load(Ordering::SeqCst))
+            .map(|(id, _)| id.clone())
+            .collect();
+        for id in ids {
+            self.refresh(&id);
         }
     }
 
@@ -553,10 +545,8 @@ impl JobSystem {
             .heartbeat(&self.worker_id, &running, self.cfg.lease.as_millis() as i64)
         {
             Ok(cancel) => {
-                for id in cancel {
-                    if let Some(h) = self.live.lock().unwrap_or_else(|e| e.into_inner()).get(&id) {
-                        h.request_cancel();
-                    }
+                for h in cancel.iter().filter_map(|id| self.live_handle(id)) {
+                    h.request_cancel();
                 }
             }
             Err(e) => tracing::warn!(error = %e, "lease heartbeat failed"),
@@ -580,17 +570,7 @@ impl JobSystem {
                 }
                 Err(e) => tracing::warn!(error = %e, "cannot reap expired leases"),
             }
-            let ids: Vec<String> = self
-                .live
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .iter()
-                .filter(|(_, h)| !h.local.load(Ordering::SeqCst))
-                .map(|(id, _)| id.clone())
-                .collect();
-            for id in ids {
-                self.refresh(&id);
-            }
+            self.refresh_followed();
         });
     }
 
@@ -656,44 +636,45 @@ impl JobSystem {
         if spec.kind == JobKind::Render {
             self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
         }
-        if self.shared {
-            // The workers that claim it hold its memory (each its own budget, this process's
-            // settings presumed theirs); this process refuses only a job bigger than a whole
-            // budget, and follows the record.
-            if job.memory() > self.cfg.job_memory {
-                return Err(SubmitError::TooBig {
-                    need: job.memory() >> 20,
-                    total: self.cfg.job_memory >> 20,
-                });
-            }
-            if existing.is_some() {
-                self.store.requeue(id)?;
-            } else {
-                self.store
-                    .insert_job(&JobRecord::new(id, spec, job.lane(), job.priority()))?;
-            }
-            return Ok((self.handle(id), true));
-        }
-        let hold = self.hold_memory(job.memory(), false)?;
+        // With a shared store, the workers that claim it hold its memory (each its own budget,
+        // this process's settings presumed theirs): this process refuses only a job bigger
+        // than a whole budget, and follows the record.
+        let hold = if self.shared {
+            self.fits_budget(job.memory())?;
+            None
+        } else {
+            Some(self.hold_memory(job.memory(), false)?)
+        };
         if existing.is_some() {
             self.store.requeue(id)?;
         } else {
             self.store
                 .insert_job(&JobRecord::new(id, spec, job.lane(), job.priority()))?;
         }
-        let h = self.enqueue(id.to_string(), job, hold);
-        Ok((Some(h), true))
+        match hold {
+            Some(hold) => Ok((Some(self.enqueue(id.to_string(), job, hold)), true)),
+            None => Ok((self.handle(id), true)),
+        }
+    }
+
+    /// Refuses a job of `bytes` that alone needs more than the whole job memory budget.
+    fn fits_budget(&self, bytes: u64) -> Result<(), SubmitError> {
+        let total = self.cfg.job_memory;
+        if bytes > total {
+            return Err(SubmitError::TooBig {
+                need: bytes >> 20,
+                total: total >> 20,
+            });
+        }
+        Ok(())
     }
 
     /// Takes `bytes` of the job memory budget (with `force`, even past it).
     fn hold_memory(&self, bytes: u64, force: bool) -> Result<MemoryHold, SubmitError> {
         let total = self.cfg.job_memory;
         let mib = |b: u64| b >> 20;
-        if bytes > total && !force {
-            return Err(SubmitError::TooBig {
-                need: mib(bytes),
-                total: mib(total),
-            });
+        if !force {
+            self.fits_budget(bytes)?;
         }
         let mut used = self.memory.lock().unwrap_or_else(|e| e.into_inner());
         if *used + bytes > total && !force {
@@ -870,10 +851,10 @@ impl JobSystem {
                     continue;
                 }
             };
-            let memory = match self.hold_memory(job.memory(), true) {
-                Ok(m) => m,
-                Err(_) => unreachable!("a forced hold always succeeds"),
-            };
+            // Claimed, so taken whatever this process's budget says.
+            let memory = self
+                .hold_memory(job.memory(), true)
+                .expect("a forced hold always succeeds");
             let handle = self
                 .live
                 .lock()

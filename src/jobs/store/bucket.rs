@@ -64,10 +64,6 @@ impl Bucket {
         })
     }
 
-    pub fn url(&self) -> &str {
-        &self.url
-    }
-
     fn path(&self, key: &str) -> ObjectPath {
         if self.prefix.is_empty() {
             ObjectPath::from(key)

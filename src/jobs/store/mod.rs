@@ -69,7 +69,7 @@ pub enum Held {
 }
 
 impl Held {
-    fn as_str(self) -> &'static str {
+    pub(super) fn as_str(self) -> &'static str {
         match self {
             Held::Scene => "scene",
             Held::Job => "job",
@@ -412,13 +412,9 @@ impl Store {
             .map(std::sync::Arc::new);
         let artifacts = dir.join("artifacts");
         std::fs::create_dir_all(&artifacts)?;
-        let mut warnings = Vec::new();
-        let db: Box<dyn JobDb> = match database {
-            None => Box::new(sqlite::SqliteDb::open(dir, &mut warnings)?),
-            Some(url) => Box::new(postgres::PgDb::open(url)?),
-        };
         // Temporary files are the writer's own; on a shared volume another process may be
-        // writing one, so only those older than an hour go.
+        // writing one, so only those older than an hour go (before the SQLite
+        // back-end counts the folder's files).
         let removed = remove_temp_files(&artifacts, database.is_some());
         if removed > 0 {
             tracing::warn!(
@@ -426,29 +422,11 @@ impl Store {
                 "removed temporary artifact files left by an earlier run"
             );
         }
-        if database.is_none() {
-            let any = |kind| {
-                db.list_jobs(&JobFilter {
-                    kind,
-                    owner: None,
-                    state: None,
-                    method: None,
-                    created_since: None,
-                    before_seq: None,
-                    limit: 1,
-                })
-                .map(|v| v.len())
-            };
-            let jobs = any(JobKind::Render)? + any(JobKind::Bake)?;
-            let files = std::fs::read_dir(&artifacts).map_or(0, |d| d.count());
-            if jobs == 0 && files > 0 {
-                warnings.push(format!(
-                    "the database holds no jobs but {} holds {files} artifacts: the database \
-                     was lost or replaced",
-                    artifacts.display()
-                ));
-            }
-        }
+        let mut warnings = Vec::new();
+        let db: Box<dyn JobDb> = match database {
+            None => Box::new(sqlite::SqliteDb::open(dir, &mut warnings)?),
+            Some(url) => Box::new(postgres::PgDb::open(url)?),
+        };
         for w in &warnings {
             tracing::error!(warning = %w, "data directory");
         }

@@ -271,7 +271,7 @@ impl PgDb {
         }
     }
 
-    /// Reads one record (or none) with `sql` and its parameters.
+    /// The record of job `id`, if there is one.
     fn record(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
         let id = id.to_string();
         let row = self.run(move |c| {
@@ -317,13 +317,6 @@ fn row_to_record(r: &Row) -> Result<JobRecord, StoreError> {
         worker: r.try_get(21)?,
         attempts: r.try_get::<_, i32>(22)?.max(0) as u32,
     })
-}
-
-fn held_str(h: Held) -> &'static str {
-    match h {
-        Held::Scene => "scene",
-        Held::Job => "job",
-    }
 }
 
 impl JobDb for PgDb {
@@ -785,7 +778,7 @@ impl JobDb for PgDb {
         self.run(move |c| {
             c.execute(
                 "INSERT INTO holds (kind, id, owner) VALUES ($1, $2, $3) ON CONFLICT DO NOTHING",
-                &[&held_str(what), &id, &owner],
+                &[&what.as_str(), &id, &owner],
             )?;
             Ok(())
         })
@@ -796,7 +789,7 @@ impl JobDb for PgDb {
         self.run(move |c| {
             Ok(c.query_opt(
                 "SELECT 1 FROM holds WHERE kind = $1 AND id = $2 AND owner = $3",
-                &[&held_str(what), &id, &owner],
+                &[&what.as_str(), &id, &owner],
             )?
             .is_some())
         })
@@ -825,7 +818,7 @@ impl JobDb for PgDb {
         self.run(move |c| {
             Ok(c.query_opt(
                 "SELECT owner FROM holds WHERE kind = $1 AND id = $2 ORDER BY seq LIMIT 1",
-                &[&held_str(what), &id],
+                &[&what.as_str(), &id],
             )?
             .map(|r| r.get(0)))
         })
@@ -851,7 +844,7 @@ impl JobDb for PgDb {
             let n: i64 = c
                 .query_one(
                     "SELECT COUNT(*) FROM holds WHERE kind = $1 AND id = $2",
-                    &[&held_str(what), &id],
+                    &[&what.as_str(), &id],
                 )?
                 .get(0);
             Ok(n as usize)
@@ -863,7 +856,7 @@ impl JobDb for PgDb {
         self.run(move |c| {
             c.execute(
                 "DELETE FROM holds WHERE kind = $1 AND id = $2",
-                &[&held_str(what), &id],
+                &[&what.as_str(), &id],
             )?;
             Ok(())
         })
@@ -888,12 +881,12 @@ impl JobDb for PgDb {
             let mut tx = c.transaction()?;
             tx.execute(
                 "DELETE FROM holds WHERE kind = $1 AND id = $2 AND owner = $3",
-                &[&held_str(what), &id, &owner],
+                &[&what.as_str(), &id, &owner],
             )?;
             let n: i64 = tx
                 .query_one(
                     "SELECT COUNT(*) FROM holds WHERE kind = $1 AND id = $2",
-                    &[&held_str(what), &id],
+                    &[&what.as_str(), &id],
                 )?
                 .get(0);
             tx.commit()?;

@@ -143,6 +143,16 @@ impl SqliteDb {
             tx.pragma_update(None, "user_version", (i + 1) as i64)?;
             tx.commit()?;
         }
+        let jobs: i64 = conn.query_row("SELECT COUNT(*) FROM jobs", [], |r| r.get(0))?;
+        let artifacts = dir.join("artifacts");
+        let files = std::fs::read_dir(&artifacts).map_or(0, |d| d.count());
+        if jobs == 0 && files > 0 {
+            warnings.push(format!(
+                "the database holds no jobs but {} holds {files} artifacts: the database was \
+                 lost or replaced",
+                artifacts.display()
+            ));
+        }
         Ok(SqliteDb {
             conn: Mutex::new(conn),
         })
