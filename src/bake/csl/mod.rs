@@ -37,7 +37,7 @@ pub use artifact::ArtifactError;
 /// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
 /// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
 /// older algorithm made.
-pub const ALGORITHM: u32 = 10;
+pub const ALGORITHM: u32 = 11;
 
 /// The texel of an intensity image is about this many grid-ray spacings wide (about 256
 /// rays' cross-sections a texel where the rays keep their spacing), which sets each image's
