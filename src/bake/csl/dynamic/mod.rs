@@ -24,9 +24,10 @@
 //! - Matches that close no cycle on a face become pair triples ([`Triple`]) instead of the
 //!   paper's arbitrary picks, so that the interpolation is continuous across every edge.
 //! - Axes blend as the normalised weighted sum (consistent with the gnomonic barycentric
-//!   coordinates of [`Icosphere::locate`]), light-plane origins turn with their axes before the
-//!   linear blend, and the focus law blends as κ = 1/α, γ = β/α (linear in α passes through
-//!   infinity where a bundle turns from converging to diverging).
+//!   coordinates of [`Icosphere::locate`]) and light-plane origins turn with their axes before
+//!   the linear blend; the focus law and the image are not blended: each member of a triple is
+//!   moved onto the blended axis with its own α, β and image, weighted (see
+//!   `render/csl/interpolate.rs`).
 //!
 //! The bake is laid out by stage: [`Icosphere`] (the light directions, `icosphere.rs`),
 //! tracking and matching along the edges (`tracking.rs`), the triples of each face
