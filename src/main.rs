@@ -317,7 +317,7 @@ enum BakeCmd {
         #[arg(long, requires = "dynamic")]
         subdivisions: Option<u32>,
         /// Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default
-        /// 128).
+        /// 96).
         #[arg(long, requires = "dynamic")]
         track_grid: Option<u32>,
         /// Dynamic: tracking steps along each icosahedron edge, 1..=100 (default 20, the

@@ -118,9 +118,9 @@ pub struct BakeParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(range(max = 3), extend("default" = 2))]
     pub subdivisions: Option<u32>,
-    /// Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 128).
+    /// Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 96).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schemars(range(min = 16, max = 1024), extend("default" = 128))]
+    #[schemars(range(min = 16, max = 1024), extend("default" = 96))]
     pub track_grid: Option<u32>,
     /// Dynamic: tracking steps along an icosahedron edge, 1..=100 (default 20).
     #[serde(default, skip_serializing_if = "Option::is_none")]

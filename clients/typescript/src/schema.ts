@@ -656,8 +656,8 @@ export interface components {
              */
             subdivisions?: number | null;
             /**
-             * @description Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 128).
-             * @default 128
+             * @description Dynamic: rays per side of the grid traced at each tracking step, 16..=1024 (default 96).
+             * @default 96
              */
             track_grid?: number | null;
         };

@@ -40,7 +40,7 @@ class CslParams:
             subdivisions (int | None | Unset): Dynamic: icosahedron subdivisions, 0..=3 (default 2: 162 directions).
                 Default: 2.
             track_grid (int | None | Unset): Dynamic: rays per side of the grid traced at each tracking step, 16..=1024
-                (default 128). Default: 128.
+                (default 96). Default: 96.
      """
 
     dynamic: bool | Unset = UNSET
@@ -49,7 +49,7 @@ class CslParams:
     preset: CslParamsPreset | Unset = CslParamsPreset.PAPER
     steps: int | None | Unset = 20
     subdivisions: int | None | Unset = 2
-    track_grid: int | None | Unset = 128
+    track_grid: int | None | Unset = 96
 
 
 
