@@ -57,6 +57,51 @@ pub fn object_mask(world: &World, accel: &Accel, name: &str) -> Vec<bool> {
         .collect()
 }
 
+/// Pixels of [`object_mask`]`(receiver)` whose whole 3×3 neighbourhood lies in the shadow that
+/// object `occluder` casts for light travelling along `light_dir`: the receiver's point, seen
+/// through the pixel centre, cannot see the light past the occluder. There a directional
+/// light's direct component is zero, so a particle tracer's whole image (Mitsuba 3's `ptracer`)
+/// is the caustic alone.
+pub fn shadow_mask(
+    world: &World,
+    accel: &Accel,
+    receiver: &str,
+    occluder: &str,
+    light_dir: Vec3,
+) -> Vec<bool> {
+    let cam = &world.camera;
+    let oi = world.objects.iter().position(|o| o.name == occluder);
+    let to_light = -light_dir.normalize();
+    let (w, h) = (cam.width as i64, cam.height as i64);
+    let shaded: Vec<bool> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
+            accel
+                .intersect(cam.eye, d, f32::INFINITY)
+                .is_some_and(|hit| {
+                    let p = hit.point + hit.geo_normal * 1e-4;
+                    accel
+                        .intersect(p, to_light, f32::INFINITY)
+                        .is_some_and(|s| Some(s.object as usize) == oi)
+                })
+        })
+        .collect();
+    let on = object_mask(world, accel, receiver);
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            on[(y * w + x) as usize]
+                && (-1..=1).all(|dy| {
+                    (-1..=1).all(|dx| {
+                        let (xx, yy) = (x + dx, y + dy);
+                        xx >= 0 && yy >= 0 && xx < w && yy < h && shaded[(yy * w + xx) as usize]
+                    })
+                })
+        })
+        .collect()
+}
+
 /// Figures of one comparison.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comparison {
