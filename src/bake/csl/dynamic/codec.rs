@@ -13,7 +13,7 @@ pub const MAGIC: [u8; 8] = *b"CSLDYN\0\0";
 /// Format version of the dynamic artifact.
 pub const VERSION: u32 = 3;
 /// Largest body a dynamic artifact may declare (decompressed), 4 GiB.
-const MAX_BODY: u64 = 1 << 32;
+pub(super) const MAX_BODY: u64 = 1 << 32;
 
 /// How coarsely the artifact may code an image, against its sampling noise: the rounding error
 /// of the code (RMS) is at most this fraction of the noise a texel's rays leave in it, at every

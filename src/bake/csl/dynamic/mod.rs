@@ -51,7 +51,7 @@ use crate::bake::Fnv64;
 use crate::scene::World;
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 use tracking::{EdgeMatch, End, Match, StepRays, image_band, match_edge};
 use triples::face_triples;
@@ -223,6 +223,30 @@ pub fn bake_dynamic(
     params: &DynamicParams,
     progress: &(dyn Fn(DynamicProgress) -> bool + Sync),
 ) -> Result<DynamicSet, BakeError> {
+    bake_dynamic_within(world, object_name, params, progress, codec::MAX_BODY)
+}
+
+/// Bytes a set's CSLs take in memory (and at most in the artifact's body): the texels and a
+/// header each.
+fn set_bytes(set: &CslSet) -> u64 {
+    set.csls
+        .iter()
+        .map(|c| c.texels.len() as u64 * 6 + 128)
+        .sum()
+}
+
+/// [`bake_dynamic`] that stops, with an error naming the sizes, as soon as the sets baked so
+/// far take more than `max_bytes` (the artifact reader's bound, [`codec::MAX_BODY`]): a set the
+/// renderer could not load is refused while it bakes, not written. (The glass teapot at the
+/// paper's settings, 208 CSLs a direction, took 8.8 GB and 12 minutes before its 184 MB
+/// artifact was refused on loading.)
+fn bake_dynamic_within(
+    world: &World,
+    object_name: &str,
+    params: &DynamicParams,
+    progress: &(dyn Fn(DynamicProgress) -> bool + Sync),
+    max_bytes: u64,
+) -> Result<DynamicSet, BakeError> {
     let t_start = Instant::now();
     params.validate()?;
     let object = world
@@ -242,6 +266,7 @@ pub fn bake_dynamic(
     let accel = bake_accel(&local);
     let nv = ico.vertices.len();
     let done = AtomicU32::new(0);
+    let (bytes, too_large) = (AtomicU64::new(0), AtomicU32::new(0));
     check("directions", 0, nv as u32);
     let sets: Vec<Result<CslSet, BakeError>> = ico
         .vertices
@@ -259,12 +284,27 @@ pub fn bake_dynamic(
                 Some(&accel),
             )?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            let held = bytes.fetch_add(set_bytes(&set), Ordering::Relaxed) + set_bytes(&set);
+            if held > max_bytes {
+                too_large.store(d, Ordering::Relaxed);
+                cancel.store(true, Ordering::Relaxed);
+                return Err(BakeError::Canceled);
+            }
             if !check("directions", d, nv as u32) {
                 return Err(BakeError::Canceled);
             }
             Ok(set)
         })
         .collect();
+    let baked = too_large.load(Ordering::Relaxed);
+    if baked > 0 {
+        return Err(BakeError::InvalidParams(format!(
+            "the dynamic set is too large: its intensity images passed {:.1} GiB after {baked} \
+             of its {nv} directions, more than a render can load; bake with fewer subdivisions, \
+             a smaller grid or the fast preset, or render this object with method photons",
+            max_bytes as f64 / (1u64 << 30) as f64
+        )));
+    }
     let sets: Vec<CslSet> = sets.into_iter().collect::<Result<_, _>>()?;
     let time_bakes = t0.elapsed();
 
@@ -443,6 +483,42 @@ impl DynamicSet {
 pub(crate) mod tests {
     use super::*;
     use glam::{Quat, Vec3};
+
+    /// A dynamic set whose images would pass the bound stops while its directions bake, with
+    /// an error that says so, instead of writing an artifact no render can load.
+    #[test]
+    fn a_set_too_large_to_load_is_refused_while_it_bakes() {
+        let json = r#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
+             "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+             "objects": [{"name": "ball", "shape": {"type": "sphere", "radius": 0.5,
+                          "segments": 24}, "material": "glass"}]}"#;
+        let world = crate::scene::load_scene_json(json.as_bytes()).expect("scene resolves");
+        let params = DynamicParams {
+            subdivisions: 0,
+            steps: 2,
+            track_grid: 16,
+            csl: CslParams {
+                grid: 48,
+                ..CslParams::fast()
+            },
+            ..DynamicParams::paper()
+        };
+        let whole = bake_dynamic(&world, "ball", &params, &|_| true).expect("bake");
+        let need: u64 = whole.sets.iter().map(set_bytes).sum();
+        let r = bake_dynamic_within(&world, "ball", &params, &|_| true, need / 2);
+        match r {
+            Err(BakeError::InvalidParams(m)) => {
+                assert!(
+                    m.contains("too large") && m.contains("of its 12 directions"),
+                    "{m}"
+                )
+            }
+            other => panic!("{:?}", other.map(|d| d.sets.len())),
+        }
+        // Within the bound it bakes the same set.
+        let again = bake_dynamic_within(&world, "ball", &params, &|_| true, need).expect("bake");
+        assert!(again.to_bytes() == whole.to_bytes());
+    }
 
     /// Copies of one set turned with the light (what a sphere would give), matched one to one;
     /// the CSL axes lie `tilt` off the light direction and the image blobs `tilt` off centre
