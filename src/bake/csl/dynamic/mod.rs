@@ -226,12 +226,15 @@ pub fn bake_dynamic(
     bake_dynamic_within(world, object_name, params, progress, codec::MAX_BODY)
 }
 
-/// Bytes a set's CSLs take in memory (and at most in the artifact's body): the texels and a
-/// header each.
+/// Bytes a set's CSLs take in memory, and a bound on what they add to the artifact's body
+/// before it is deflated (what the reader checks): six a texel (coded or not, a texel is written
+/// as three u16), and 384 a CSL for its header (about 70) and its share of the black partners
+/// and triples (about three blacks of 44 bytes and seven triple entries of 11 bytes a CSL on
+/// the teapot).
 fn set_bytes(set: &CslSet) -> u64 {
     set.csls
         .iter()
-        .map(|c| c.texels.len() as u64 * 6 + 128)
+        .map(|c| c.texels.len() as u64 * 6 + 384)
         .sum()
 }
 
