@@ -32,29 +32,8 @@ pub fn blur3(f: &Frame) -> Frame {
 /// Pixels whose whole 3×3 neighbourhood sees object `name` directly through the pixel centre
 /// (so that a blur never mixes in other surfaces).
 pub fn object_mask(world: &World, accel: &Accel, name: &str) -> Vec<bool> {
-    let cam = &world.camera;
     let oi = world.objects.iter().position(|o| o.name == name);
-    let (w, h) = (cam.width as i64, cam.height as i64);
-    let sees: Vec<bool> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
-            accel
-                .intersect(cam.eye, d, f32::INFINITY)
-                .is_some_and(|hit| Some(hit.object as usize) == oi)
-        })
-        .collect();
-    (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            (-1..=1).all(|dy| {
-                (-1..=1).all(|dx| {
-                    let (xx, yy) = (x + dx, y + dy);
-                    xx >= 0 && yy >= 0 && xx < w && yy < h && sees[(yy * w + xx) as usize]
-                })
-            })
-        })
-        .collect()
+    neighbourhoods(world, accel, |hit| Some(hit.object as usize) == oi)
 }
 
 /// Pixels of [`object_mask`]`(receiver)` whose whole 3×3 neighbourhood lies in the shadow that
@@ -69,35 +48,44 @@ pub fn shadow_mask(
     occluder: &str,
     light_dir: Vec3,
 ) -> Vec<bool> {
-    let cam = &world.camera;
-    let oi = world.objects.iter().position(|o| o.name == occluder);
+    let index = |name: &str| world.objects.iter().position(|o| o.name == name);
+    let (ri, oi) = (index(receiver), index(occluder));
     let to_light = -light_dir.normalize();
+    neighbourhoods(world, accel, |hit| {
+        Some(hit.object as usize) == ri
+            && accel
+                .intersect(hit.point + hit.geo_normal * 1e-4, to_light, f32::INFINITY)
+                .is_some_and(|s| Some(s.object as usize) == oi)
+    })
+}
+
+/// Pixels whose whole 3×3 neighbourhood passes `test` on what the camera ray through the pixel
+/// centre hits first (a pixel that sees nothing fails).
+fn neighbourhoods(
+    world: &World,
+    accel: &Accel,
+    test: impl Fn(&crate::trace::Hit) -> bool,
+) -> Vec<bool> {
+    let cam = &world.camera;
     let (w, h) = (cam.width as i64, cam.height as i64);
-    let shaded: Vec<bool> = (0..h)
+    let pass: Vec<bool> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
             let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
             accel
                 .intersect(cam.eye, d, f32::INFINITY)
-                .is_some_and(|hit| {
-                    let p = hit.point + hit.geo_normal * 1e-4;
-                    accel
-                        .intersect(p, to_light, f32::INFINITY)
-                        .is_some_and(|s| Some(s.object as usize) == oi)
-                })
+                .is_some_and(|hit| test(&hit))
         })
         .collect();
-    let on = object_mask(world, accel, receiver);
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
-            on[(y * w + x) as usize]
-                && (-1..=1).all(|dy| {
-                    (-1..=1).all(|dx| {
-                        let (xx, yy) = (x + dx, y + dy);
-                        xx >= 0 && yy >= 0 && xx < w && yy < h && shaded[(yy * w + xx) as usize]
-                    })
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (xx, yy) = (x + dx, y + dy);
+                    xx >= 0 && yy >= 0 && xx < w && yy < h && pass[(yy * w + xx) as usize]
                 })
+            })
         })
         .collect()
 }

@@ -188,6 +188,22 @@ impl JobRecord {
     }
 }
 
+/// The records of a list's rows that read back, with their sequence numbers; each one that does
+/// not is logged and left out (a list never fails on one corrupt record).
+fn readable<E: std::fmt::Display>(
+    rows: impl IntoIterator<Item = (i64, Result<JobRecord, E>)>,
+) -> Vec<(i64, JobRecord)> {
+    rows.into_iter()
+        .filter_map(|(seq, rec)| {
+            rec.map_err(
+                |e| tracing::error!(seq, error = %e, "unreadable job record left out of a list"),
+            )
+            .ok()
+            .map(|rec| (seq, rec))
+        })
+        .collect()
+}
+
 /// Milliseconds since the Unix epoch.
 pub fn now_ms() -> i64 {
     SystemTime::now()

@@ -222,6 +222,32 @@ impl PgDb {
         Ok(db)
     }
 
+    /// Points idempotency key `key` at `job_id`; `on_conflict` says what an existing key does
+    /// (keeps its job, or is replaced).
+    fn write_idempotency(
+        &self,
+        on_conflict: &'static str,
+        key: &str,
+        request_hash: &str,
+        job_id: &str,
+    ) -> Result<(), StoreError> {
+        let (k, h, j) = (
+            key.to_string(),
+            request_hash.to_string(),
+            job_id.to_string(),
+        );
+        self.run(move |c| {
+            c.execute(
+                &format!(
+                    "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3) \
+                     {on_conflict}"
+                ),
+                &[&k, &h, &j],
+            )?;
+            Ok(())
+        })
+    }
+
     /// Runs `f` on a pooled connection; on a lost connection, connects again and runs it once
     /// more, for up to [`RECONNECT_FOR`].
     fn run<T: Send + 'static>(
@@ -468,17 +494,9 @@ impl JobDb for PgDb {
                 ],
             )
         })?;
-        let mut out = Vec::new();
-        for r in rows {
-            let seq: i64 = r.get(23);
-            match row_to_record(&r) {
-                Ok(rec) => out.push((seq, rec)),
-                Err(e) => {
-                    tracing::error!(seq, error = %e, "unreadable job record left out of a list")
-                }
-            }
-        }
-        Ok(out)
+        Ok(super::readable(
+            rows.iter().map(|r| (r.get::<_, i64>(23), row_to_record(r))),
+        ))
     }
 
     fn list_scenes(
@@ -1014,19 +1032,7 @@ impl JobDb for PgDb {
         request_hash: &str,
         job_id: &str,
     ) -> Result<(), StoreError> {
-        let (k, h, j) = (
-            key.to_string(),
-            request_hash.to_string(),
-            job_id.to_string(),
-        );
-        self.run(move |c| {
-            c.execute(
-                "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3)
-                 ON CONFLICT DO NOTHING",
-                &[&k, &h, &j],
-            )?;
-            Ok(())
-        })
+        self.write_idempotency("ON CONFLICT DO NOTHING", key, request_hash, job_id)
     }
 
     fn replace_idempotency(
@@ -1035,19 +1041,12 @@ impl JobDb for PgDb {
         request_hash: &str,
         job_id: &str,
     ) -> Result<(), StoreError> {
-        let (k, h, j) = (
-            key.to_string(),
-            request_hash.to_string(),
-            job_id.to_string(),
-        );
-        self.run(move |c| {
-            c.execute(
-                "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3)
-                 ON CONFLICT (key) DO UPDATE SET request_hash = $2, job_id = $3",
-                &[&k, &h, &j],
-            )?;
-            Ok(())
-        })
+        self.write_idempotency(
+            "ON CONFLICT (key) DO UPDATE SET request_hash = $2, job_id = $3",
+            key,
+            request_hash,
+            job_id,
+        )
     }
 
     fn listen(&self, on: Box<dyn Fn(StoreEvent) + Send + Sync>) -> Result<bool, StoreError> {

@@ -301,17 +301,7 @@ impl JobDb for SqliteDb {
             ],
             |r| Ok((r.get::<_, i64>(23)?, row_to_record(r)?)),
         )?;
-        let mut out = Vec::new();
-        for row in rows {
-            let (seq, rec) = row?;
-            match rec {
-                Ok(rec) => out.push((seq, rec)),
-                Err(e) => {
-                    tracing::error!(seq, error = %e, "unreadable job record left out of a list")
-                }
-            }
-        }
-        Ok(out)
+        Ok(super::readable(rows.collect::<Result<Vec<_>, _>>()?))
     }
 
     fn list_scenes(

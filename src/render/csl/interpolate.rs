@@ -135,6 +135,48 @@ fn blend_axes(members: &[(&Csl, f32)]) -> Vec3 {
         .normalize_or(members[0].0.axis)
 }
 
+/// What both interpolations of a triple start from: the members that lend light (`lit`, with
+/// their image weights), the blended axis and a point of the blended axis line.
+struct Blend<'a> {
+    lit: Vec<(&'a Csl, f32)>,
+    axis: Vec3,
+    origin: Vec3,
+}
+
+impl<'a> Blend<'a> {
+    /// None when no image member lends light. The axis line's point: the light-plane origins
+    /// relative to the bounding centre, each turned with its axis, blended (the paper's linear
+    /// blend of the origins, but one that does not pull the plane towards the centre when the
+    /// axes differ, by 1 - cos(θ/2) of its distance between axes θ apart).
+    fn of(geometry: &[(&Csl, f32)], image: &[(&'a Csl, f32)], centre: Vec3) -> Option<Self> {
+        let lit: Vec<(&Csl, f32)> = image
+            .iter()
+            .copied()
+            .filter(|(c, w)| *w > 1e-6 && !c.texels.is_empty() && c.scale > 0.0)
+            .collect();
+        if lit.is_empty() {
+            return None;
+        }
+        let axis = blend_axes(geometry);
+        let origin = centre
+            + geometry
+                .iter()
+                .map(|(c, w)| Quat::from_rotation_arc(c.axis, axis) * (c.origin - centre) * *w)
+                .fold(Vec3::ZERO, |a, b| a + b);
+        Some(Blend { lit, axis, origin })
+    }
+}
+
+/// `v` made perpendicular to unit `axis` and unit (any perpendicular where it is along it).
+fn in_plane(v: Vec3, axis: Vec3) -> Vec3 {
+    let p = v - axis * v.dot(axis);
+    if p.length() > 1e-3 {
+        p.normalize()
+    } else {
+        axis.any_orthonormal_vector()
+    }
+}
+
 /// The interpolated CSLs of one triple, from `geometry` (CSLs and their weights for the axis
 /// and the light plane's position) and `image` (CSLs and the weights of their intensity images):
 /// one CSL per member that lends light, none when no member does.
@@ -155,40 +197,18 @@ fn blend_axes(members: &[(&Csl, f32)]) -> Vec3 {
 /// and the flux from 0.965–0.968 to 0.989 (`docs/methods/csl.md`). A frame draws up to three
 /// CSLs per triple instead of one ([`blend_csl`] where that is too many).
 fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3) -> Vec<Csl> {
-    let lit: Vec<(&Csl, f32)> = image
-        .iter()
-        .copied()
-        .filter(|(c, w)| *w > 1e-6 && !c.texels.is_empty() && c.scale > 0.0)
-        .collect();
-    if lit.is_empty() {
+    let Some(Blend { lit, axis, origin }) = Blend::of(geometry, image, centre) else {
         return Vec::new();
-    }
-    let axis = blend_axes(geometry);
-    let turn = |c: &Csl| Quat::from_rotation_arc(c.axis, axis);
-    // The blended axis line: the light-plane origins relative to the bounding centre, each
-    // turned with its axis, blended (the paper's linear blend of the origins, without pulling
-    // the line towards the centre when the axes differ).
-    let line = centre
-        + geometry
-            .iter()
-            .map(|(c, w)| turn(c) * (c.origin - centre) * *w)
-            .fold(Vec3::ZERO, |a, b| a + b);
-    let line_depth = (line - centre).dot(axis);
+    };
+    let depth = |c: &Csl| (c.origin - centre).dot(c.axis);
+    let line_depth = (origin - centre).dot(axis);
     lit.iter()
         .map(|&(c, w)| {
-            let q = turn(c);
-            let depth = (c.origin - centre).dot(c.axis);
-            let x = q * c.x_axis;
-            let x = x - axis * x.dot(axis);
-            let x_axis = if x.length() > 1e-3 {
-                x.normalize()
-            } else {
-                axis.any_orthonormal_vector()
-            };
+            let q = Quat::from_rotation_arc(c.axis, axis);
             Csl {
-                origin: line + axis * (depth - line_depth),
+                origin: origin + axis * (depth(c) - line_depth),
                 axis,
-                x_axis,
+                x_axis: in_plane(q * c.x_axis, axis),
                 scale: c.scale * w,
                 flux: c.flux * w,
                 ..c.clone()
@@ -204,15 +224,7 @@ fn interpolate_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3
 /// light-plane origins and the focus law (κ = 1/α, γ = β/α) linearly, and the intensity images,
 /// each turned onto the new axis by the rotation about â × âᵢ, resampled and blended linearly.
 fn blend_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3) -> Option<Csl> {
-    let lit: Vec<(&Csl, f32)> = image
-        .iter()
-        .copied()
-        .filter(|(c, w)| *w > 1e-6 && !c.texels.is_empty() && c.scale > 0.0)
-        .collect();
-    if lit.is_empty() {
-        return None;
-    }
-    let axis = blend_axes(geometry);
+    let Blend { lit, axis, origin } = Blend::of(geometry, image, centre)?;
     let turn = |c: &Csl| Quat::from_rotation_arc(c.axis, axis);
     let sum = |f: &dyn Fn(&Csl) -> Vec3| {
         geometry
@@ -222,19 +234,9 @@ fn blend_csl(geometry: &[(&Csl, f32)], image: &[(&Csl, f32)], centre: Vec3) -> O
     };
     let kappa = geometry.iter().map(|(c, w)| c.kappa * w).sum();
     let gamma = geometry.iter().map(|(c, w)| c.gamma * w).sum();
-    // Light-plane origins relative to the bounding centre, each turned with its axis: the
-    // paper's linear blend of the origins, but one that does not pull the plane towards the
-    // centre when the axes differ (by 1 - cos(θ/2) of its distance between axes θ apart).
-    let origin = centre + sum(&|c| turn(c) * (c.origin - centre));
     // The new image frame: the members' x axes turned onto the new axis, blended with the
     // weights (symmetric in the members, so the two faces of an edge agree on it).
-    let xs = sum(&|c| turn(c) * c.x_axis);
-    let xs = xs - axis * xs.dot(axis);
-    let x_axis = if xs.length() > 1e-3 {
-        xs.normalize()
-    } else {
-        axis.any_orthonormal_vector()
-    };
+    let x_axis = in_plane(sum(&|c| turn(c) * c.x_axis), axis);
     let y_axis = axis.cross(x_axis);
     let size = lit.iter().map(|(c, _)| c.size).max().unwrap_or(128);
     let half = lit

@@ -287,7 +287,8 @@ fn bake_dynamic_within(
                 Some(&accel),
             )?;
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            let held = bytes.fetch_add(set_bytes(&set), Ordering::Relaxed) + set_bytes(&set);
+            let size = set_bytes(&set);
+            let held = bytes.fetch_add(size, Ordering::Relaxed) + size;
             if held > max_bytes {
                 too_large.store(d, Ordering::Relaxed);
                 cancel.store(true, Ordering::Relaxed);
