@@ -25,7 +25,8 @@ struct Globals {
     env_radiance: vec4<f32>,
     // rgb: multiplier of the environment map; w: 1 when a map is bound.
     env_map_scale: vec4<f32>,
-    // x: number of lights, y/z: environment map size, w: number of caustic spot lights.
+    // x: number of lights (the sky's directions follow them, see `sky`), y/z: environment map
+    // size, w: number of caustic spot lights.
     counts: vec4<u32>,
     // xy: viewport size in pixels.
     viewport: vec4<f32>,
@@ -41,6 +42,8 @@ struct Globals {
     medium_sigma_t: vec4<f32>,
     // rgb: σs; w: Henyey-Greenstein g.
     medium_sigma_s: vec4<f32>,
+    // The environment's sky directions in `lights` (render/sky.rs): x the first, y how many.
+    sky: vec4<u32>,
 }
 
 // A shadowed delta light. Line lights arrive as several point lights.

@@ -1,7 +1,8 @@
 // Direct pass: one forward pass over all geometry that writes three HDR layers of linear
 // radiance W/(m²·sr). `direct`: receivers (diffuse, glossy) lit by every delta light with PCF
-// shadows from the shadow map array, plus unshadowed environment irradiance from spherical
-// harmonics (diffuse lobe only), and the visible environment behind everything (fullscreen
+// shadows from the shadow map array (an environment's suns among them, render/sky.rs), plus
+// environment irradiance from spherical harmonics (diffuse lobe only) shadowed by the sky's
+// visibility (`sky_visibility`), and the visible environment behind everything (fullscreen
 // background draw). `specular`: the specular objects themselves, mirror = reflectance
 // × environment in the reflected direction, glass = Schlick-Fresnel mix of the environment in
 // the reflected and (first-interface) refracted directions, or, under method transport, the
@@ -16,13 +17,16 @@
 @group(0) @binding(0) var<uniform> g: Globals;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var env_map: texture_2d<f32>;
+// The sky directions' shadow maps (render/sky.rs), compared with `shadow_sampler`.
+@group(0) @binding(10) var sky_maps: texture_depth_2d_array;
 
 // What the frame needs compiled in (render/direct.rs `Variant`): an environment map, a medium
-// on the light's way (method beams), glossy receivers. Without them the pipeline is made
+// on the light's way (method beams), glossy receivers, the sky's shadow maps. Without them the pipeline is made
 // without their code, which every pixel would otherwise run under a mask on llvmpipe.
 override HAS_ENV_MAP: bool = true;
 override HAS_MEDIUM: bool = true;
 override HAS_GLOSSY: bool = true;
+override HAS_SKY: bool = true;
 
 struct VsOut {
     @builtin(position) clip: vec4<f32>,
@@ -171,10 +175,46 @@ fn shade(in: VsOut) -> FsOut {
         }
         l += f * e * cos_i * vis;
     }
-    // Environment: diffuse lobe only, unshadowed.
-    l += albedo / PI * sh_irradiance(g.sh, n);
+    // Environment (without its suns, lit above): diffuse lobe only, shadowed.
+    var sky = 1.0;
+    if HAS_SKY {
+        sky = sky_visibility(p, n, ng);
+    }
+    l += albedo / PI * sh_irradiance(g.sh, n) * sky;
     out.direct = vec4<f32>(l, 1.0);
     return out;
+}
+
+// The fraction of the environment's SH irradiance that reaches p: the sky's median-cut
+// directions (render/sky.rs; `lights[g.sky.x ..][.. g.sky.y]`, each weighing its region's power
+// in intensity.x, its map a layer of `sky_maps`) above the surface, weighted by power × cosine,
+// each seen through one bilinear compare of its shadow map (their many edges blur into each
+// other). 1 where no direction lies above the surface.
+fn sky_visibility(p: vec3<f32>, n: vec3<f32>, ng: vec3<f32>) -> f32 {
+    var seen = 0.0;
+    var total = 0.0;
+    for (var k = g.sky.x; k < g.sky.x + g.sky.y; k++) {
+        let wi = -lights[k].direction.xyz;
+        let c = dot(n, wi);
+        if c <= 0.0 || dot(ng, wi) <= 0.0 {
+            continue;
+        }
+        let w = lights[k].intensity.x * c;
+        total += w;
+        let q = p + ng * (2.0 * lights[k].params.z);
+        let clip = lights[k].mats[0] * vec4<f32>(q, 1.0);
+        let ndc = clip.xyz / clip.w;
+        let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+        var v = 1.0;
+        if all(uv >= vec2<f32>(0.0)) && all(uv <= vec2<f32>(1.0)) && ndc.z <= 1.0 {
+            v = textureSampleCompareLevel(sky_maps, shadow_sampler, uv, lights[k].first_layer, ndc.z);
+        }
+        seen += w * v;
+    }
+    if total <= 0.0 {
+        return 1.0;
+    }
+    return seen / total;
 }
 
 // Background: a fullscreen triangle at the far plane, drawn after the geometry with a

@@ -36,15 +36,19 @@ pub struct Globals {
     pub medium_sigma_t: [f32; 4],
     /// rgb σs, w g.
     pub medium_sigma_s: [f32; 4],
+    /// The environment's sky directions in the lights: the first, how many.
+    pub sky: [u32; 4],
 }
 
 /// What a frame's direct pass needs compiled in (`override` constants of direct.wgsl): code
-/// for an environment map, a medium, glossy receivers. llvmpipe runs every branch of a shader
+/// for an environment map, the sky's shadows, a medium, glossy receivers. llvmpipe runs every branch of a shader
 /// under a mask, so code a scene never takes still costs its time in every pixel unless the
 /// pipeline is made without it (measured on the glass sphere at 800 × 600: 129 ms → 84 ms).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Variant {
     pub env_map: bool,
+    /// The environment's sky directions shadow its SH irradiance (`sky_visibility`).
+    pub sky: bool,
     pub medium: bool,
     pub glossy: bool,
     /// The pass writes the G-buffer too (`fs_main_gbuffer`: locations 3..5), for a frame whose
@@ -58,6 +62,7 @@ impl Variant {
             | (self.medium as usize) << 1
             | (self.glossy as usize) << 2
             | (self.gbuffer as usize) << 3
+            | (self.sky as usize) << 4
     }
 }
 
@@ -81,7 +86,7 @@ pub struct DirectPipelines {
     pub shadow_sampler: wgpu::Sampler,
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
-    variants: [Option<VariantPipelines>; 16],
+    variants: [Option<VariantPipelines>; 32],
 }
 
 impl DirectPipelines {
@@ -141,6 +146,17 @@ impl DirectPipelines {
                     },
                     count: None,
                 },
+                // The sky directions' shadow maps (render/sky.rs).
+                wgpu::BindGroupLayoutEntry {
+                    binding: 10,
+                    visibility: frag,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let direct_mod = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -182,6 +198,7 @@ impl DirectPipelines {
             ("HAS_ENV_MAP", flag(variant.env_map)),
             ("HAS_MEDIUM", flag(variant.medium)),
             ("HAS_GLOSSY", flag(variant.glossy)),
+            ("HAS_SKY", flag(variant.sky)),
         ];
         let options = || wgpu::PipelineCompilationOptions {
             constants: &constants,
@@ -476,7 +493,8 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
         eye: [cam.eye.x, cam.eye.y, cam.eye.z, 1.0],
         env_radiance: [c.x, c.y, c.z, 0.0],
         env_map_scale: map_scale,
-        counts: [plan.lights.len() as u32, map_w, map_h, 0],
+        // The sky's directions come last and light nothing themselves.
+        counts: [(plan.lights.len() - plan.sky.len()) as u32, map_w, map_h, 0],
         viewport: [width as f32, height as f32, 0.0, 0.0],
         sh: plan.env.sh.map(|v| [v.x, v.y, v.z, 0.0]),
         csl_irradiance: [0.0; 4],
@@ -484,6 +502,7 @@ pub fn globals(world: &crate::scene::World, width: u32, height: u32, plan: &Ligh
         medium_half: [0.0; 4],
         medium_sigma_t: [0.0; 4],
         medium_sigma_s: [0.0; 4],
+        sky: [plan.sky.start, plan.sky.len() as u32, 0, 0],
     }
 }
 
@@ -507,6 +526,7 @@ pub fn encode(
         .as_ref()
         .expect("DirectPipelines::prepare made the variant");
     let shadow_view = atlas.view();
+    let sky_view = atlas.sky_view();
     let env_view = env.texture.create_view(&Default::default());
     let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
     let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -519,6 +539,7 @@ pub fn encode(
             entry(3, wgpu::BindingResource::TextureView(&shadow_view)),
             entry(4, wgpu::BindingResource::Sampler(&p.shadow_sampler)),
             entry(5, wgpu::BindingResource::TextureView(&env_view)),
+            entry(10, wgpu::BindingResource::TextureView(&sky_view)),
         ],
     });
     let dv = targets.direct.create_view(&Default::default());

@@ -1,7 +1,8 @@
 //! Lights as the direct pass reads them: delta lights with their shadow map layers and
 //! matrices (directional: orthographic fitted to the scene bounds; spot: perspective, or a cube
 //! when the cone is too wide; point: six faces; line: `LINE_SAMPLES` shadowed point lights), and
-//! the environment as SH irradiance plus at most one bound map.
+//! the environment as SH irradiance plus at most one bound map, its suns as shadowed directional
+//! lights and the rest's visibility from its median-cut directions' shadow maps ([`super::sky`]).
 
 use crate::scene::{EnvMap, Light, World};
 use bytemuck::{Pod, Zeroable};
@@ -12,6 +13,9 @@ use std::sync::Arc;
 
 /// Point samples a line light is split into (each carries intensity / N).
 pub const LINE_SAMPLES: usize = 8;
+/// Side of each shadow map of the environment's sky directions: each carries 1/64 of the
+/// sky's light, so a coarse map's edges blur into the others'.
+pub const SKY_SHADOW_RESOLUTION: u32 = 512;
 /// Spots with a cutoff above this use a cube of shadow maps instead of one perspective map.
 const MAX_SPOT_PERSPECTIVE_CUTOFF: f32 = 75.0 * std::f32::consts::PI / 180.0;
 /// Field of view of a cube face: a little over 90° so that the 3×3 PCF kernel stays inside.
@@ -60,9 +64,18 @@ pub struct EnvSetup {
 
 #[derive(Clone, Debug, Default)]
 pub struct LightPlan {
+    /// The lights the pass shades with (the scene's delta lights, then the environment's
+    /// suns), followed by the environment's sky directions (`sky`).
     pub lights: Vec<GpuLight>,
     pub layers: Vec<ShadowLayer>,
+    /// The sky directions' shadow maps, [`SKY_SHADOW_RESOLUTION`]² each, in an array of their
+    /// own (their lights' `first_layer` indexes it).
+    pub sky_layers: Vec<ShadowLayer>,
     pub env: EnvSetup,
+    /// The entries of `lights` that are the environment's sky directions (their `intensity.x`
+    /// the direction's weight): they light nothing themselves, their shadow maps tell how much
+    /// of the environment's SH irradiance reaches a point. Empty without an environment.
+    pub sky: std::ops::Range<u32>,
 }
 
 fn v4(v: Vec3) -> [f32; 4] {
@@ -115,51 +128,20 @@ impl LightPlan {
         let mut plan = LightPlan::default();
         let (lo, hi) = world.bounds();
         let res = shadow_res as f32;
+        let mut sky = Vec::new();
         for light in &world.lights {
             match light {
                 Light::Directional {
                     direction,
                     irradiance,
                     ..
-                } => {
-                    let d = direction.normalize_or(Vec3::NEG_Y);
-                    let c = (lo + hi) * 0.5;
-                    let r = ((hi - lo).length() * 0.5).max(1e-3);
-                    let view = look_at(c - d * 2.0 * r, c, up_for(d));
-                    let (mut vlo, mut vhi) =
-                        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-                    for p in corners(lo, hi) {
-                        let q = view.transform_point3(p);
-                        vlo = vlo.min(q);
-                        vhi = vhi.max(q);
-                    }
-                    let ext = (vhi.x - vlo.x).max(vhi.y - vlo.y).max(1e-3);
-                    let m = ext * 0.02;
-                    let mz = (vhi.z - vlo.z) * 0.01 + 1e-3;
-                    let proj = proj::orthographic(
-                        vlo.x - m,
-                        vhi.x + m,
-                        vlo.y - m,
-                        vhi.y + m,
-                        -vhi.z - mz,
-                        -vlo.z + mz,
-                    );
-                    let vp = proj * view;
-                    let mut g = GpuLight::zeroed();
-                    g.kind = KIND_DIRECTIONAL;
-                    g.first_layer = plan.layers.len() as u32;
-                    g.n_layers = 1;
-                    g.ortho = 1;
-                    g.direction = v4(d);
-                    g.intensity = v4(*irradiance);
-                    g.params = [0.0, 0.0, (ext + 2.0 * m) / res, 0.0];
-                    g.mats[0] = vp.to_cols_array();
-                    plan.layers.push(ShadowLayer {
-                        view_proj: vp,
-                        visible: true,
-                    });
-                    plan.lights.push(g);
-                }
+                } => plan.push_directional(
+                    direction.normalize_or(Vec3::NEG_Y),
+                    *irradiance,
+                    (lo, hi),
+                    res,
+                    false,
+                ),
                 Light::Point {
                     position,
                     intensity,
@@ -213,12 +195,22 @@ impl LightPlan {
                 Light::Environment { map, radiance } => match map {
                     None => plan.env.constant += *radiance,
                     Some(m) => {
-                        let sh = sh_project(m);
-                        for (acc, c) in plan.env.sh.iter_mut().zip(sh) {
+                        let lit = super::sky::lighting(m);
+                        for (acc, c) in plan.env.sh.iter_mut().zip(lit.sh) {
                             *acc += c * *radiance;
+                        }
+                        for sun in &lit.suns {
+                            plan.push_directional(
+                                -sun.towards,
+                                sun.irradiance * *radiance,
+                                (lo, hi),
+                                res,
+                                false,
+                            );
                         }
                         if plan.env.map.is_none() {
                             plan.env.map = Some((m.clone(), *radiance));
+                            sky = lit.sky.clone();
                         } else {
                             plan.env.extra_maps += 1;
                         }
@@ -228,7 +220,70 @@ impl LightPlan {
         }
         // A constant radiance L gives irradiance πL on any normal: c00·Y00 = πL.
         plan.env.sh[0] += plan.env.constant * (std::f32::consts::PI / SH_Y00);
+        // The sky's directions: the first map's regions, or, for constant environments only,
+        // directions spread evenly.
+        if sky.is_empty() && plan.env.constant.max_element() > 0.0 {
+            sky = super::sky::uniform_directions(super::sky::SKY_DIRECTIONS);
+        }
+        let first = plan.lights.len() as u32;
+        let sky_res = SKY_SHADOW_RESOLUTION as f32;
+        for d in &sky {
+            plan.push_directional(-d.towards, Vec3::splat(d.weight), (lo, hi), sky_res, true);
+        }
+        plan.sky = first..plan.lights.len() as u32;
         plan
+    }
+
+    /// A directional light travelling along `d` (unit) with an orthographic shadow map of `res`
+    /// texels a side fitted to the scene box, in the sky's array where `sky`.
+    fn push_directional(
+        &mut self,
+        d: Vec3,
+        irradiance: Vec3,
+        (lo, hi): (Vec3, Vec3),
+        res: f32,
+        sky: bool,
+    ) {
+        let c = (lo + hi) * 0.5;
+        let r = ((hi - lo).length() * 0.5).max(1e-3);
+        let view = look_at(c - d * 2.0 * r, c, up_for(d));
+        let (mut vlo, mut vhi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in corners(lo, hi) {
+            let q = view.transform_point3(p);
+            vlo = vlo.min(q);
+            vhi = vhi.max(q);
+        }
+        let ext = (vhi.x - vlo.x).max(vhi.y - vlo.y).max(1e-3);
+        let m = ext * 0.02;
+        let mz = (vhi.z - vlo.z) * 0.01 + 1e-3;
+        let proj = proj::orthographic(
+            vlo.x - m,
+            vhi.x + m,
+            vlo.y - m,
+            vhi.y + m,
+            -vhi.z - mz,
+            -vlo.z + mz,
+        );
+        let vp = proj * view;
+        let layers = if sky {
+            &mut self.sky_layers
+        } else {
+            &mut self.layers
+        };
+        let mut g = GpuLight::zeroed();
+        g.kind = KIND_DIRECTIONAL;
+        g.first_layer = layers.len() as u32;
+        g.n_layers = 1;
+        g.ortho = 1;
+        g.direction = v4(d);
+        g.intensity = v4(irradiance);
+        g.params = [0.0, 0.0, (ext + 2.0 * m) / res, 0.0];
+        g.mats[0] = vp.to_cols_array();
+        layers.push(ShadowLayer {
+            view_proj: vp,
+            visible: true,
+        });
+        self.lights.push(g);
     }
 
     fn push_point(&mut self, pos: Vec3, intensity: Vec3, lo: Vec3, hi: Vec3, res: f32) {
@@ -269,12 +324,9 @@ pub fn sh_project(m: &EnvMap) -> [Vec3; 9] {
     use std::f32::consts::PI;
     let mut c = [Vec3::ZERO; 9];
     let (w, h) = (m.width as usize, m.height as usize);
-    // Texel (x, y) stands for the band of half a row either side of its centre
-    // v = y/(H − 1) (EnvMap's layout), clamped to the poles.
     let rows = h.max(2) - 1;
     for y in 0..h {
-        let band = |t: f32| (PI * t.clamp(0.0, rows as f32) / rows as f32).cos();
-        let dw = (2.0 * PI / w as f32) * (band(y as f32 - 0.5) - band(y as f32 + 0.5));
+        let dw = super::sky::texel_solid_angle(y, w, h);
         for x in 0..w {
             let d = EnvMap::direction((x as f32 + 0.5) / w as f32, y as f32 / rows as f32);
             let l = m.texels[y * w + x] * dw;

@@ -37,6 +37,7 @@ pub mod plan;
 pub mod scene;
 pub mod shaders;
 pub mod shadow;
+pub mod sky;
 pub mod timestamps;
 pub mod transport;
 pub mod water;
@@ -266,16 +267,18 @@ impl DeviceCache {
             self.staging = Some(Staging::new(dev, size.0, size.1));
         }
         let n_layers = plan.lights.layers.len() as u32;
+        let n_sky = plan.lights.sky_layers.len() as u32;
         if !self
             .atlas
             .as_ref()
-            .is_some_and(|a| a.fits(plan.shadow_resolution, n_layers))
+            .is_some_and(|a| a.fits(plan.shadow_resolution, n_layers, n_sky))
         {
             drop(self.atlas.take()); // free the old one first
             self.atlas = Some(shadow::ShadowAtlas::new(
                 dev,
                 plan.shadow_resolution,
                 n_layers,
+                n_sky,
             ));
         }
         let env = &plan.lights.env;

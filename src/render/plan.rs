@@ -162,14 +162,15 @@ impl<'a> FramePlan<'a> {
         if !opts.components.direct {
             // The specular layer needs no shadows.
             lights.layers.clear();
+            lights.sky_layers.clear();
             for l in &mut lights.lights {
                 l.n_layers = 0;
             }
         }
-        if lights.layers.len() as u32 > dev.max_texture_array_layers {
+        let most = lights.layers.len().max(lights.sky_layers.len()) as u32;
+        if most > dev.max_texture_array_layers {
             return Err(RenderError::Limit(format!(
-                "{} shadow map layers over the adapter's {}",
-                lights.layers.len(),
+                "{most} shadow map layers over the adapter's {}",
                 dev.max_texture_array_layers
             )));
         }
@@ -338,10 +339,12 @@ impl<'a> FramePlan<'a> {
         })
     }
 
-    /// What the direct pass needs compiled in: an environment map, a medium, glossy receivers.
+    /// What the direct pass needs compiled in: an environment map, the sky's shadows, a
+    /// medium, glossy receivers.
     pub fn direct_variant(&self) -> super::direct::Variant {
         super::direct::Variant {
             env_map: self.globals.env_map_scale[3] > 0.5,
+            sky: self.globals.sky[1] > 0 && !self.lights.sky_layers.is_empty(),
             medium: self.globals.medium_half[0] > 0.0,
             glossy: self.glossy,
             gbuffer: self.gbuffer_in_direct && self.needs_gbuffer(),

@@ -1,6 +1,7 @@
 //! The shadow pass (`shaders/shadow.wgsl`): the depth of every object, as each delta light
 //! sees it, into one layer of the shadow map array per light view ([`super::lights`] plans
-//! them). The direct pass samples the array with a comparison sampler.
+//! them), and as each of the environment's sky directions sees it into a second, coarser array
+//! ([`super::sky`]). The direct pass samples both with a comparison sampler.
 
 use super::direct::DEPTH_FORMAT;
 use super::lights::LightPlan;
@@ -85,11 +86,15 @@ impl ShadowPipeline {
     }
 }
 
-/// The shadow map array (`resolution`² × `layers`), kept between frames and grown as needed.
+/// The shadow map array (`resolution`² × `layers`) and the sky's
+/// ([`super::lights::SKY_SHADOW_RESOLUTION`]² × `sky_layers`), kept between frames and grown as
+/// needed.
 pub struct ShadowAtlas {
     pub resolution: u32,
     pub layers: u32,
     pub texture: wgpu::Texture,
+    pub sky_layers: u32,
+    pub sky: wgpu::Texture,
     /// What the array holds: the scene generation and the layers last drawn into it. A frame
     /// whose scene and light views are the same (only the camera, the caustics or the image
     /// size changed) draws no shadow pass.
@@ -111,38 +116,63 @@ impl ShadowKey {
             layers: lights
                 .layers
                 .iter()
+                .chain(&lights.sky_layers)
                 .map(|l| (l.view_proj.to_cols_array(), l.visible))
                 .collect(),
         }
     }
 }
 
+/// A depth array of `layers` layers of `resolution`² (a 1×1 placeholder, keeping the binding
+/// valid, without layers).
+fn depth_array(device: &wgpu::Device, label: &str, resolution: u32, layers: u32) -> wgpu::Texture {
+    let (res, n) = if layers == 0 {
+        (1, 1)
+    } else {
+        (resolution, layers)
+    };
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: res,
+            height: res,
+            depth_or_array_layers: n,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: DEPTH_FORMAT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    })
+}
+
+fn array_view(t: &wgpu::Texture, label: &str) -> wgpu::TextureView {
+    t.create_view(&wgpu::TextureViewDescriptor {
+        label: Some(label),
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    })
+}
+
 impl ShadowAtlas {
-    pub fn new(device: &wgpu::Device, resolution: u32, layers: u32) -> ShadowAtlas {
-        // Without shadowed lights a 1×1 placeholder keeps the binding valid.
-        let (res, n) = if layers == 0 {
-            (1, 1)
-        } else {
-            (resolution, layers)
-        };
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadow maps"),
-            size: wgpu::Extent3d {
-                width: res,
-                height: res,
-                depth_or_array_layers: n,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+    pub fn new(
+        device: &wgpu::Device,
+        resolution: u32,
+        layers: u32,
+        sky_layers: u32,
+    ) -> ShadowAtlas {
         ShadowAtlas {
             resolution,
             layers,
-            texture,
+            texture: depth_array(device, "shadow maps", resolution, layers),
+            sky_layers,
+            sky: depth_array(
+                device,
+                "sky shadow maps",
+                super::lights::SKY_SHADOW_RESOLUTION,
+                sky_layers,
+            ),
             drawn: None,
         }
     }
@@ -152,20 +182,19 @@ impl ShadowAtlas {
         self.drawn = None;
     }
 
-    pub fn fits(&self, resolution: u32, layers: u32) -> bool {
-        if layers == 0 {
-            return true;
-        }
-        self.resolution == resolution && self.layers >= layers
+    pub fn fits(&self, resolution: u32, layers: u32, sky_layers: u32) -> bool {
+        (layers == 0 || (self.resolution == resolution && self.layers >= layers))
+            && self.sky_layers >= sky_layers
     }
 
     /// The whole array, as the direct pass samples it.
     pub fn view(&self) -> wgpu::TextureView {
-        self.texture.create_view(&wgpu::TextureViewDescriptor {
-            label: Some("shadow maps"),
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        })
+        array_view(&self.texture, "shadow maps")
+    }
+
+    /// The sky's array.
+    pub fn sky_view(&self) -> wgpu::TextureView {
+        array_view(&self.sky, "sky shadow maps")
     }
 }
 
@@ -185,7 +214,7 @@ pub fn encode(
     atlas: &mut ShadowAtlas,
     timestamps: Option<&mut Timestamps>,
 ) -> bool {
-    let n_layers = lights.layers.len();
+    let n_layers = lights.layers.len() + lights.sky_layers.len();
     if n_layers == 0 {
         return false;
     }
@@ -195,7 +224,7 @@ pub fn encode(
     }
     atlas.drawn = Some(key);
     let mut bytes = vec![0u8; n_layers * LAYER_STRIDE as usize];
-    for (i, l) in lights.layers.iter().enumerate() {
+    for (i, l) in lights.layers.iter().chain(&lights.sky_layers).enumerate() {
         let at = i * LAYER_STRIDE as usize;
         bytes[at..at + 64].copy_from_slice(bytemuck::bytes_of(&l.view_proj.to_cols_array()));
     }
@@ -220,11 +249,17 @@ pub fn encode(
         let k = t.pass("shadow_maps");
         (&*t, k)
     });
-    for (i, layer) in lights.layers.iter().enumerate() {
-        let view = atlas.texture.create_view(&wgpu::TextureViewDescriptor {
+    let main = lights.layers.len();
+    for (i, layer) in lights.layers.iter().chain(&lights.sky_layers).enumerate() {
+        let (texture, at) = if i < main {
+            (&atlas.texture, i)
+        } else {
+            (&atlas.sky, i - main)
+        };
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
             label: Some("shadow layer"),
             dimension: Some(wgpu::TextureViewDimension::D2),
-            base_array_layer: i as u32,
+            base_array_layer: at as u32,
             array_layer_count: Some(1),
             ..Default::default()
         });
