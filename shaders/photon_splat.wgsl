@@ -116,6 +116,10 @@ fn fs_splat(in: VsOut) -> @location(0) vec4<f32> {
     let v = r.v.xyz;
     let lu2 = dot(u, u);
     let lv2 = dot(v, v);
+    // A degenerate footprint has no kernel (written so that NaN fails too).
+    if !(lu2 > 1e-30 && lv2 > 1e-30) {
+        discard;
+    }
     // The same surface: near the footprint's plane, facing the same way, lit from the front.
     let plane = normalize(cross(u, v));
     let d = gp.xyz - r.p.xyz;
@@ -147,7 +151,7 @@ fn fs_splat(in: VsOut) -> @location(0) vec4<f32> {
         }
     }
     let kernel = 2.0 / (PI * sqrt(lu2 * lv2)) * sum / f32(sub * sub);
-    if kernel <= 0.0 {
+    if !(kernel > 0.0 && kernel < 1e30) {
         discard;
     }
     let m = materials[u32(gn.w)];

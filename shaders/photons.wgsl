@@ -387,6 +387,13 @@ fn trace(@builtin(global_invocation_id) gid: vec3<u32>) {
             let px = frame.footprint.y * dist;
             let hi = max(min(frame.footprint.z, frame.footprint.w * px), px);
             let f = footprint(dpu * s, dpv * s, ng, px, hi);
+            // A differential transferred at a grazing hit can overflow: such a photon (and a
+            // flux that is not finite) would splat NaN, so it is not stored. Comparisons with
+            // NaN are false, so the test is written to pass only finite values.
+            let big = vec3<f32>(1e30);
+            if !(all(abs(f[0]) < big) && all(abs(f[1]) < big) && all(abs(flux) < big)) {
+                return;
+            }
             let k = atomicAdd(&draw.instance_count, 1u);
             records[k] = PhotonRecord(
                 vec4<f32>(p, flux.r),
