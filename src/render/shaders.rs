@@ -159,6 +159,7 @@ mod tests {
                 ("medium_half", offset_of!(G, medium_half)),
                 ("medium_sigma_t", offset_of!(G, medium_sigma_t)),
                 ("medium_sigma_s", offset_of!(G, medium_sigma_s)),
+                ("sky", offset_of!(G, sky)),
             ],
         );
         mirror(
