@@ -5,17 +5,15 @@ use anyhow::{Context, Result, bail};
 use caustica::encode::{self, PngSettings, ToneMap};
 use caustica::frame::Component;
 use caustica::frame::Frame;
-use caustica::gpu::{GpuConfig, GpuContext};
+use caustica::methods::local::LocalGpu;
 use caustica::methods::{
-    ArtifactStore, BakeRequest, Env, Gpu, Method, MethodArgs, MethodError, ParamError,
+    ArtifactStore, BakeRequest, Env, Method, MethodArgs, MethodError, ParamError,
 };
 use caustica::reference::compare;
-use caustica::render::Renderer;
 use caustica::scene::{self, World};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 #[derive(Parser)]
@@ -39,6 +37,18 @@ enum Cmd {
         /// The method (`auto` picks one from the scene: see the README).
         #[arg(long, value_enum, default_value = "auto")]
         method: Method,
+        /// Add a diffuse ground plane under the scene's objects (for a glass or mirror object
+        /// alone, whose shadow and caustic otherwise fall on nothing).
+        #[arg(long)]
+        ground: bool,
+        /// Run the self-check (a short reference of the caustics compared with the frame on
+        /// the receivers; docs/accuracy.md) whatever the method's default (on for csl and
+        /// transport).
+        #[arg(long, conflicts_with = "no_check")]
+        check: bool,
+        /// Skip the self-check.
+        #[arg(long)]
+        no_check: bool,
         #[arg(long)]
         width: Option<u32>,
         #[arg(long)]
@@ -408,6 +418,9 @@ fn run() -> Result<()> {
         Cmd::Render {
             scene,
             method,
+            ground,
+            check,
+            no_check,
             width,
             height,
             camera,
@@ -518,13 +531,18 @@ fn run() -> Result<()> {
                 water,
                 beams,
                 progressive,
+                check: (check || no_check).then_some(check),
                 bake,
             };
             let png = PngSettings { exposure, tone_map };
             render(
                 &scene,
                 method,
-                (width, height),
+                Edits {
+                    size: (width, height),
+                    camera: camera.as_deref(),
+                    ground,
+                },
                 &args,
                 Output {
                     component,
@@ -538,7 +556,6 @@ fn run() -> Result<()> {
                     fps,
                     repeat,
                 },
-                camera.as_deref(),
             )
         }
         Cmd::Bake { what } => {
@@ -644,16 +661,22 @@ struct Animation {
     repeat: Option<u32>,
 }
 
+/// `--width`, `--height`, `--camera`, `--ground`: what a render changes of its scene.
+struct Edits<'a> {
+    size: (Option<u32>, Option<u32>),
+    camera: Option<&'a str>,
+    ground: bool,
+}
+
 /// `caustica render`: the method's frames for the scene, the chosen component (and with
 /// `layers` every component) written to `out`; with `--frames`, a sequence.
 fn render(
     scene: &Path,
     method: Method,
-    size: (Option<u32>, Option<u32>),
+    edits: Edits,
     args: &MethodArgs,
     o: Output,
     anim: Animation,
-    camera: Option<&str>,
 ) -> Result<()> {
     let Output {
         component,
@@ -677,13 +700,14 @@ fn render(
         caustica::jobs::JobError::Params(p) => flag_error(&p),
         e => anyhow::anyhow!("{e}"),
     };
-    let camera = parse_camera(camera)?;
+    let camera = parse_camera(edits.camera)?;
     caustica::jobs::render::apply_overrides(
         &mut world,
         camera.as_ref(),
-        size,
+        edits.size,
         None,
         anim.time,
+        edits.ground,
         &scene::Limits::default(),
     )
     .map_err(params_error)?;
@@ -704,7 +728,7 @@ fn render(
     if let Some(why) = plan.reason() {
         eprintln!("method {} ({why})", plan.method());
     }
-    let gpu = CliGpu::default();
+    let gpu = LocalGpu::default();
     if plan.method().info().gpu {
         let t = Instant::now();
         gpu.init()?;
@@ -755,7 +779,8 @@ fn render(
         return Ok(());
     }
     let frames = with_bar(plan.method().name(), |progress| {
-        plan.frames(
+        caustica::methods::render(
+            plan.as_ref(),
             &world,
             &Env {
                 progress,
@@ -763,6 +788,7 @@ fn render(
                 gpu: &gpu,
                 store: &store,
             },
+            args.check,
         )
     })?;
     for n in &frames.notes {
@@ -856,7 +882,7 @@ fn bake(
         plan.run(&Env {
             progress,
             keep_going: &|| true,
-            gpu: &CliGpu::default(),
+            gpu: &LocalGpu::default(),
             store: &store,
         })
     })?;
@@ -908,33 +934,6 @@ fn print_medians(method: &str, adapter: &str, world: &World, runs: &[Vec<(String
         ms.sort_by(f64::total_cmp);
         let median = ms[ms.len() / 2];
         println!("repeat stage={stage} median_ms={median:.3}");
-    }
-}
-
-/// The CLI's renderer: made once, on first use (or by [`CliGpu::init`]).
-#[derive(Default)]
-struct CliGpu(Mutex<Option<Renderer>>);
-
-impl CliGpu {
-    fn init(&self) -> Result<()> {
-        let mut r = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        if r.is_none() {
-            let ctx = std::sync::Arc::new(GpuContext::new(&GpuConfig::from_env())?);
-            *r = Some(Renderer::new(ctx)?);
-        }
-        Ok(())
-    }
-}
-
-impl Gpu for CliGpu {
-    fn with_renderer(
-        &self,
-        f: &mut dyn FnMut(&mut Renderer) -> Result<(), MethodError>,
-    ) -> Result<(), MethodError> {
-        self.init()
-            .map_err(|e| MethodError::NoGpu(format!("{e:#}")))?;
-        let mut r = self.0.lock().unwrap_or_else(|e| e.into_inner());
-        f(r.as_mut().expect("made by init"))
     }
 }
 

@@ -122,6 +122,17 @@ pub struct RenderParams {
     #[serde(default)]
     #[schemars(range(min = 0.1, max = 60), extend("default" = 24))]
     pub fps: Option<f32>,
+    /// Adds a diffuse ground plane under the scene's objects (`"ground": true` in a scene does
+    /// the same): for a glass or mirror object uploaded alone, whose shadow and caustic
+    /// otherwise fall on nothing.
+    #[serde(default)]
+    pub ground: bool,
+    /// Runs the self-check, a short reference of the caustics compared with the frame on the
+    /// receivers (its figures in `info.statistics.check`; about a second of CPU), or not.
+    /// Default: on for csl and transport, and for `auto` where its rule is unsure; off
+    /// otherwise.
+    #[serde(default)]
+    pub check: Option<bool>,
 }
 
 /// Most frames a sequence may ask for, and most pixels over all its frames (each kept as 8-bit
@@ -194,6 +205,7 @@ impl RenderParams {
             pinhole: self.pinhole.clone(),
             beams: self.beams.clone(),
             progressive: self.progressive.clone(),
+            check: self.check,
             water: match (&self.water, self.water_mode) {
                 (w, None) => w.clone(),
                 (w, Some(mode)) => {
@@ -209,16 +221,20 @@ impl RenderParams {
     }
 }
 
-/// Applies a request's camera, size and light overrides to `world` (the CLI's `--width`
-/// and `--height` go through here too).
+/// Applies a request's camera, size, light and ground overrides to `world` (the CLI's
+/// `--width`, `--height` and `--ground` go through here too).
 pub fn apply_overrides(
     world: &mut World,
     camera: Option<&CameraDesc>,
     size: (Option<u32>, Option<u32>),
     lights: Option<&[LightDesc]>,
     time: Option<f32>,
+    ground: bool,
     limits: &Limits,
 ) -> Result<(), JobError> {
+    if ground {
+        crate::scene::ground::add_ground(world);
+    }
     if let Some(t) = time {
         if !(t.is_finite() && t.abs() <= crate::scene::water::MAX_TIME) {
             return Err(ParamError::new(
@@ -311,6 +327,7 @@ impl RenderJob {
             (p.width, p.height),
             p.lights.as_deref(),
             p.time,
+            p.ground,
             limits,
         )?;
         let first = world.water.first().map_or(0.0, |w| w.surface.time());
@@ -401,7 +418,9 @@ impl Job for RenderJob {
         }
         ctx.progress(0.0, "render");
         let mut frames = ctx
-            .with_env(|env| self.plan.frames(&self.world, env))
+            .with_env(|env| {
+                crate::methods::render(self.plan.as_ref(), &self.world, env, self.p.check)
+            })
             .map_err(|e| ctx.method_error(e))?;
         ctx.check()?;
         ctx.progress(1.0, "encode");
@@ -431,7 +450,7 @@ impl Job for RenderJob {
         timings.push(("encode".into(), t.elapsed()));
         let mut info = serde_json::json!({
             "adapter": frames.adapter,
-            "method": self.plan.method(),
+            "method": frames.made_by.unwrap_or(self.plan.method()),
             "width": self.world.camera.width,
             "height": self.world.camera.height,
             "component": component,
@@ -447,6 +466,9 @@ impl Job for RenderJob {
         if let Some(why) = self.plan.reason() {
             info["requested_method"] = self.requested.name().into();
             info["reason"] = why.into();
+        }
+        if !frames.warnings.is_empty() {
+            info["warnings"] = frames.warnings.into();
         }
         Ok(Artifact {
             content_type,

@@ -181,6 +181,7 @@ fn gltf_scene(
             transform: Default::default(),
         }],
         media: Vec::new(),
+        ground: false,
     };
     Ok((desc, file.to_string(), warnings))
 }

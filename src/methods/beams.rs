@@ -23,6 +23,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: false,
     args: &["beams"],
+    check: false,
 };
 
 pub struct Beams;

@@ -31,6 +31,8 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: true,
     args: &["csl", "bake"],
+    // Its renders check themselves against a short reference (`methods::check`).
+    check: true,
 };
 
 pub struct Csl;
@@ -385,12 +387,21 @@ fn bake_note(name: &str, set: &CslSet) -> String {
     )
 }
 
-/// A set whose model is further than this from fresh photons (`bake::csl::verify`) fits its
-/// object poorly: the render says so and names `photons`. The verification plane reads lower
-/// than a floor's relative L1 (glass sphere 0.06 there, 0.13 on its floor; mirror ring 0.19 and
-/// 0.67; lumpy blob 0.22 and 0.57; teapot 0.31 and 0.65; glass cylinder 0.32 and 0.78): 0.15
-/// parts the sphere, which the model fits, from the others.
-pub const POOR_FIT: f64 = 0.15;
+/// Over this self-check error (`methods::check`) a bake's or a render's caustics are poor: it
+/// says so and names `photons` (the bar of `auto`, `methods::POOR_CHECK`).
+pub const POOR_FIT: f64 = super::POOR_CHECK as f64;
+
+/// `world` lit only by a directional light travelling along `direction` (world frame) with
+/// `irradiance`: the light a CSL set models, for its check.
+fn lit_only_by(world: &World, direction: Vec3, irradiance: Vec3) -> World {
+    let mut w = world.clone();
+    w.lights = vec![crate::scene::Light::Directional {
+        direction,
+        irradiance,
+        angular_radius: 0.0,
+    }];
+    w
+}
 
 struct Plan {
     params: BakeParams,
@@ -425,43 +436,11 @@ impl RenderPlan for Plan {
         let out = env.render(&mut timings, |r| {
             r.render_csl(world, &RenderOptions::default(), Some(&layer))
         })?;
-        // How well each set baked now fits its object: fresh photons against the model, for a
-        // dynamic bake the set interpolated for this light (a few tenths of a second on the
-        // CPU: not repeated for a set from the store, whose bake job recorded it, nor on a GPU
-        // frame's every render).
-        let t = Instant::now();
-        let fits: Vec<Option<f64>> = sets
-            .iter()
-            .map(|s| {
-                if s.cached || !(self.params.dynamic || s.set.stats.energy_traced > 0.0) {
-                    return Ok(None);
-                }
-                crate::bake::csl::verify_with(
-                    world,
-                    &world.objects[s.object].name,
-                    &s.set,
-                    &self.params.csl_params(),
-                    env.keep_going,
-                )
-            })
-            .collect::<Result<_, _>>()?;
-        timings.push(("verify".into(), t.elapsed()));
+        // How well the frame fits the reference on this scene's receivers is the render's
+        // self-check (`methods::render`), run after the frame.
         let mut notes = Vec::new();
-        for (s, fit) in sets.iter().zip(&fits) {
+        for s in &sets {
             let name = &world.objects[s.object].name;
-            if let Some(e) = fit {
-                if *e > POOR_FIT {
-                    tracing::warn!(object = %name, fit_error = e, "the CSLs fit this object poorly");
-                    notes.push(format!(
-                        "warning: {name}: the CSL model fits this object poorly ({e:.2} relative \
-                         L1 against fresh photons, over {POOR_FIT}): render it with method photons"
-                    ));
-                } else {
-                    notes.push(format!(
-                        "{name}: the CSLs fit within {e:.2} relative L1 of fresh photons"
-                    ));
-                }
-            }
             match (&s.path, s.cached) {
                 (Some(p), true) => notes.push(format!("{name}: cached bake {}", p.display())),
                 (_, false) if s.set.stats.energy_traced > 0.0 => {
@@ -472,11 +451,8 @@ impl RenderPlan for Plan {
         }
         let statistics = serde_json::json!({
             "csls": layer.csls.len(),
-            "bakes": sets.iter().zip(&fits).map(|(s, fit)| serde_json::json!({
+            "bakes": sets.iter().map(|s| serde_json::json!({
                 "object": world.objects[s.object].name,
-                // Relative L1 of the model against fresh photons (`bake::csl::verify`).
-                "fit_error": fit,
-                "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
                 "cached": s.cached,
                 // Which set served the frame: `static` (a static render's bake), `exact` (a
                 // dynamic render's, baked for exactly this light) or `interpolated` (from the
@@ -550,26 +526,22 @@ impl Bake {
         // Renders of the same object, light and parameters find it.
         env.store.save(ArtifactKind::Csl, set.source_hash, &bytes);
         let s = &set.stats;
+        // The check: the set on this scene's receivers, lit by the scene's light alone,
+        // against a short reference of the object's light (`methods::check`).
         let t = Instant::now();
-        let fit = crate::bake::csl::verify_with(
+        (env.progress)(0.99, "check");
+        let oi = self.index();
+        let obj = &self.world.objects[oi];
+        let (_, irradiance) = scene_directional_light(&self.world).unwrap_or((light, Vec3::ONE));
+        let lit = lit_only_by(
             &self.world,
-            &self.object,
-            &set,
-            &self.params.csl_params(),
-            env.keep_going,
-        )?;
+            obj.rigid_transform().transform_vector3(light),
+            irradiance,
+        );
+        let check = super::check::check_csl_set(&lit, oi, &set, irradiance, env.keep_going)?;
+        let fit = check.map(|c| f64::from(c.error));
         let mut notes = vec![bake_note(&self.object, &set)];
-        if let Some(e) = fit {
-            notes.push(format!(
-                "{}: the CSLs fit within {e:.2} relative L1 of fresh photons{}",
-                self.object,
-                if e > POOR_FIT {
-                    ": poorly (render it with method photons)"
-                } else {
-                    ""
-                }
-            ));
-        }
+        notes.push(fit_sentence(&self.object, check.as_ref(), "the CSLs"));
         Ok(Baked {
             bytes,
             ext: ArtifactKind::Csl.ext(),
@@ -580,7 +552,7 @@ impl Bake {
                 ("bundles".into(), s.time_bundles),
                 ("fit".into(), s.time_fit),
                 ("images".into(), s.time_image),
-                ("verify".into(), t.elapsed()),
+                ("check".into(), t.elapsed()),
             ],
             info: serde_json::json!({
                 "object": self.object,
@@ -592,9 +564,11 @@ impl Bake {
                     "csls": set.csls.len(),
                     "energy_covered": s.coverage(),
                     "stopped_by": s.stopped_by,
-                    // Relative L1 of the model against fresh photons (`bake::csl::verify`).
+                    // The estimated relative L1 of the set's caustics against the reference
+                    // on the scene's receivers, and the whole check (`methods::check`).
                     "fit_error": fit,
                     "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
+                    "check": check,
                 },
             }),
             notes,
@@ -618,14 +592,18 @@ impl Bake {
         let bytes = set.to_bytes();
         env.store
             .save(ArtifactKind::CslDynamic, set.source_hash, &bytes);
-        // The fit where interpolation does the most: the light at the centres of a few faces,
-        // between three bake directions (`bake::csl::verify` on the interpolated set).
+        // The check where interpolation does the most: the light at the centres of three
+        // faces, between three bake directions, each interpolated set on this scene's
+        // receivers against a short reference (`methods::check`); the worst is reported.
         let t = Instant::now();
-        (env.progress)(0.99, "verify");
-        let fits: Vec<f64> = {
+        (env.progress)(0.99, "check");
+        let oi = self.index();
+        let rigid = self.world.objects[oi].rigid_transform();
+        let irradiance = scene_directional_light(&self.world).map_or(Vec3::splat(3.0), |l| l.1);
+        let mut worst: Option<super::check::Check> = None;
+        {
             let ico = set.icosphere();
             let n = ico.faces.len();
-            let mut fits = Vec::new();
             for fi in [0, n / 3, 2 * n / 3] {
                 env.check()?;
                 let d = ico.faces[fi]
@@ -633,17 +611,22 @@ impl Bake {
                     .map(|&v| ico.vertices[v as usize])
                     .sum::<glam::Vec3>()
                     .normalize();
-                fits.extend(crate::bake::csl::verify_with(
-                    &self.world,
-                    &self.object,
+                let lit = lit_only_by(&self.world, rigid.transform_vector3(d), irradiance);
+                let c = super::check::check_csl_set(
+                    &lit,
+                    oi,
                     &set.interpolate(d),
-                    &params.csl,
+                    irradiance,
                     env.keep_going,
-                )?);
+                )?;
+                if let Some(c) = c
+                    && worst.is_none_or(|w| c.error > w.error)
+                {
+                    worst = Some(c);
+                }
             }
-            fits
-        };
-        let fit = fits.iter().copied().reduce(f64::max);
+        }
+        let fit = worst.map(|c| f64::from(c.error));
         let time_verify = t.elapsed();
         let note = format!(
             "{}: {} directions, {} CSLs ({:.1} per direction), {} edges: {} pairs matched, {} \
@@ -679,36 +662,61 @@ impl Bake {
                     "tracking_rays": s.tracking_rays,
                     "bytes": bytes.len(),
                     "source_hash": format!("{:016x}", set.source_hash),
-                    // The worst relative L1 of interpolated sets against fresh photons, at
-                    // the centres of three faces (`bake::csl::verify`).
+                    // The worst estimated relative L1 of interpolated sets against the
+                    // reference on the scene's receivers, the light at the centres of three
+                    // faces (`methods::check`), and that check.
                     "fit_error": fit,
                     "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
+                    "check": worst,
                 },
             }),
             timings: vec![
                 ("bakes".into(), s.time_bakes),
                 ("tracking".into(), s.time_tracking),
                 ("triples".into(), s.time_triples),
-                ("verify".into(), time_verify),
+                ("check".into(), time_verify),
             ],
             bytes,
             ext: ArtifactKind::CslDynamic.ext(),
             content_type: "application/octet-stream",
-            notes: std::iter::once(note)
-                .chain(fit.map(|e| {
-                    format!(
-                        "{}: sets interpolated between bake directions fit within {e:.2} \
-                         relative L1 of fresh photons{}",
-                        self.object,
-                        if e > POOR_FIT {
-                            ": poorly (render it with method photons)"
-                        } else {
-                            ""
-                        }
-                    )
-                }))
-                .collect(),
+            notes: vec![
+                note,
+                fit_sentence(
+                    &self.object,
+                    worst.as_ref(),
+                    "sets interpolated between bake directions",
+                ),
+            ],
         })
+    }
+
+    /// The baked object's index.
+    fn index(&self) -> usize {
+        self.world
+            .objects
+            .iter()
+            .position(|o| o.name == self.object)
+            .expect("the plan found the object")
+    }
+}
+
+/// What a bake's check says of `what` (`the CSLs`…) of `object`.
+fn fit_sentence(object: &str, c: Option<&super::check::Check>, what: &str) -> String {
+    match c {
+        Some(c) => format!(
+            "{object}: {what} are an estimated {:.2} relative L1 from the reference on the \
+             scene's receivers (flux {:.2}){}",
+            c.error,
+            c.flux,
+            if f64::from(c.error) > POOR_FIT {
+                ": poorly (render it with method photons)"
+            } else {
+                ""
+            }
+        ),
+        None => format!(
+            "{object}: no caustic light on the receivers the camera sees to check {what} against"
+        ),
     }
 }
 

@@ -16,6 +16,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: false,
     args: &[],
+    check: false,
 };
 
 pub struct Direct;

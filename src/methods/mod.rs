@@ -21,8 +21,12 @@
 
 pub mod auto;
 pub mod beams;
+pub mod check;
 pub mod csl;
 pub mod direct;
+mod finish;
+pub mod fuzz;
+pub mod local;
 pub mod photons;
 pub mod pinhole;
 pub mod reference;
@@ -31,6 +35,7 @@ pub mod water;
 
 pub use crate::bake::store::{ArtifactKind, ArtifactStore};
 pub use crate::frame::Component;
+pub use finish::{POOR_CHECK, note_check, render, self_check};
 
 use crate::frame::Frame;
 use crate::render::{RenderError, RenderOutput, Renderer};
@@ -177,6 +182,10 @@ pub struct MethodInfo {
     /// The method-specific render fields it takes (see [`MethodArgs`]); `csl` and `bake` given
     /// to a method that does not take them are refused.
     pub args: &'static [&'static str],
+    /// Whether its renders run the self-check ([`check`]) unless asked not to: the baked
+    /// methods, whose fit to an object is the least certain. Any method's render runs it when
+    /// asked (`check: true`).
+    pub check: bool,
 }
 
 /// A request's parameter at fault: the field (a path such as `params.grid` or `scene.lights`)
@@ -252,6 +261,8 @@ pub struct MethodArgs {
     pub beams: Option<serde_json::Value>,
     /// Photons: its frames (`methods::photons::ProgressiveArgs`).
     pub progressive: Option<serde_json::Value>,
+    /// Any method: run the self-check ([`check`]) or not (None: the method's default).
+    pub check: Option<bool>,
     /// CSL, transport: a bake made beforehand (CLI: `--bake FILE`).
     pub bake: Option<PathBuf>,
 }
@@ -423,6 +434,12 @@ pub struct Frames {
     pub statistics: Option<serde_json::Value>,
     /// The same in sentences, for the CLI.
     pub notes: Vec<String>,
+    /// What the user should know of the frame: why its caustics are black, a self-check over
+    /// [`POOR_CHECK`]… (also among `notes`; the render record's `info.warnings`).
+    pub warnings: Vec<String>,
+    /// The method that made the layers, where it is not the plan's (`auto` falling back to
+    /// the reference).
+    pub made_by: Option<Method>,
 }
 
 impl Frames {
@@ -434,6 +451,23 @@ impl Frames {
             layers: out.into_components(),
             timings,
             statistics: None,
+            warnings: Vec::new(),
+            made_by: None,
+        }
+    }
+
+    /// Adds a warning (to the notes too).
+    pub fn warn(&mut self, w: String) {
+        tracing::warn!(warning = %w, "render");
+        self.notes.push(format!("warning: {w}"));
+        self.warnings.push(w);
+    }
+
+    /// Sets `statistics[key]` (making the statistics an object where they were none).
+    pub fn record(&mut self, key: &str, v: serde_json::Value) {
+        let s = self.statistics.get_or_insert_with(|| serde_json::json!({}));
+        if let Some(o) = s.as_object_mut() {
+            o.insert(key.into(), v);
         }
     }
 
@@ -640,8 +674,11 @@ pub fn fits(world: &World) -> Vec<MethodFit> {
             let why = match (&planned, m) {
                 (Err(e), _) => e.to_string(),
                 (Ok(_), Method::Auto) => {
-                    let (chosen, reason) = auto::choose(world);
-                    format!("picks {chosen}: {reason}")
+                    let c = auto::choose(world);
+                    format!(
+                        "picks {}: {} (expected error: {})",
+                        c.method, c.reason, c.expected
+                    )
                 }
                 (Ok(_), _) => fit_note(m).to_string(),
             };
@@ -726,9 +763,15 @@ mod tests {
         assert!(!point[&Method::Csl].0, "{point:?}");
         assert!(point[&Method::Csl].1.contains("directional"), "{point:?}");
         assert!(point[&Method::Transport].0, "{point:?}");
+        // Water seen from under the surface: the water method; from above: the reference.
+        let under = verdicts("underwater-view.json");
+        assert!(
+            under[&Method::Auto].1.starts_with("picks water: "),
+            "{under:?}"
+        );
         let pool = verdicts("pool-noon.json");
         assert!(
-            pool[&Method::Auto].1.starts_with("picks water: "),
+            pool[&Method::Auto].1.starts_with("picks reference: "),
             "{pool:?}"
         );
         assert!(pool[&Method::Water].0, "{pool:?}");

@@ -20,6 +20,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: false,
     args: &["photons", "seed", "time_budget", "progressive"],
+    check: false,
 };
 
 pub struct Photons;

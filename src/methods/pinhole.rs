@@ -24,6 +24,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: false,
     args: &["pinhole", "line_points"],
+    check: false,
 };
 
 pub struct Pinhole;

@@ -20,6 +20,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: false,
     bake: true,
     args: &["photons", "spp", "seed", "time_budget", "volume_bounces"],
+    check: false,
 };
 
 pub struct Reference;
@@ -138,6 +139,8 @@ impl RenderPlan for Plan {
             adapter: "cpu".into(),
             statistics: Some(statistics(&stats)),
             notes: vec![note(&stats)],
+            warnings: Vec::new(),
+            made_by: None,
         })
     }
 }

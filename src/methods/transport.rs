@@ -33,6 +33,8 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: true,
     args: &["bake", "line_points"],
+    // Its renders check themselves against a short reference (`methods::check`).
+    check: true,
 };
 
 pub struct Transport;
@@ -291,24 +293,16 @@ impl RenderPlan for Plan {
                 "source_hash": format!("{:016x}", t.table.source_hash),
                 "vertices": t.table.vertex_count,
                 "directions": t.table.params.directions(),
-                // The table against fresh photons (`bake::transport::verify`), stored with it.
-                "fit_error": t.table.fit.map(|f| f.error),
+                // The share of the light left out where its paths split, from the table's
+                // check against fresh photons (`bake::transport::verify`), stored with it.
                 "split_loss": t.table.fit.map(|f| f.split_loss),
-                "poor_fit": t.table.fit.is_some_and(|f| f.error > POOR_FIT),
             })).collect::<Vec<_>>(),
             "flux_split_w": s.split_flux.to_array(),
         });
         let mut frames = Frames::from_output(out, timings);
         frames.statistics = Some(statistics);
-        for t in &tables {
-            let name = &world.objects[t.object].name;
-            if let Some(f) = t.table.fit.filter(|f| f.error > POOR_FIT) {
-                tracing::warn!(object = %name, fit_error = f.error, "the transport table fits this object poorly");
-                frames
-                    .notes
-                    .push(format!("warning: {}", fit_note(name, &f)));
-            }
-        }
+        // How well the frame fits the reference on this scene's receivers is the render's
+        // self-check (`methods::render`), run after the frame.
         frames.notes.push(format!(
             "{} illumination volumes ({} of reflected light) from {} lit vertices, {:.3} W \
              leaving the glass, {:.3} W reflected",
@@ -322,28 +316,35 @@ impl RenderPlan for Plan {
     }
 }
 
-/// A table whose caustic is further than this from fresh photons (`bake::transport::verify`)
-/// fits its object poorly: the bake and the render say so and name `photons`. Measured at the
-/// paper's 129 directions: the canonical sphere 0.02, the lumpy blob 0.11, the glass teapot
-/// 0.14, the flat-capped cylinder 0.27, the glTF vase 0.42; their receivers' caustics in their
-/// scenes against the reference are 0.14, 0.11, 0.27, 0.04 and 0.52 (relative L1, 128 × 128
-/// but the sphere's 256²). The bar parts the blob from the teapot; the cylinder, which its
-/// scene's light renders well, is flagged for the slanting directions the check also tries.
-pub const POOR_FIT: f32 = 0.125;
+/// Over this self-check error (`methods::check`) a bake's or a render's caustics are poor: it
+/// says so and names `photons` (the bar of `auto`, `methods::POOR_CHECK`).
+pub const POOR_FIT: f32 = super::POOR_CHECK;
 
-/// What a bake or a render says about a table's fit.
-fn fit_note(object: &str, f: &crate::bake::transport::Fit) -> String {
-    format!(
-        "{object}: the transport table's caustic is within {:.2} relative L1 of fresh photons \
-         ({:.0} % of the light left out where its paths split){}",
-        f.error,
-        100.0 * f.split_loss,
-        if f.error > POOR_FIT {
-            ": a poor fit, render it with method photons"
-        } else {
-            ""
-        }
-    )
+/// What a bake's check says of the table of `object`.
+fn fit_note(object: &str, c: Option<&super::check::Check>, split_loss: Option<f32>) -> String {
+    let split = split_loss.map_or(String::new(), |l| {
+        format!(
+            " ({:.0} % of the light left out where its paths split)",
+            100.0 * l
+        )
+    });
+    match c {
+        Some(c) => format!(
+            "{object}: the transport table's caustics are an estimated {:.2} relative L1 from \
+             the reference on the scene's receivers (flux {:.2}){split}{}",
+            c.error,
+            c.flux,
+            if c.error > POOR_FIT {
+                ": a poor fit, render it with method photons"
+            } else {
+                ""
+            }
+        ),
+        None => format!(
+            "{object}: no caustic light on the receivers the camera sees to check the transport \
+             table against{split}"
+        ),
+    }
 }
 
 struct Bake {
@@ -406,17 +407,32 @@ impl BakePlan for Bake {
                 e.transmittance,
             ),
         ];
-        if let Some(f) = table.fit {
-            notes.push(fit_note(&self.object, &f));
-        }
+        // The check: the table's caustics for this scene's lights on its receivers against a
+        // short reference of the object's light (`methods::check`).
+        let t = std::time::Instant::now();
+        (env.progress)(0.99, "check");
+        let oi = self
+            .world
+            .objects
+            .iter()
+            .position(|o| o.name == self.object)
+            .expect("the plan found the object");
+        let check = super::check::check_transport_table(&self.world, oi, &table, env.keep_going)?;
+        let time_check = t.elapsed();
+        let split_loss = table.fit.map(|f| f.split_loss);
+        notes.push(fit_note(&self.object, check.as_ref(), split_loss));
+        let fit = check.map(|c| c.error);
         let info = serde_json::json!({
             "object": self.object,
             "source_hash": format!("{:016x}", table.source_hash),
             "statistics": {
-                // The table against fresh photons (`bake::transport::verify`).
-                "fit_error": table.fit.map(|f| f.error),
-                "split_loss": table.fit.map(|f| f.split_loss),
-                "poor_fit": table.fit.is_some_and(|f| f.error > POOR_FIT),
+                // The estimated relative L1 of the table's caustics against the reference on
+                // the scene's receivers, and the whole check (`methods::check`).
+                "fit_error": fit,
+                "poor_fit": fit.is_some_and(|e| e > POOR_FIT),
+                "check": check,
+                // The share of the light left out where paths split (`bake::transport::verify`).
+                "split_loss": split_loss,
                 "vertices": s.vertices,
                 "directions": table.params.directions(),
                 "samples": s.samples,
@@ -439,6 +455,7 @@ impl BakePlan for Bake {
                 ("trace".into(), s.time_trace),
                 ("quantise".into(), s.time_quantise),
                 ("verify".into(), s.time_verify),
+                ("check".into(), time_check),
             ],
             info,
             notes,

@@ -26,6 +26,7 @@ pub static INFO: MethodInfo = MethodInfo {
     gpu: true,
     bake: false,
     args: &["water"],
+    check: false,
 };
 
 pub struct Water;

@@ -59,17 +59,62 @@ pub fn shadow_mask(
     })
 }
 
+/// Pixels whose whole 3×3 neighbourhood sees a receiver directly: a surface that is not glass
+/// or mirror (every object's, not one's).
+pub fn receivers_mask(world: &World, accel: &Accel) -> Vec<bool> {
+    neighbourhoods(world, accel, |hit| !accel.material(hit).is_specular())
+}
+
+/// `f` averaged over blocks of `k` × `k` pixels (the blocks at the right and bottom edges over
+/// the pixels they hold): the image a camera with `k` times larger pixels would see.
+pub fn downsample(f: &Frame, k: u32) -> Frame {
+    let k = k.max(1);
+    let (w, h) = (f.width.div_ceil(k), f.height.div_ceil(k));
+    let mut out = Frame::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let mut s = Vec3::ZERO;
+            let mut n = 0u32;
+            for yy in y * k..((y + 1) * k).min(f.height) {
+                for xx in x * k..((x + 1) * k).min(f.width) {
+                    s += f.pixels[(yy * f.width + xx) as usize];
+                    n += 1;
+                }
+            }
+            out.pixels[(y * w + x) as usize] = s / n.max(1) as f32;
+        }
+    }
+    out
+}
+
+/// The mask of [`downsample`]`(_, k)`'s pixels whose whole block is in `mask` (of a `width` ×
+/// `height` image).
+pub fn downsample_mask(mask: &[bool], width: u32, height: u32, k: u32) -> Vec<bool> {
+    let k = k.max(1);
+    let (w, h) = (width.div_ceil(k), height.div_ceil(k));
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            (y * k..((y + 1) * k).min(height)).all(|yy| {
+                (x * k..((x + 1) * k).min(width)).all(|xx| mask[(yy * width + xx) as usize])
+            })
+        })
+        .collect()
+}
+
 /// Pixels whose whole 3×3 neighbourhood passes `test` on what the camera ray through the pixel
 /// centre hits first (a pixel that sees nothing fails).
 fn neighbourhoods(
     world: &World,
     accel: &Accel,
-    test: impl Fn(&crate::trace::Hit) -> bool,
+    test: impl Fn(&crate::trace::Hit) -> bool + Sync,
 ) -> Vec<bool> {
+    use rayon::prelude::*;
     let cam = &world.camera;
     let (w, h) = (cam.width as i64, cam.height as i64);
-    let pass: Vec<bool> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
+    let pass: Vec<bool> = (0..w * h)
+        .into_par_iter()
+        .map(|i| (i % w, i / w))
         .map(|(x, y)| {
             let d = cam.ray_dir(x as f32 + 0.5, y as f32 + 0.5);
             accel

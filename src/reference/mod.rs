@@ -30,6 +30,7 @@
 //! their results are summed in chunk order.
 
 pub mod compare;
+pub mod probe;
 
 use crate::frame::Frame;
 use crate::sampling::*;
@@ -60,6 +61,13 @@ pub struct ReferenceParams {
     /// Scattering events in the scene's medium a light path may have: 1 for single scattering
     /// (the beam methods' model), `u32::MAX` for multiple scattering.
     pub volume_bounces: u32,
+    /// Only the `caustics` component (the others stay black): photons aimed at the glass and
+    /// mirror objects only, no photon map, no camera pass (the methods' self-check,
+    /// `methods::check`).
+    pub caustics_only: bool,
+    /// Only the light of these glass or mirror objects (indices into the world's objects; None:
+    /// all of them).
+    pub caustic_objects: Option<Vec<usize>>,
 }
 
 impl Default for ReferenceParams {
@@ -72,6 +80,8 @@ impl Default for ReferenceParams {
             time_budget: None,
             area_light_samples: 8,
             volume_bounces: u32::MAX,
+            caustics_only: false,
+            caustic_objects: None,
         }
     }
 }
@@ -220,18 +230,11 @@ pub fn render(
     let t0 = Instant::now();
 
     // Importance sampling of each environment map (None: constant, or not an environment).
-    let env: Vec<Option<EnvSampler>> = world
-        .lights
-        .iter()
-        .map(|l| match l {
-            Light::Environment { map: Some(m), .. } => EnvSampler::new(m),
-            _ => None,
-        })
-        .collect();
+    let env = EnvSampler::for_lights(world);
     let env = env.as_slice();
 
     // --- Photon pass -----------------------------------------------------------------------
-    let pops = populations(world, params.photons);
+    let pops = populations(world, params);
     let guide = Guide::new(&pops);
     // Caustics, indirect, volume, volume caustics (Target's order). Summed in f64: a focus
     // pixel takes millions of splats, and an f32 sum rounds each one away as it grows (the
@@ -330,6 +333,26 @@ pub fn render(
     });
     stats.caustic_photons_stored = photons.len();
     stats.stages.push(("photons".into(), t0.elapsed()));
+
+    if params.caustics_only {
+        let caustics = Frame {
+            width: w,
+            height: h,
+            pixels: traced[0].iter().map(|v| v.as_vec3()).collect(),
+        };
+        let black = Frame::new(w, h);
+        return Ok((
+            Components {
+                direct: black.clone(),
+                caustics,
+                indirect: black.clone(),
+                specular: black.clone(),
+                volume: black.clone(),
+                volume_caustics: black,
+            },
+            stats,
+        ));
+    }
 
     // --- Photon map for caustics seen through specular chains ------------------------------
     let t1 = Instant::now();
@@ -462,8 +485,12 @@ fn cone_cos(p: Vec3, c: Vec3, r: f32) -> f32 {
     }
 }
 
-fn populations(world: &World, photons: u64) -> Vec<Population> {
-    let specular_objects = world.objects_with(Material::is_specular);
+fn populations(world: &World, params: &ReferenceParams) -> Vec<Population> {
+    let photons = params.photons;
+    let mut specular_objects = world.objects_with(Material::is_specular);
+    if let Some(only) = &params.caustic_objects {
+        specular_objects.retain(|o| only.contains(o));
+    }
     // The global population covers the media too: light scatters there before any surface.
     let (lo, hi) = world.bounds_with_media();
     let scene_centre = (lo + hi) * 0.5;
@@ -501,8 +528,11 @@ fn populations(world: &World, photons: u64) -> Vec<Population> {
             )
         })
         .collect();
-    // Caustics get 80% of the photons when there is anything specular, shared by flux.
-    let (n_targeted, n_global) = if targeted.is_empty() {
+    // Caustics get 80% of the photons when there is anything specular, shared by flux (all of
+    // them, and no global population, for the caustics alone).
+    let (n_targeted, n_global) = if params.caustics_only {
+        (photons, 0)
+    } else if targeted.is_empty() {
         (0, photons)
     } else {
         (photons - photons / 5, photons / 5)
@@ -768,7 +798,7 @@ fn trace_photon_chunk(
                         },
                     });
                 }
-                if caustic {
+                if caustic && !params.caustics_only {
                     stored.push(Photon {
                         pos: hit.point,
                         wi,

@@ -747,7 +747,7 @@ pub fn resolve(
                 .into(),
         );
     }
-    Ok(World {
+    let mut world = World {
         name: desc.name.clone(),
         camera,
         lights,
@@ -756,7 +756,11 @@ pub fn resolve(
         warnings,
         water,
         media,
-    })
+    };
+    if desc.ground {
+        super::ground::add_ground(&mut world);
+    }
+    Ok(world)
 }
 
 /// How far from the origin (metres, along any axis) a scene may reach: every object's

@@ -4,9 +4,11 @@
 
 pub mod curvature;
 pub mod gltf;
+pub mod ground;
 pub mod image;
 pub mod load;
 pub mod medium;
+pub mod random;
 pub mod shape;
 pub mod shapes;
 pub mod types;

@@ -50,6 +50,11 @@ pub struct SceneDesc {
     /// Participating media (fog): at most one, for now.
     #[serde(default)]
     pub media: Vec<MediumDesc>,
+    /// Adds a diffuse ground plane (albedo 0.6, named `ground`) under the objects, touching
+    /// their lowest point: for a glass or mirror object with nothing under it to receive its
+    /// shadow and caustic (default false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub ground: bool,
 }
 
 /// A homogeneous participating medium: coefficients per metre and channel, a

@@ -168,6 +168,19 @@ pub struct EnvSampler {
 }
 
 impl EnvSampler {
+    /// One sampler per light of `world`, in its order: None for a light that is not an
+    /// environment map (or a constant or black one).
+    pub fn for_lights(world: &World) -> Vec<Option<EnvSampler>> {
+        world
+            .lights
+            .iter()
+            .map(|l| match l {
+                Light::Environment { map: Some(m), .. } => EnvSampler::new(m),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// The distribution of `map`; None when the map is black (nothing to sample).
     pub fn new(map: &EnvMap) -> Option<EnvSampler> {
         let (w, h) = (map.width as usize, map.height as usize);
