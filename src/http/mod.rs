@@ -264,7 +264,7 @@ fn parse_origins(v: &str) -> Result<Vec<String>, String> {
 /// The CORS layer for `origins` (none: no layer). Preflights are answered before the key check
 /// (browsers send them without credentials); what a page may send and read back is what the
 /// API uses: keys, idempotency keys, conditional and range requests; `Location`,
-/// `Retry-After`, `ETag`, `Content-Range`, `Server-Timing`.
+/// `Retry-After`, `ETag`, `Content-Range`, `Server-Timing`, `Caustica-Warning`.
 fn cors(origins: &[String]) -> Option<tower_http::cors::CorsLayer> {
     use axum::http::{HeaderName, Method, header};
     use tower_http::cors::{AllowOrigin, CorsLayer};
@@ -298,6 +298,7 @@ fn cors(origins: &[String]) -> Option<tower_http::cors::CorsLayer> {
                 header::ETAG,
                 header::CONTENT_RANGE,
                 HeaderName::from_static("server-timing"),
+                HeaderName::from_static("caustica-warning"),
             ])
             .max_age(Duration::from_secs(600)),
     )

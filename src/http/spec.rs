@@ -41,9 +41,9 @@ enum SceneRef {
 #[allow(dead_code)]
 struct RenderRequest {
     scene: SceneRef,
-    /// The method (the API's default is `direct`, the cheapest frame; `auto` picks one from
-    /// the scene).
-    #[serde(default = "direct")]
+    /// The method (default `auto`: the fastest method measured within 0.10 of the reference
+    /// on scenes of this kind, checked where the rule is unsure; see docs/accuracy.md).
+    #[serde(default = "auto")]
     method: Method,
     /// false: answer 202 with the job at once; true: wait for the image up to the server's
     /// wait (then 202).
@@ -53,8 +53,8 @@ struct RenderRequest {
     params: RenderParams,
 }
 
-fn direct() -> Method {
-    Method::Direct
+fn auto() -> Method {
+    Method::Auto
 }
 
 fn yes() -> bool {

@@ -25,6 +25,7 @@ const method = $<HTMLSelectElement>("method");
 const width = $<HTMLInputElement>("width");
 const height = $<HTMLInputElement>("height");
 const photons = $<HTMLInputElement>("photons");
+const ground = $<HTMLInputElement>("ground");
 const exposure = $<HTMLInputElement>("exposure");
 const toneMap = $<HTMLSelectElement>("tone-map");
 const lightSel = $<HTMLSelectElement>("light");
@@ -326,7 +327,10 @@ function request(preview?: string): RenderRequest {
     height: Number(height.value),
     format: "exr",
   };
+  if (ground.checked) req.ground = true;
   if (preview) {
+    // A preview is for the eye while dragging: no second of self-check on each.
+    req.check = false;
     const s = Math.min(1, 128 / Math.max(req.width!, req.height!));
     req.width = Math.max(16, Math.round(req.width! * s));
     req.height = Math.max(16, Math.round(req.height! * s));
@@ -454,7 +458,10 @@ async function render(): Promise<void> {
         return li;
       }),
     );
-    say(`Rendered with ${req.method} in ${ms.toFixed(0)} ms`);
+    $<HTMLUListElement>("render-warnings").replaceChildren(
+      ...f.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })),
+    );
+    say(`Rendered with ${req.method} in ${ms.toFixed(0)} ms${f.warnings.length ? " (see the warnings)" : ""}`);
     Object.assign(frame.dataset, { frame: String(mine), frameMs: ms.toFixed(0), render: f.renderId ?? "" });
   } catch (e) {
     if (mine === rendering) say(`Render failed: ${problem(e)}`);
@@ -528,6 +535,8 @@ async function upload(files: File[]): Promise<void> {
   try {
     const text = async () => new TextDecoder().decode(await main.arrayBuffer());
     let info: SceneInfo;
+    // A glTF comes alone, as a rule: a floor under it receives its shadow and caustic.
+    ground.checked = main !== named(".json");
     if (main === named(".glb")) info = await client.uploadGlb(await main.arrayBuffer());
     else if (main === named(".gltf")) info = await client.uploadGltf(await embedded(await text(), others));
     else if (others.length) {
@@ -564,6 +573,7 @@ async function example(): Promise<void> {
   say("Loading the example…");
   try {
     const r = await fetch("/viewer/example.json");
+    ground.checked = false; // the example has its floor
     await useScene(await client.uploadScene(await r.json()));
   } catch (e) {
     say(`The example did not load: ${problem(e)}`);

@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from typing import Any, Callable, Iterator
 
 import httpx
@@ -56,7 +57,7 @@ from caustica_client.models import (
 )
 from caustica_client.types import UNSET, File
 
-__all__ = ["Caustica", "CausticaError"]
+__all__ = ["Caustica", "CausticaError", "CausticaWarning"]
 
 _TERMINAL = {"succeeded", "failed", "canceled"}
 _BAKE_REQUESTS = {
@@ -64,6 +65,11 @@ _BAKE_REQUESTS = {
     "transport": TransportBakeRequest,
     "reference": ReferenceBakeRequest,
 }
+
+
+class CausticaWarning(UserWarning):
+    """What a render's answer warns of (its ``Caustica-Warning`` headers, the record's
+    ``info.warnings``): why its caustics are black, a poor self-check..."""
 
 
 class CausticaError(Exception):
@@ -152,13 +158,15 @@ class Caustica:
     def render(self, scene: Any, out: str | None = None, idempotency_key: str | None = None, **params) -> bytes:
         """Renders ``scene`` (a stored scene's id, or a scene dict) and returns the image's
         bytes (PNG, or EXR with ``format="exr"``), also written to ``out`` when given. Keyword
-        arguments are the render request's fields (``method``, ``width``, ``csl``...). A render
-        that outlasts the server's wait is followed to its end."""
+        arguments are the render request's fields (``method``, ``width``, ``ground``...). A
+        render that outlasts the server's wait is followed to its end. The render's warnings
+        (why its caustics are black, say) are issued as ``CausticaWarning``s."""
         body = RenderRequest.from_dict({"scene": scene, **params})
         r = render_op.sync_detailed(
             client=self.client, body=body, idempotency_key=idempotency_key or UNSET
         )
         _raise(r)
+        job = None
         if r.status_code == 202:
             job = self.wait(r.parsed.id)
             if job.state != JobState.SUCCEEDED:
@@ -168,6 +176,12 @@ class Caustica:
             data = img.content
         else:
             data = r.content
+            if "caustica-warning" in r.headers:
+                # The headers hold the warnings that fit a header; the record has them all.
+                job = self.job(r.headers["location"].rsplit("/", 1)[-1])
+        if job is not None:
+            for w in job.info.to_dict().get("warnings") or []:
+                warnings.warn(w, CausticaWarning, stacklevel=2)
         if out:
             with open(out, "wb") as f:
                 f.write(data)

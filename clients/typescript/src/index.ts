@@ -45,12 +45,14 @@ export interface Timing {
   ms: number;
 }
 
-/** A rendered frame: its bytes, media type, stages and, where it was followed, its job. */
+/** A rendered frame: its bytes, media type, stages, its render's id, and what the render
+ *  warns of (why its caustics are black, a poor self-check...). */
 export interface Frame {
   image: Uint8Array;
   contentType: string;
   timings: Timing[];
   renderId?: string;
+  warnings: string[];
 }
 
 /** A server-sent event of a job: `progress` events, then one `done` (the job) or `gone`. */
@@ -60,6 +62,12 @@ export type JobEvent =
   | { event: "gone"; data: { id: string } };
 
 const TERMINAL: JobState[] = ["succeeded", "failed", "canceled"];
+
+/** A job's warnings (`info.warnings`), where it has any. */
+function warningsOf(job: Job): string[] {
+  const w = (job.info as { warnings?: unknown }).warnings;
+  return Array.isArray(w) ? w.map(String) : [];
+}
 
 /** Parses `Server-Timing` (`name;dur=ms, ...`). */
 export function parseServerTiming(h: string | null): Timing[] {
@@ -197,13 +205,20 @@ export class Caustica {
         contentType: img.headers.get("Content-Type") ?? "",
         timings: done.timings.map((t) => ({ name: t.stage, ms: t.ms })),
         renderId: done.id,
+        warnings: warningsOf(done),
       };
     }
+    const image = new Uint8Array(await r.arrayBuffer());
+    const renderId = location.split("/").pop() || undefined;
+    // `Caustica-Warning` headers say there are warnings (fetch joins repeated headers with
+    // commas, which warnings contain): the record has them, one string each.
+    const warned = r.headers.get("Caustica-Warning") !== null && renderId;
     return {
-      image: new Uint8Array(await r.arrayBuffer()),
+      image,
       contentType: r.headers.get("Content-Type") ?? "",
       timings,
-      renderId: location.split("/").pop() || undefined,
+      renderId,
+      warnings: warned ? warningsOf(await this.job(renderId)) : [],
     };
   }
 

@@ -274,14 +274,16 @@ export interface paths {
         /**
          * Render a frame
          * @description Waits for the image by default and answers `200` with it, a `Server-Timing` header with
-         *     every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, encode, request)
-         *     and `Location` of the render record. Past the server's wait (or with `wait: false`) it
-         *     answers `202` with the job. Methods: `direct` (GPU), `reference` (CPU ground truth) and
-         *     `csl` (caustic spot lights: the CSL sets of every glass or mirror object for the scene's
-         *     first directional light are baked first on the CPU pool, or found by content hash when an
-         *     earlier render baked them, then evaluated per pixel on the GPU; the bake shows as the
-         *     `bake` stage of `Server-Timing` and `info.statistics.bakes[].cached` says which were
-         *     reused).
+         *     every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, check, encode,
+         *     request), a `Caustica-Warning` header for each warning (e.g. why the caustics are black,
+         *     a poor self-check) and `Location` of the render record. Past the server's wait (or with
+         *     `wait: false`) it answers `202` with the job. Without `method`, `auto` picks one from
+         *     the scene (the fastest measured within 0.10 of the reference on scenes of its kind; the
+         *     record's `info.reason` and `info.statistics.auto` say which, why, and the error to
+         *     expect). The baked methods (`csl`, `transport`) bake first on the CPU pool, or find an
+         *     earlier bake by content hash (the `bake` stage of `Server-Timing`;
+         *     `info.statistics.bakes[].cached`), and check their frame against a short reference
+         *     (`info.statistics.check`).
          */
         post: operations["render"];
         delete?: never;
@@ -1052,6 +1054,13 @@ export interface components {
             /** @description Replaces the scene's camera. */
             camera?: components["schemas"]["CameraDesc"] | null;
             /**
+             * @description Runs the self-check, a short reference of the caustics compared with the frame on the
+             *     receivers (its figures in `info.statistics.check`; about a second of CPU), or not.
+             *     Default: on for csl and transport, and for `auto` where its rule is unsure; off
+             *     otherwise.
+             */
+            check?: boolean | null;
+            /**
              * @description The component written (default total).
              * @default total
              */
@@ -1087,6 +1096,13 @@ export interface components {
              *     (format png only).
              */
             frames?: number | null;
+            /**
+             * @description Adds a diffuse ground plane under the scene's objects (`"ground": true` in a scene does
+             *     the same): for a glass or mirror object uploaded alone, whose shadow and caustic
+             *     otherwise fall on nothing.
+             * @default false
+             */
+            ground?: boolean;
             height?: number | null;
             /**
              * @description EXR only: every component as a layer (the chosen one first).
@@ -1096,9 +1112,9 @@ export interface components {
             /** @description Replaces the scene's lights (lights inside glTF files stay). */
             lights?: components["schemas"]["LightDesc"][] | null;
             /**
-             * @description The method (the API's default is `direct`, the cheapest frame; `auto` picks one from
-             *     the scene).
-             * @default direct
+             * @description The method (default `auto`: the fastest method measured within 0.10 of the reference
+             *     on scenes of this kind, checked where the rule is unsure; see docs/accuracy.md).
+             * @default auto
              */
             method?: components["schemas"]["Method"];
             /**
@@ -1159,6 +1175,12 @@ export interface components {
         /** @description A whole scene: one camera, the lights, named materials and objects. */
         Scene: {
             camera: components["schemas"]["CameraDesc"];
+            /**
+             * @description Adds a diffuse ground plane (albedo 0.6, named `ground`) under the objects, touching
+             *     their lowest point: for a glass or mirror object with nothing under it to receive its
+             *     shadow and caustic (default false).
+             */
+            ground?: boolean;
             /** @default [] */
             lights?: components["schemas"]["LightDesc"][];
             /**
@@ -2310,6 +2332,8 @@ export interface operations {
             /** @description The image. */
             200: {
                 headers: {
+                    /** @description One of the render's warnings (all of them in the record's info.warnings), one header each */
+                    "Caustica-Warning"?: string;
                     /** @description The image's SHA-256 in quotes (as on GET /v1/renders/{id}/image) */
                     ETag?: string;
                     /** @description /v1/renders/{id} */

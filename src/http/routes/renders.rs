@@ -58,9 +58,9 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     let scene = o
         .remove("scene")
         .ok_or_else(|| AppError::invalid("scene", "scene: required (a scene object or id)"))?;
-    // The API's default stays `direct`, the cheapest frame; `auto` is asked for by name.
+    // The default is `auto`, as the CLI's.
     let method = match o.remove("method") {
-        None => Method::Direct,
+        None => Method::Auto,
         Some(serde_json::Value::String(m)) => Method::parse(&m)?,
         Some(_) => return Err(AppError::invalid("method", "method: a string")),
     };
@@ -154,6 +154,12 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
         header::LOCATION,
         HeaderValue::from_str(&loc).expect("ascii id"),
     );
+    // The render's warnings (the record keeps them all): a header each, where it is one.
+    for w in r.info["warnings"].as_array().into_iter().flatten() {
+        if let Some(v) = w.as_str().and_then(|w| HeaderValue::from_str(w).ok()) {
+            resp.headers_mut().append("caustica-warning", v);
+        }
+    }
     st.jobs
         .metrics
         .render_latency(r.method.name(), t0.elapsed());

@@ -49,6 +49,11 @@ class RenderRequest:
             beams (BeamsOptions | None | Unset): beams only (Liktor and Dachsbacher 2010, no bake); see
                 docs/methods/beams.md.
             camera (CameraDesc | None | Unset): Replaces the scene's camera.
+            check (bool | None | Unset): Runs the self-check, a short reference of the caustics compared with the frame on
+                the
+                receivers (its figures in `info.statistics.check`; about a second of CPU), or not.
+                Default: on for csl and transport, and for `auto` where its rule is unsure; off
+                otherwise.
             component (Component | Unset): One component of a frame (Jensen's path notation: L light, S specular, D diffuse,
                 E eye).
 
@@ -74,6 +79,9 @@ class RenderRequest:
             frames (int | None | Unset): Scenes with water: a sequence of this many frames, 1..=240, answered as an animated
                 PNG
                 (format png only).
+            ground (bool | Unset): Adds a diffuse ground plane under the scene's objects (`"ground": true` in a scene does
+                the same): for a glass or mirror object uploaded alone, whose shadow and caustic
+                otherwise fall on nothing. Default: False.
             height (int | None | Unset):
             layers (bool | Unset): EXR only: every component as a layer (the chosen one first). Default: False.
             lights (list[LightDescType0 | LightDescType1 | LightDescType2 | LightDescType3 | LightDescType4] | None |
@@ -128,12 +136,14 @@ class RenderRequest:
     scene: Scene | str
     beams: BeamsOptions | None | Unset = UNSET
     camera: CameraDesc | None | Unset = UNSET
+    check: bool | None | Unset = UNSET
     component: Component | Unset = UNSET
     csl: CslParams | None | Unset = UNSET
     exposure: float | Unset = 0.0
     format_: Format | Unset = UNSET
     fps: float | None | Unset = 24.0
     frames: int | None | Unset = UNSET
+    ground: bool | Unset = False
     height: int | None | Unset = UNSET
     layers: bool | Unset = False
     lights: list[LightDescType0 | LightDescType1 | LightDescType2 | LightDescType3 | LightDescType4] | None | Unset = UNSET
@@ -191,6 +201,12 @@ class RenderRequest:
         else:
             camera = self.camera
 
+        check: bool | None | Unset
+        if isinstance(self.check, Unset):
+            check = UNSET
+        else:
+            check = self.check
+
         component: str | Unset = UNSET
         if not isinstance(self.component, Unset):
             component = self.component.value
@@ -222,6 +238,8 @@ class RenderRequest:
             frames = UNSET
         else:
             frames = self.frames
+
+        ground = self.ground
 
         height: int | None | Unset
         if isinstance(self.height, Unset):
@@ -354,6 +372,8 @@ class RenderRequest:
             field_dict["beams"] = beams
         if camera is not UNSET:
             field_dict["camera"] = camera
+        if check is not UNSET:
+            field_dict["check"] = check
         if component is not UNSET:
             field_dict["component"] = component
         if csl is not UNSET:
@@ -366,6 +386,8 @@ class RenderRequest:
             field_dict["fps"] = fps
         if frames is not UNSET:
             field_dict["frames"] = frames
+        if ground is not UNSET:
+            field_dict["ground"] = ground
         if height is not UNSET:
             field_dict["height"] = height
         if layers is not UNSET:
@@ -476,6 +498,16 @@ class RenderRequest:
         camera = _parse_camera(d.pop("camera", UNSET))
 
 
+        def _parse_check(data: object) -> bool | None | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            return cast(bool | None | Unset, data)
+
+        check = _parse_check(d.pop("check", UNSET))
+
+
         _component = d.pop("component", UNSET)
         component: Component | Unset
         if isinstance(_component,  Unset):
@@ -537,6 +569,8 @@ class RenderRequest:
 
         frames = _parse_frames(d.pop("frames", UNSET))
 
+
+        ground = d.pop("ground", UNSET)
 
         def _parse_height(data: object) -> int | None | Unset:
             if data is None:
@@ -808,12 +842,14 @@ class RenderRequest:
             scene=scene,
             beams=beams,
             camera=camera,
+            check=check,
             component=component,
             csl=csl,
             exposure=exposure,
             format_=format_,
             fps=fps,
             frames=frames,
+            ground=ground,
             height=height,
             layers=layers,
             lights=lights,

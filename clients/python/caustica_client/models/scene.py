@@ -36,6 +36,9 @@ class Scene:
 
         Attributes:
             camera (CameraDesc): Perspective pinhole camera.
+            ground (bool | Unset): Adds a diffuse ground plane (albedo 0.6, named `ground`) under the objects, touching
+                their lowest point: for a glass or mirror object with nothing under it to receive its
+                shadow and caustic (default false).
             lights (list[LightDescType0 | LightDescType1 | LightDescType2 | LightDescType3 | LightDescType4] | Unset):
             materials (SceneMaterials | Unset): Materials by name; objects refer to them by that name.
             media (list[MediumDesc] | Unset): Participating media (fog): at most one, for now.
@@ -44,6 +47,7 @@ class Scene:
      """
 
     camera: CameraDesc
+    ground: bool | Unset = UNSET
     lights: list[LightDescType0 | LightDescType1 | LightDescType2 | LightDescType3 | LightDescType4] | Unset = UNSET
     materials: SceneMaterials | Unset = UNSET
     media: list[MediumDesc] | Unset = UNSET
@@ -65,6 +69,8 @@ class Scene:
         from ..models.object_desc import ObjectDesc # noqa: PLC0415
         from ..models.scene_materials import SceneMaterials # noqa: PLC0415
         camera = self.camera.to_dict()
+
+        ground = self.ground
 
         lights: list[dict[str, Any]] | Unset = UNSET
         if not isinstance(self.lights, Unset):
@@ -116,6 +122,8 @@ class Scene:
         field_dict.update({
             "camera": camera,
         })
+        if ground is not UNSET:
+            field_dict["ground"] = ground
         if lights is not UNSET:
             field_dict["lights"] = lights
         if materials is not UNSET:
@@ -147,6 +155,8 @@ class Scene:
 
 
 
+
+        ground = d.pop("ground", UNSET)
 
         _lights = d.pop("lights", UNSET)
         lights: list[LightDescType0 | LightDescType1 | LightDescType2 | LightDescType3 | LightDescType4] | Unset = UNSET
@@ -245,6 +255,7 @@ class Scene:
 
         scene = cls(
             camera=camera,
+            ground=ground,
             lights=lights,
             materials=materials,
             media=media,

@@ -15,6 +15,7 @@ const method = $("method");
 const width = $("width");
 const height = $("height");
 const photons = $("photons");
+const ground = $("ground");
 const exposure = $("exposure");
 const toneMap = $("tone-map");
 const lightSel = $("light");
@@ -263,7 +264,11 @@ function request(preview) {
         height: Number(height.value),
         format: "exr",
     };
+    if (ground.checked)
+        req.ground = true;
     if (preview) {
+        // A preview is for the eye while dragging: no second of self-check on each.
+        req.check = false;
         const s = Math.min(1, 128 / Math.max(req.width, req.height));
         req.width = Math.max(16, Math.round(req.width * s));
         req.height = Math.max(16, Math.round(req.height * s));
@@ -397,7 +402,8 @@ async function render() {
             li.append(t.name, bar, `${t.ms.toFixed(1)} ms`);
             return li;
         }));
-        say(`Rendered with ${req.method} in ${ms.toFixed(0)} ms`);
+        $("render-warnings").replaceChildren(...f.warnings.map((w) => Object.assign(document.createElement("li"), { textContent: w })));
+        say(`Rendered with ${req.method} in ${ms.toFixed(0)} ms${f.warnings.length ? " (see the warnings)" : ""}`);
         Object.assign(frame.dataset, { frame: String(mine), frameMs: ms.toFixed(0), render: f.renderId ?? "" });
     }
     catch (e) {
@@ -472,6 +478,8 @@ async function upload(files) {
     try {
         const text = async () => new TextDecoder().decode(await main.arrayBuffer());
         let info;
+        // A glTF comes alone, as a rule: a floor under it receives its shadow and caustic.
+        ground.checked = main !== named(".json");
         if (main === named(".glb"))
             info = await client.uploadGlb(await main.arrayBuffer());
         else if (main === named(".gltf"))
@@ -513,6 +521,7 @@ async function example() {
     say("Loading the example…");
     try {
         const r = await fetch("/viewer/example.json");
+        ground.checked = false; // the example has its floor
         await useScene(await client.uploadScene(await r.json()));
     }
     catch (e) {

@@ -186,14 +186,16 @@ def sync_detailed(
     """ Render a frame
 
      Waits for the image by default and answers `200` with it, a `Server-Timing` header with
-    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, encode, request)
-    and `Location` of the render record. Past the server's wait (or with `wait: false`) it
-    answers `202` with the job. Methods: `direct` (GPU), `reference` (CPU ground truth) and
-    `csl` (caustic spot lights: the CSL sets of every glass or mirror object for the scene's
-    first directional light are baked first on the CPU pool, or found by content hash when an
-    earlier render baked them, then evaluated per pixel on the GPU; the bake shows as the
-    `bake` stage of `Server-Timing` and `info.statistics.bakes[].cached` says which were
-    reused).
+    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, check, encode,
+    request), a `Caustica-Warning` header for each warning (e.g. why the caustics are black,
+    a poor self-check) and `Location` of the render record. Past the server's wait (or with
+    `wait: false`) it answers `202` with the job. Without `method`, `auto` picks one from
+    the scene (the fastest measured within 0.10 of the reference on scenes of its kind; the
+    record's `info.reason` and `info.statistics.auto` say which, why, and the error to
+    expect). The baked methods (`csl`, `transport`) bake first on the CPU pool, or find an
+    earlier bake by content hash (the `bake` stage of `Server-Timing`;
+    `info.statistics.bakes[].cached`), and check their frame against a short reference
+    (`info.statistics.check`).
 
     Args:
         idempotency_key (str | Unset):
@@ -236,14 +238,16 @@ def sync(
     """ Render a frame
 
      Waits for the image by default and answers `200` with it, a `Server-Timing` header with
-    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, encode, request)
-    and `Location` of the render record. Past the server's wait (or with `wait: false`) it
-    answers `202` with the job. Methods: `direct` (GPU), `reference` (CPU ground truth) and
-    `csl` (caustic spot lights: the CSL sets of every glass or mirror object for the scene's
-    first directional light are baked first on the CPU pool, or found by content hash when an
-    earlier render baked them, then evaluated per pixel on the GPU; the bake shows as the
-    `bake` stage of `Server-Timing` and `info.statistics.bakes[].cached` says which were
-    reused).
+    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, check, encode,
+    request), a `Caustica-Warning` header for each warning (e.g. why the caustics are black,
+    a poor self-check) and `Location` of the render record. Past the server's wait (or with
+    `wait: false`) it answers `202` with the job. Without `method`, `auto` picks one from
+    the scene (the fastest measured within 0.10 of the reference on scenes of its kind; the
+    record's `info.reason` and `info.statistics.auto` say which, why, and the error to
+    expect). The baked methods (`csl`, `transport`) bake first on the CPU pool, or find an
+    earlier bake by content hash (the `bake` stage of `Server-Timing`;
+    `info.statistics.bakes[].cached`), and check their frame against a short reference
+    (`info.statistics.check`).
 
     Args:
         idempotency_key (str | Unset):
@@ -281,14 +285,16 @@ async def asyncio_detailed(
     """ Render a frame
 
      Waits for the image by default and answers `200` with it, a `Server-Timing` header with
-    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, encode, request)
-    and `Location` of the render record. Past the server's wait (or with `wait: false`) it
-    answers `202` with the job. Methods: `direct` (GPU), `reference` (CPU ground truth) and
-    `csl` (caustic spot lights: the CSL sets of every glass or mirror object for the scene's
-    first directional light are baked first on the CPU pool, or found by content hash when an
-    earlier render baked them, then evaluated per pixel on the GPU; the bake shows as the
-    `bake` stage of `Server-Timing` and `info.statistics.bakes[].cached` says which were
-    reused).
+    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, check, encode,
+    request), a `Caustica-Warning` header for each warning (e.g. why the caustics are black,
+    a poor self-check) and `Location` of the render record. Past the server's wait (or with
+    `wait: false`) it answers `202` with the job. Without `method`, `auto` picks one from
+    the scene (the fastest measured within 0.10 of the reference on scenes of its kind; the
+    record's `info.reason` and `info.statistics.auto` say which, why, and the error to
+    expect). The baked methods (`csl`, `transport`) bake first on the CPU pool, or find an
+    earlier bake by content hash (the `bake` stage of `Server-Timing`;
+    `info.statistics.bakes[].cached`), and check their frame against a short reference
+    (`info.statistics.check`).
 
     Args:
         idempotency_key (str | Unset):
@@ -331,14 +337,16 @@ async def asyncio(
     """ Render a frame
 
      Waits for the image by default and answers `200` with it, a `Server-Timing` header with
-    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, encode, request)
-    and `Location` of the render record. Past the server's wait (or with `wait: false`) it
-    answers `202` with the job. Methods: `direct` (GPU), `reference` (CPU ground truth) and
-    `csl` (caustic spot lights: the CSL sets of every glass or mirror object for the scene's
-    first directional light are baked first on the CPU pool, or found by content hash when an
-    earlier render baked them, then evaluated per pixel on the GPU; the bake shows as the
-    `bake` stage of `Server-Timing` and `info.statistics.bakes[].cached` says which were
-    reused).
+    every stage (queue, bvh/photons/camera or prepare/gpu passes/readback, check, encode,
+    request), a `Caustica-Warning` header for each warning (e.g. why the caustics are black,
+    a poor self-check) and `Location` of the render record. Past the server's wait (or with
+    `wait: false`) it answers `202` with the job. Without `method`, `auto` picks one from
+    the scene (the fastest measured within 0.10 of the reference on scenes of its kind; the
+    record's `info.reason` and `info.statistics.auto` say which, why, and the error to
+    expect). The baked methods (`csl`, `transport`) bake first on the CPU pool, or find an
+    earlier bake by content hash (the `bake` stage of `Server-Timing`;
+    `info.statistics.bakes[].cached`), and check their frame against a short reference
+    (`info.statistics.check`).
 
     Args:
         idempotency_key (str | Unset):

@@ -16,6 +16,11 @@ export class CausticaError extends Error {
     }
 }
 const TERMINAL = ["succeeded", "failed", "canceled"];
+/** A job's warnings (`info.warnings`), where it has any. */
+function warningsOf(job) {
+    const w = job.info.warnings;
+    return Array.isArray(w) ? w.map(String) : [];
+}
 /** Parses `Server-Timing` (`name;dur=ms, ...`). */
 export function parseServerTiming(h) {
     if (!h)
@@ -131,13 +136,20 @@ export class Caustica {
                 contentType: img.headers.get("Content-Type") ?? "",
                 timings: done.timings.map((t) => ({ name: t.stage, ms: t.ms })),
                 renderId: done.id,
+                warnings: warningsOf(done),
             };
         }
+        const image = new Uint8Array(await r.arrayBuffer());
+        const renderId = location.split("/").pop() || undefined;
+        // `Caustica-Warning` headers say there are warnings (fetch joins repeated headers with
+        // commas, which warnings contain): the record has them, one string each.
+        const warned = r.headers.get("Caustica-Warning") !== null && renderId;
         return {
-            image: new Uint8Array(await r.arrayBuffer()),
+            image,
             contentType: r.headers.get("Content-Type") ?? "",
             timings,
-            renderId: location.split("/").pop() || undefined,
+            renderId,
+            warnings: warned ? warningsOf(await this.job(renderId)) : [],
         };
     }
     /** Render `a` against render `b` (both finished EXRs), as `caustica compare` does, over
