@@ -497,13 +497,40 @@ fn constant_environment_and_mirror() {
     };
     let mut r = gpu::renderer();
     let out = r.render(&w, &RenderOptions::default()).unwrap();
-    // Diffuse plane under a constant sky (unshadowed): albedo × L.
-    let px = plane_pixels(&w.camera, &[(Vec3::new(0.0, 0.6, 0.0), 0.5)], 0.02);
-    for (x, y, _) in px.iter().step_by(17) {
+    // Diffuse plane under a constant sky, shadowed by the sphere: albedo × L × (1 − F), F the
+    // sphere's form factor from the point (r²/d² cos θ for a sphere wholly above the plane).
+    // The sky's shadow comes from 32 directions (about 16 above the plane), so a point sees
+    // the sphere block whole directions: each point within 0.15 of the open value of it (a
+    // direction near the zenith carries about 1/8 of the cosine-weighted sky), the mean over
+    // the plane within 0.02, and the plane under the sphere darker than the open plane.
+    let (centre, radius) = (Vec3::new(0.0, 0.6, 0.0), 0.5);
+    let px = plane_pixels(&w.camera, &[(centre, radius)], 0.02);
+    let open = 0.5 * l_env;
+    let (mut under, mut n, mut off, mut m, mut worst) = (0.0, 0, 0.0, 0, 0.0f32);
+    for (x, y, p) in px.iter().step_by(17) {
+        let to = centre - *p;
+        let f = radius * radius / to.length_squared() * to.normalize().y;
         let v = out.direct.at(*x, *y).x;
-        assert!((v - 0.5 * l_env).abs() < 0.01 * l_env, "{v}");
+        let want = open * (1.0 - f);
+        assert!(
+            (v - want).abs() < 0.15 * open,
+            "{v} at {p} (form factor {f}, expected {want})"
+        );
+        off += (v - want) / open;
+        worst = f32::max(worst, (v - want).abs() / open);
+        m += 1;
+        if f > 0.3 {
+            under += v / open;
+            n += 1;
+        }
         assert_eq!(out.specular.at(*x, *y), Vec3::ZERO);
     }
+    let mean_off = off / m as f32;
+    println!(
+        "plane under a constant sky: (v − expected)/open mean {mean_off:.4}, worst {worst:.4} over {m} points"
+    );
+    assert!(mean_off.abs() < 0.02, "{mean_off}");
+    assert!(n > 0 && under / (n as f32) < 0.7, "{under} over {n}");
     // Mirror sphere in the centre of the image: 0 in direct, reflectance × L in specular.
     let (cx, cy, _) = w.camera.project(Vec3::new(0.0, 0.6, 0.0)).unwrap();
     let (cx, cy) = (cx as u32, cy as u32);

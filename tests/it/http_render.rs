@@ -759,3 +759,100 @@ async fn water_renders_frames_at_a_time_and_sequences_as_animated_png() {
         );
     }
 }
+
+/// A render without `method` is `auto` (the README's curl line): the canonical glass sphere
+/// comes back with its caustic, within 15 % relative L1 of the stored reference on the floor,
+/// made by `photons` and checked against a short reference (the record says so).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_without_a_method_is_auto_and_shows_the_caustic() {
+    let srv = Server::start("render-default-auto", |_, _| {}).await;
+    let scene = scene_sized(256, 256);
+    let req = serde_json::json!({"scene": scene, "format": "exr", "component": "caustics"});
+    let r = srv.post_json("/v1/renders", &req).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let caustics = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(rec["method"], "auto", "{rec}");
+    assert_eq!(rec["info"]["method"], "photons", "{rec}");
+    let stats = &rec["info"]["statistics"];
+    assert!(stats["auto"]["expected"].is_string(), "{rec}");
+    let check = stats["check"]["error"].as_f64().expect("a self-check");
+    srv.stop().await;
+    let world = caustica::scene::load_scene_json(scene.to_string().as_bytes()).unwrap();
+    let truth = images::stored_reference("glass-sphere-directional.caustics.64M.exr");
+    let e = caustica::reference::compare::compare_on(world, "floor", &caustics, &truth);
+    eprintln!("default auto: {e:?}, self-check {check:.3}");
+    assert!(
+        e.rel_l1 <= 0.15 && (e.flux_ratio - 1.0).abs() <= 0.05,
+        "{e:?}"
+    );
+    // The self-check tells the truth within 2×.
+    let measured = f64::from(e.rel_l1);
+    assert!(
+        check <= 2.0 * measured && measured <= 2.0 * check.max(0.02),
+        "{check} {e:?}"
+    );
+}
+
+/// A lone glass GLB (the teapot, as the Python client's example uploads it): its caustic
+/// falls on nothing, and the answer says so and what to do; with `"ground": true` a floor
+/// under it receives the caustic and the warning is gone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lone_glb_warns_of_its_black_caustic_and_renders_it_on_a_ground() {
+    let srv = Server::start("render-lone-glb", |_, _| {}).await;
+    let glb = std::fs::read(crate::support::repo_path("scenes/assets/teapot-glass.glb")).unwrap();
+    let r = reqwest::Client::new()
+        .post(srv.url("/v1/scenes"))
+        .header("content-type", "model/gltf-binary")
+        .body(glb)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201, "{:?}", r.text().await);
+    let id = r.json::<serde_json::Value>().await.unwrap()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let render = |ground: bool| {
+        serde_json::json!({"scene": id, "method": "photons", "photons": 262144, "width": 64,
+            "height": 48, "format": "exr", "component": "caustics", "ground": ground})
+    };
+    let r = srv.post_json("/v1/renders", &render(false)).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    let warnings: Vec<String> = r
+        .headers()
+        .get_all("caustica-warning")
+        .iter()
+        .map(|v| v.to_str().unwrap().to_string())
+        .collect();
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let black = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    assert!(black.pixels.iter().all(|p| p.element_sum() == 0.0));
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("no surface receives") && w.contains("\"ground\": true")),
+        "{warnings:?}"
+    );
+    let (_, rec) = srv.get_json(&loc).await;
+    assert_eq!(
+        rec["info"]["warnings"].as_array().map(Vec::len),
+        Some(warnings.len()),
+        "{rec}"
+    );
+    let r = srv.post_json("/v1/renders", &render(true)).await;
+    assert_eq!(r.status(), 200, "{:?}", r.text().await);
+    assert!(
+        r.headers().get("caustica-warning").is_none(),
+        "{:?}",
+        r.headers()
+    );
+    let lit = encode::decode_frame(&r.bytes().await.unwrap()).unwrap();
+    let bright = lit.pixels.iter().filter(|p| p.element_sum() > 0.0).count();
+    assert!(
+        bright > lit.pixels.len() / 20,
+        "{bright} pixels of caustic light"
+    );
+    srv.stop().await;
+}

@@ -35,6 +35,7 @@ fn at(scene: &str, camera: &str, t: f32) -> World {
         (None, None),
         None,
         Some(t),
+        false,
         &Limits::default(),
     )
     .unwrap();
