@@ -367,7 +367,8 @@ impl Job for RenderJob {
     /// `direct`, 278 for `photons`, 341 for `beams` at 640×480 to 1280×960), 256 bytes a
     /// triangle, 16 MiB, and the photon buffers of `photons` (320 MiB), the beams of `beams`
     /// (256 MiB) and the list of (pixel, volume) pairs, sums and culling depth of `transport`
-    /// (156 bytes a pixel).
+    /// (156 bytes a pixel). An `auto` render that checks its `photons` frame holds the larger of
+    /// that and its fallback reference's.
     fn memory(&self) -> u64 {
         let c = &self.world.camera;
         let frames = self.times.as_ref().map_or(1, |t| t.len() as u64);
@@ -388,7 +389,20 @@ impl Job for RenderJob {
             _ => 384,
         };
         let triangles = self.world.triangle_count() as u64;
-        (16 << 20) + fixed + pixels * per_pixel + triangles * 256
+        let own = (16 << 20) + fixed + pixels * per_pixel + triangles * 256;
+        if self.requested == Method::Auto
+            && method == Method::Photons
+            && self.p.check != Some(false)
+        {
+            // `auto` may make the frame again with the reference (its fallback's photons).
+            let photons = crate::methods::auto::fallback_photons(&self.world);
+            return own.max(crate::methods::reference::memory_estimate(
+                &self.world,
+                photons,
+                pixels,
+            ));
+        }
+        own
     }
 
     /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most
