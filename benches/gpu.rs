@@ -62,6 +62,7 @@ fn glass_sphere_world() -> World {
         warnings: vec![],
         water: vec![],
         media: vec![],
+        has_ground: false,
     }
 }
 

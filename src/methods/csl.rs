@@ -532,7 +532,7 @@ impl Bake {
         (env.progress)(0.99, "check");
         let oi = self.index();
         let obj = &self.world.objects[oi];
-        let (_, irradiance) = scene_directional_light(&self.world).unwrap_or((light, Vec3::ONE));
+        let irradiance = scene_directional_light(&self.world).map_or(Vec3::ONE, |l| l.1);
         let lit = lit_only_by(
             &self.world,
             obj.rigid_transform().transform_vector3(light),
@@ -599,7 +599,7 @@ impl Bake {
         (env.progress)(0.99, "check");
         let oi = self.index();
         let rigid = self.world.objects[oi].rigid_transform();
-        let irradiance = scene_directional_light(&self.world).map_or(Vec3::splat(3.0), |l| l.1);
+        let irradiance = scene_directional_light(&self.world).map_or(Vec3::ONE, |l| l.1);
         let mut worst: Option<super::check::Check> = None;
         {
             let ico = set.icosphere();
@@ -693,9 +693,7 @@ impl Bake {
     /// The baked object's index.
     fn index(&self) -> usize {
         self.world
-            .objects
-            .iter()
-            .position(|o| o.name == self.object)
+            .object_index(&self.object)
             .expect("the plan found the object")
     }
 }

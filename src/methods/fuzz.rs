@@ -29,8 +29,7 @@ pub struct Row {
     pub caustics: compare::Comparison,
     /// The self-check's estimate, where it ran.
     pub check: Option<f32>,
-    pub warnings: Vec<String>,
-    /// Both frames, for a look (`FUZZ_DUMP`).
+    /// Both frames, for a look (`FUZZ_DUMP`); `auto`'s with its warnings.
     pub frames: Frames,
     pub truth: reference::Components,
 }
@@ -62,7 +61,7 @@ impl Row {
             self.caustics.flux_ratio,
             if self.ok() { "yes" } else { "**no**" }
         );
-        for w in &self.warnings {
+        for w in &self.frames.warnings {
             s.push_str(&format!("\n|  | warning: {w} | | | | | | |"));
         }
         s
@@ -111,7 +110,6 @@ pub fn run(
         total,
         caustics,
         check,
-        warnings: frames.warnings.clone(),
         frames,
         truth,
     })

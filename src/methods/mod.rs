@@ -619,9 +619,7 @@ pub(crate) fn bake_object(
 ) -> Result<usize, MethodError> {
     match object {
         Some(name) => world
-            .objects
-            .iter()
-            .position(|o| o.name == name)
+            .object_index(name)
             .ok_or_else(|| MethodError::UnknownObject(name.into())),
         None => candidates.first().copied().ok_or_else(|| {
             ParamError::new("object", format!("the scene has no {what} to bake")).into()

@@ -413,9 +413,7 @@ impl BakePlan for Bake {
         (env.progress)(0.99, "check");
         let oi = self
             .world
-            .objects
-            .iter()
-            .position(|o| o.name == self.object)
+            .object_index(&self.object)
             .expect("the plan found the object");
         let check = super::check::check_transport_table(&self.world, oi, &table, env.keep_going)?;
         let time_check = t.elapsed();

@@ -495,6 +495,7 @@ mod tests {
             warnings: vec![],
             water: vec![],
             media: vec![],
+            has_ground: false,
         };
         let s = PackedScene::pack(&world);
         assert_eq!(s.draws.len(), 2);

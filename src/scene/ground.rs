@@ -14,11 +14,13 @@ const SIDE_RADII: f32 = 16.0;
 
 /// Adds a square diffuse plane (albedo [`GROUND_ALBEDO`], named `ground`, or `ground-2`… when
 /// that name is taken) under the objects' bounds, touching their lowest point, centred under
-/// them. A world without objects is left as it is.
+/// them. A world without objects, or with the plane already (the scene's `ground` and the
+/// request's both), is left as it is.
 pub fn add_ground(world: &mut World) {
-    if world.objects.is_empty() {
+    if world.objects.is_empty() || world.has_ground {
         return;
     }
+    world.has_ground = true;
     let (lo, hi) = world.bounds();
     let radius = ((hi - lo).length() * 0.5).max(1e-3);
     let side = SIDE_RADII * radius;
@@ -73,5 +75,8 @@ mod tests {
             w.materials[g.parts[0].material as usize],
             Material::Diffuse { .. }
         ));
+        // Asked again (a scene's `ground` and a request's): still one plane.
+        add_ground(&mut w);
+        assert_eq!(w.objects.len(), 2);
     }
 }

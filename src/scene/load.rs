@@ -756,6 +756,7 @@ pub fn resolve(
         warnings,
         water,
         media,
+        has_ground: false,
     };
     if desc.ground {
         super::ground::add_ground(&mut world);

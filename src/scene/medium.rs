@@ -79,6 +79,7 @@ impl Medium {
             warnings: Vec::new(),
             water: Vec::new(),
             media: Vec::new(),
+            has_ground: false,
         };
         let accel = crate::trace::Accel::build_with(
             &world,

@@ -591,6 +591,8 @@ pub struct World {
     pub water: Vec<super::water::WaterBody>,
     /// Participating media (the scene's `media`).
     pub media: Vec<super::medium::Medium>,
+    /// Whether [`super::ground::add_ground`] put its plane in (it puts one in at most).
+    pub has_ground: bool,
 }
 
 impl World {
@@ -632,6 +634,11 @@ impl World {
 
     pub fn object(&self, name: &str) -> Option<&Object> {
         self.objects.iter().find(|o| o.name == name)
+    }
+
+    /// The index of the object named `name`.
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
     }
 
     /// Transmittance of the straight segment a → b (which crosses no surface) through the

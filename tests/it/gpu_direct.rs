@@ -68,6 +68,7 @@ fn world(receiver: Material, spheres: &[(Vec3, f32)], lights: Vec<Light>) -> Wor
         warnings: vec![],
         water: vec![],
         media: vec![],
+        has_ground: false,
     }
 }
 
@@ -617,6 +618,7 @@ fn environment_map_orientation_follows_mitsuba() {
             warnings: vec![],
             water: vec![],
             media: vec![],
+            has_ground: false,
         };
         let out = r.render(&w, &RenderOptions::default()).unwrap();
         let f = if layer == 0 {

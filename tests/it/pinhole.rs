@@ -266,6 +266,7 @@ fn wave_sheet_world() -> World {
         warnings: vec![],
         water: vec![],
         media: vec![],
+        has_ground: false,
     }
 }
 

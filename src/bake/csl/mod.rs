@@ -391,6 +391,7 @@ pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
         warnings: Vec::new(),
         water: Vec::new(),
         media: Vec::new(),
+        has_ground: false,
     }
 }
 
@@ -703,92 +704,6 @@ pub(crate) fn bake_csl_with(
     })
 }
 
-/// Cells a side of [`verify`]'s plane.
-const VERIFY_CELLS: usize = 32;
-/// Rays a side of [`verify`]'s own grid (not the bake's, so the photons are fresh).
-const VERIFY_GRID: u32 = 509;
-
-/// How well `set` models the light its object sends out: photons of a grid of its own traced
-/// through the object (in its rigid frame, for the set's light) and binned on a plane across the
-/// light, two radii past the object's centre, 32 × 32 cells over six radii, against the set's
-/// irradiance there (each cell averaged at 2 × 2 points); relative L1 over the cells after a
-/// 3 × 3 blur of both, Σ|model − photons| / Σ photons. 0 is a perfect fit; the uncovered energy
-/// counts too.
-pub fn verify(world: &World, object_name: &str, set: &CslSet, params: &CslParams) -> Option<f64> {
-    verify_with(world, object_name, set, params, &|| true).expect("never asked to stop")
-}
-
-/// [`verify`] that asks `keep_going` as it goes: right before and after the BVH build, while
-/// the object's convexity and first triangles are worked out, every 16 rows of the photon
-/// grid, every 64k photons as they are binned and per row of the plane's cells as the model
-/// is evaluated; Err(Canceled) once it says stop.
-pub fn verify_with(
-    world: &World,
-    object_name: &str,
-    set: &CslSet,
-    params: &CslParams,
-    keep_going: &(dyn Fn() -> bool + Sync),
-) -> Result<Option<f64>, BakeError> {
-    let stop = crate::cancel::Stop::new(keep_going);
-    let Some(object) = world.object(object_name) else {
-        return Ok(None);
-    };
-    let local = rigid_frame_world(world, object);
-    stop.check()?;
-    let accel = bake_accel(&local);
-    stop.check()?;
-    let light = set.light_dir;
-    let (u, v) = light.any_orthonormal_pair();
-    let grid = trace::RayGrid {
-        light,
-        u,
-        v,
-        centre: set.centre,
-        radius: set.radius,
-        n: VERIFY_GRID,
-    };
-    let Some((rays, _)) = trace::trace_grid(&accel, &grid, params, &|_| stop.go()) else {
-        // The trace stops only when asked to.
-        return Err(BakeError::Canceled);
-    };
-    let plane = crate::bake::plane::FitPlane::new(light, set.centre, set.radius, VERIFY_CELLS);
-    let m = VERIFY_CELLS;
-    // Photons: each grid ray carries its energy over spacing² of the light's plane.
-    let flux = f64::from(grid.spacing()).powi(2);
-    let mut photons = vec![0f64; m * m];
-    for (r, ray) in rays.iter().enumerate() {
-        if r.is_multiple_of(1 << 16) {
-            stop.check()?;
-        }
-        if let Some(k) = plane.cell_of(ray.origin, ray.dir) {
-            photons[k] += f64::from(ray.weight()) * flux;
-        }
-    }
-    let area = plane.cell_area();
-    photons.iter_mut().for_each(|e| *e /= area);
-    let n = -light;
-    let mut model = Vec::with_capacity(m * m);
-    for k in 0..m * m {
-        if k.is_multiple_of(m) {
-            stop.check()?;
-        }
-        model.push({
-            let (i, j) = (k % m, k / m);
-            let mut e = 0f64;
-            for (di, dj) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-                let x = plane.at(i as f32 + di, j as f32 + dj);
-                e += set
-                    .csls
-                    .iter()
-                    .map(|c| f64::from(c.irradiance(x, n).element_sum()) / 3.0)
-                    .sum::<f64>();
-            }
-            e / 4.0
-        });
-    }
-    Ok(crate::bake::plane::relative_l1(&model, &photons, m))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -802,71 +717,6 @@ mod tests {
                               "segments": {segments}}}, "material": "glass"}}]}}"#
         );
         crate::scene::load_scene_json(json.as_bytes()).expect("scene resolves")
-    }
-
-    /// The fit check asks to go on around its BVH build, while its grid is traced (the first
-    /// triangles, the convexity, every 16 rows), as its photons are binned and per row of the
-    /// model's cells, and ends canceled whenever told to stop.
-    #[test]
-    fn the_fit_check_stops_inside_its_loops_when_asked() {
-        let world = glass_ball(32);
-        let p = CslParams {
-            grid: 64,
-            ..CslParams::fast()
-        };
-        let light = Vec3::new(0.3, -1.0, 0.2);
-        let set = bake_csl(&world, "ball", light, &p, &|_| true).unwrap();
-        let fit = verify(&world, "ball", &set, &p);
-        assert!(fit.is_some());
-        let asked = crate::cancel::assert_cancels(
-            (VERIFY_GRID / 16 + VERIFY_CELLS as u32) as usize,
-            |k| {
-                let f = verify_with(&world, "ball", &set, &p, k)?;
-                assert_eq!(f, fit);
-                Ok::<_, BakeError>(f)
-            },
-            |e| matches!(e, BakeError::Canceled),
-        );
-        eprintln!("verify: asked {asked} times");
-    }
-
-    /// The verification against fresh photons tells a set that fits (the sphere) from one that
-    /// does not (a glass cylinder's sides fit the radially symmetric CSL badly).
-    #[test]
-    fn verification_photons_tell_a_good_fit_from_a_poor_one() {
-        let world = crate::scene::load_scene_json(
-            br#"{"camera": {"eye": [0, 3, 3], "target": [0, 0, 0]},
-                 "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
-                 "objects": [
-                   {"name": "ball", "shape": {"type": "sphere", "radius": 0.5, "segments": 64},
-                    "material": "glass"},
-                   {"name": "can", "shape": {"type": "cylinder", "radius": 0.3, "height": 0.8,
-                    "segments": 64}, "material": "glass", "transform": {"translation": [3, 0, 0]}}]}"#,
-        )
-        .expect("scene resolves");
-        let light = Vec3::new(1.0, -1.2, 0.0);
-        let p = CslParams {
-            grid: 256,
-            ..CslParams::fast()
-        };
-        let fit = |name: &str| {
-            let set = bake_csl(&world, name, light, &p, &|_| true).unwrap();
-            verify(&world, name, &set, &p).unwrap()
-        };
-        let (ball, can) = (fit("ball"), fit("can"));
-        eprintln!("fit against fresh photons: ball {ball}, cylinder {can}");
-        // Either side of the renders' bar for a poor fit (`methods::csl::POOR_FIT`, 0.15).
-        assert!(ball < 0.12, "ball {ball}");
-        assert!(can > 0.17, "cylinder {can}");
-        assert!(
-            verify(
-                &world,
-                "nothing",
-                &bake_csl(&world, "ball", light, &p, &|_| true).unwrap(),
-                &p
-            )
-            .is_none()
-        );
     }
 
     /// A bake ends when its CSLs cover the target, not at a count; the count and the images'
