@@ -8,6 +8,7 @@
 pub mod auth;
 pub mod docs;
 pub mod error;
+pub mod limits;
 pub mod problems;
 pub mod routes;
 pub mod server;
@@ -82,8 +83,19 @@ pub struct HttpConfig {
     /// Connections past the cap shed at once with half a second to send their request line;
     /// past it, [`server::QUICK_SHEDDING`] more get 50 ms, and the rest are closed unanswered.
     pub shed_slots: usize,
-    /// Most bytes of request bodies held at once ([`server::BodyBudget`]).
+    /// Most connections one address holds ([`limits`]); past it `429`.
+    pub max_connections_per_client: usize,
+    /// Most bytes of request bodies held at once ([`server::BodyBudget`]), charged as they
+    /// arrive.
     pub max_body_bytes_in_flight: usize,
+    /// Most request bodies one client (key, or address without keys) sends at once (counted
+    /// until each has been read); past it `429`.
+    pub max_uploads_per_client: usize,
+    /// Most event streams one client follows at once; past it `429`.
+    pub max_streams_per_client: usize,
+    /// Longest an event stream stays open: then it ends, and its `retry:` field tells the
+    /// client (an `EventSource` does it by itself) to connect again.
+    pub stream_lifetime: Duration,
     /// How long `POST /v1/renders` waits for the image before answering 202 with the job.
     pub render_wait: Duration,
     /// How long running jobs get to finish at shutdown before they are put back in the queue.
@@ -132,7 +144,11 @@ impl Default for HttpConfig {
             header_timeout: Duration::from_secs(10),
             max_connections: 1024,
             shed_slots: server::MAX_SHEDDING,
+            max_connections_per_client: 512,
             max_body_bytes_in_flight: 512 << 20,
+            max_uploads_per_client: 8,
+            max_streams_per_client: 16,
+            stream_lifetime: Duration::from_secs(300),
             render_wait: Duration::from_secs(60),
             shutdown_grace: Duration::from_secs(20),
             keys: auth::Keys::default(),
@@ -146,6 +162,8 @@ impl Default for HttpConfig {
 impl HttpConfig {
     /// Overrides from the environment: `CAUSTICA_MAX_BODY`, `CAUSTICA_MAX_JSON_BODY` (bytes),
     /// `CAUSTICA_BODY_TIMEOUT_S`, `CAUSTICA_HEADER_TIMEOUT_S`, `CAUSTICA_MAX_CONNECTIONS`,
+    /// `CAUSTICA_MAX_CONNECTIONS_PER_CLIENT`, `CAUSTICA_MAX_UPLOADS_PER_CLIENT`,
+    /// `CAUSTICA_MAX_STREAMS_PER_CLIENT`, `CAUSTICA_STREAM_LIFETIME_S`,
     /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`, `CAUSTICA_MAX_JOBS_PER_KEY`,
     /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`, `CAUSTICA_CORS_ORIGINS` (a
     /// comma-separated list of origins, `https://host[:port]`, or `*`). An unparsable or
@@ -166,6 +184,18 @@ impl HttpConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_CONNECTIONS", 1.0, 1e6, true)? {
             self.max_connections = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_CONNECTIONS_PER_CLIENT", 1.0, 1e6, true)? {
+            self.max_connections_per_client = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_UPLOADS_PER_CLIENT", 1.0, 1e6, true)? {
+            self.max_uploads_per_client = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_STREAMS_PER_CLIENT", 1.0, 1e6, true)? {
+            self.max_streams_per_client = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_STREAM_LIFETIME_S", 1.0, 86400.0, false)? {
+            self.stream_lifetime = Duration::from_secs_f64(v);
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT", 1024.0, 1e12, true)? {
             self.max_body_bytes_in_flight = v as usize;
@@ -316,17 +346,30 @@ pub struct AppState {
     pub conns: Arc<server::ConnStats>,
     /// Request body bytes held ([`server::admit_body`]).
     pub bodies: Arc<server::BodyBudget>,
+    /// What each client holds ([`limits`]).
+    pub limits: Arc<Limits>,
+}
+
+/// Per-client counts ([`limits::PerClient`]).
+#[derive(Default)]
+pub struct Limits {
+    /// Requests with a body being received or answered.
+    pub uploads: Arc<limits::PerClient>,
+    /// Event streams open.
+    pub streams: Arc<limits::PerClient>,
 }
 
 impl AppState {
     pub fn new(jobs: Arc<JobSystem>, cfg: HttpConfig) -> AppState {
         let (tx, rx) = tokio::sync::watch::channel(false);
+        jobs.set_quota(auth::quota(&cfg.keys, cfg.max_jobs_per_key));
         AppState {
             jobs,
             shutdown: rx,
             shutdown_tx: Arc::new(tx),
             conns: Arc::default(),
             bodies: Arc::new(server::BodyBudget::new(cfg.max_body_bytes_in_flight)),
+            limits: Arc::default(),
             cfg: Arc::new(cfg),
         }
     }

@@ -4,6 +4,8 @@
 //! - a **header-read timeout** ([`HttpConfig::header_timeout`]): a client must send a whole
 //!   request head within it, and an idle keep-alive connection is closed after it (slowloris,
 //!   sockets held open and silent);
+//! - a **per-address connection cap** ([`HttpConfig::max_connections_per_client`]): past it
+//!   the address's next connection is shed with `429 too-many` (as below);
 //! - a **connection cap** ([`HttpConfig::max_connections`]): past it a connection is shed: it
 //!   gets `503` problem+json with `Retry-After` at once, except `GET /healthz`, which is still
 //!   answered, so a flood of idle sockets cannot make the process look dead; past
@@ -17,7 +19,7 @@
 //!
 //! Body-read deadlines are applied where bodies are read (`routes::body_bytes`).
 
-use super::{AppError, HttpConfig};
+use super::{AppError, HttpConfig, limits};
 use axum::Router;
 use axum::extract::Request;
 use axum::http::StatusCode;
@@ -123,9 +125,9 @@ pub async fn limit_head(req: Request, next: Next) -> Response {
     next.run(req).await
 }
 
-/// Bytes of request bodies being received or held at once, process-wide: each request with a
-/// body takes its declared length (or the body limit when it declares none) before it is read,
-/// and gives it back when answered; past [`HttpConfig::max_body_bytes_in_flight`], `503` with
+/// Bytes of request bodies being received or held at once, process-wide: each body takes one
+/// permit per KiB as its bytes arrive ([`super::limits::ChargedBody`]) and gives them back when
+/// it is answered; past [`HttpConfig::max_body_bytes_in_flight`], `503 busy` with
 /// `Retry-After`.
 pub struct BodyBudget(Arc<Semaphore>);
 
@@ -133,18 +135,56 @@ impl BodyBudget {
     pub fn new(bytes: usize) -> BodyBudget {
         BodyBudget(Arc::new(Semaphore::new(kib(bytes) as usize)))
     }
+
+    /// Bytes free now.
+    pub fn available(&self) -> usize {
+        self.0.available_permits() << 10
+    }
 }
 
 fn kib(bytes: usize) -> u32 {
     u32::try_from(bytes.div_ceil(1024)).unwrap_or(u32::MAX)
 }
 
-/// The middleware of [`BodyBudget`].
+/// `r` with `Connection: close`: the request's body is left unread, so the connection cannot
+/// carry another request (as for a 413).
+fn closing(mut r: Response) -> Response {
+    r.headers_mut().insert(
+        axum::http::header::CONNECTION,
+        axum::http::HeaderValue::from_static("close"),
+    );
+    r
+}
+
+fn busy(cfg: &HttpConfig) -> Response {
+    closing(
+        AppError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "busy",
+            "Busy",
+            format!(
+                "the server is receiving as many request bytes as it holds at once ({} MiB); \
+             retry shortly",
+                cfg.max_body_bytes_in_flight >> 20
+            ),
+        )
+        .retry_after(1)
+        .into_response(),
+    )
+}
+
+/// The middleware of [`BodyBudget`] and of the per-client upload cap: a request body counts
+/// as one of its client's uploads until it has been read ([`HttpConfig::max_uploads_per_client`],
+/// `429` past it), and its bytes are charged to the budget as they arrive. It also names the
+/// request's client ([`limits::Client`]) for the handlers. A declared length the budget
+/// has no room for now is refused at once (`503`) rather than read and refused midway.
 pub async fn admit_body(
     axum::extract::State(st): axum::extract::State<super::AppState>,
-    req: Request,
+    mut req: Request,
     next: Next,
 ) -> Response {
+    let client = limits::client_of(&req);
+    req.extensions_mut().insert(limits::Client(client.clone()));
     let declared = req
         .headers()
         .get(axum::http::header::CONTENT_LENGTH)
@@ -153,37 +193,36 @@ pub async fn admit_body(
     let chunked = req
         .headers()
         .contains_key(axum::http::header::TRANSFER_ENCODING);
-    // A body of undeclared length is counted at the most it may grow to: a JSON body's limit
-    // for JSON, the body limit otherwise.
-    let json = super::routes::media_type(req.headers()) == "application/json";
-    let most = if json {
-        st.cfg.max_json_body.min(st.cfg.max_body)
-    } else {
-        st.cfg.max_body
-    };
-    let bytes = match declared {
-        Some(n) => n.min(most),
-        None if chunked => most,
-        None => 0,
-    };
-    if bytes == 0 {
+    if !(chunked || declared.is_some_and(|n| n > 0)) {
         return next.run(req).await;
     }
-    let Ok(_held) = st.bodies.0.clone().try_acquire_many_owned(kib(bytes)) else {
-        return AppError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "busy",
-            "Busy",
-            format!(
-                "the server is receiving as many request bytes as it holds at once ({} MiB); \
-                 retry shortly",
-                st.cfg.max_body_bytes_in_flight >> 20
-            ),
-        )
-        .retry_after(1)
-        .into_response();
+    let upload = match st
+        .limits
+        .uploads
+        .take(&client, st.cfg.max_uploads_per_client)
+    {
+        Ok(h) => h,
+        Err(n) => {
+            return closing(
+                limits::too_many("uploads", n, "CAUSTICA_MAX_UPLOADS_PER_CLIENT").into_response(),
+            );
+        }
     };
-    next.run(req).await
+    // Only what can be received is checked up front; what a body takes is what it sends.
+    if declared.is_some_and(|n| n.min(st.cfg.max_body) > st.bodies.available()) {
+        return busy(&st.cfg);
+    }
+    let charge = Arc::new(limits::Charge::default());
+    let (parts, body) = req.into_parts();
+    let body = limits::ChargedBody::new(body, st.bodies.0.clone(), charge.clone(), Some(upload));
+    let r = next
+        .run(Request::from_parts(parts, axum::body::Body::new(body)))
+        .await;
+    // The handler saw its body end early; whatever it answered, the cause is the budget.
+    if charge.exhausted.load(Ordering::SeqCst) {
+        return busy(&st.cfg);
+    }
+    r
 }
 
 /// Serves `app` on `listener` until `shutdown` resolves, then stops accepting, asks every
@@ -198,13 +237,14 @@ pub async fn run(
     let slots = Arc::new(Semaphore::new(cfg.max_connections));
     let shedding = Arc::new(Semaphore::new(cfg.shed_slots));
     let quick = Arc::new(Semaphore::new(QUICK_SHEDDING));
+    let per_client = Arc::new(limits::PerClient::default());
     // Connections watch `stop` for the graceful shutdown; `done_rx` clones live as long as
     // they do.
     let (stop_tx, stop_rx) = watch::channel(false);
     let (done_tx, done_rx) = watch::channel(());
     let mut shutdown = std::pin::pin!(shutdown);
     loop {
-        let (stream, _addr) = tokio::select! {
+        let (stream, addr) = tokio::select! {
             _ = &mut shutdown => break,
             r = listener.accept() => match r {
                 Ok(c) => c,
@@ -218,13 +258,28 @@ pub async fn run(
             },
         };
         let _ = stream.set_nodelay(true);
-        match slots.clone().try_acquire_owned() {
-            Ok(permit) => {
+        let client = format!("ip:{}", addr.ip());
+        let mine = per_client.take(&client, cfg.max_connections_per_client);
+        let slot = match mine {
+            Ok(mine) => slots
+                .clone()
+                .try_acquire_owned()
+                .map(|p| (p, mine))
+                .map_err(|_| Shed::Overloaded),
+            Err(n) => Err(Shed::PerClient(n)),
+        };
+        match slot {
+            Ok((permit, mine)) => {
                 stats.accepted.fetch_add(1, Ordering::Relaxed);
                 stats.open.fetch_add(1, Ordering::Relaxed);
                 let (app, cfg, stats) = (app.clone(), cfg.clone(), stats.clone());
                 let (mut stop, done) = (stop_rx.clone(), done_rx.clone());
                 tokio::spawn(async move {
+                    use tower::ServiceExt;
+                    let app = app.map_request(move |mut r: Request<hyper::body::Incoming>| {
+                        r.extensions_mut().insert(axum::extract::ConnectInfo(addr));
+                        r
+                    });
                     let svc = TowerToHyperService::new(app);
                     let mut b = hyper::server::conn::http1::Builder::new();
                     b.timer(TokioTimer::new())
@@ -246,10 +301,10 @@ pub async fn run(
                         tracing::debug!(error = %e, "connection ended");
                     }
                     stats.open.fetch_sub(1, Ordering::Relaxed);
-                    drop((permit, done));
+                    drop((permit, mine, done));
                 });
             }
-            Err(_) => {
+            Err(why) => {
                 let slot = match shedding.clone().try_acquire_owned() {
                     Ok(p) => Some((p, SHED_READ)),
                     Err(_) => quick
@@ -262,7 +317,7 @@ pub async fn run(
                     Some((permit, wait)) => {
                         stats.shed.fetch_add(1, Ordering::Relaxed);
                         tokio::spawn(async move {
-                            shed(stream, wait).await;
+                            shed(stream, wait, why).await;
                             drop(permit);
                         });
                     }
@@ -287,10 +342,19 @@ pub async fn run(
     }
 }
 
-/// Answers a connection past the cap: `/healthz` as usual, anything else `503` with
-/// `Retry-After`; then closes it. `wait` bounds the wait for the request line, the write of
-/// the answer and the lingering close, each.
-async fn shed(mut stream: TcpStream, wait: Duration) {
+/// Why a connection is shed.
+#[derive(Clone, Copy)]
+enum Shed {
+    /// The server holds [`HttpConfig::max_connections`].
+    Overloaded,
+    /// Its address holds [`HttpConfig::max_connections_per_client`] (this many).
+    PerClient(usize),
+}
+
+/// Answers a connection past a cap: `/healthz` as usual, anything else `503` (the server's
+/// cap) or `429` (its address's) with `Retry-After`; then closes it. `wait` bounds the wait
+/// for the request line, the write of the answer and the lingering close, each.
+async fn shed(mut stream: TcpStream, wait: Duration, why: Shed) {
     let mut buf = [0u8; 256];
     let mut n = 0;
     let read = async {
@@ -312,6 +376,14 @@ async fn shed(mut stream: TcpStream, wait: Duration) {
             "application/json",
             serde_json::json!({"status": "ok"}).to_string(),
             "",
+        )
+    } else if let Shed::PerClient(n) = why {
+        let p = limits::too_many("connections", n, "CAUSTICA_MAX_CONNECTIONS_PER_CLIENT");
+        (
+            "429 Too Many Requests",
+            "application/problem+json",
+            p.body().to_string(),
+            "retry-after: 1\r\n",
         )
     } else {
         let p = AppError::new(

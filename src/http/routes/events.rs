@@ -4,9 +4,19 @@
 //! event carrying the whole job (as `GET` of the job answers it) once the job is finished, or
 //! with `gone` when it was deleted meanwhile. A finished job's stream is that one `done`
 //! event. Comments keep an idle connection alive; server shutdown ends the stream.
+//!
+//! One client follows at most [`HttpConfig::max_streams_per_client`] streams at once (`429`
+//! past it), and a stream lasts at most [`HttpConfig::stream_lifetime`]: then it ends without
+//! `done`, and the `retry:` field of its first event (1 s) tells the client when to connect
+//! again; an `EventSource` does so by itself, sending `Last-Event-ID`, and gets the job's
+//! present state first.
+//!
+//! [`HttpConfig::max_streams_per_client`]: crate::http::HttpConfig::max_streams_per_client
+//! [`HttpConfig::stream_lifetime`]: crate::http::HttpConfig::stream_lifetime
 
 use super::jobs::{JobView, load_job, view};
 use crate::http::auth::Principal;
+use crate::http::limits::{Client, too_many};
 use crate::http::{AppError, AppState};
 use crate::jobs::{JobHandle, JobKind, JobState};
 use axum::Extension;
@@ -62,16 +72,26 @@ struct Stream {
     last: Option<Progress>,
     seq: u64,
     ended: bool,
+    /// When the stream ends even if the job has not ([`HttpConfig::stream_lifetime`]).
+    ///
+    /// [`HttpConfig::stream_lifetime`]: crate::http::HttpConfig::stream_lifetime
+    until: tokio::time::Instant,
+    /// The client's hold on one of its streams ([`crate::http::limits`]).
+    _slot: crate::http::limits::Held,
 }
+
+/// What a client is told to wait before it connects again after a stream ends.
+const RETRY: Duration = Duration::from_secs(1);
 
 impl Stream {
     fn event(&mut self, name: &str, data: &impl Serialize) -> Event {
         self.seq += 1;
-        Event::default()
+        let e = Event::default()
             .event(name)
             .id(self.seq.to_string())
             .json_data(data)
-            .unwrap_or_else(|_| Event::default().event(name).data("{}"))
+            .unwrap_or_else(|_| Event::default().event(name).data("{}"));
+        if self.seq == 1 { e.retry(RETRY) } else { e }
     }
 
     /// Stops waiting on the job's live handle: its record is read every [`POLL`] instead.
@@ -88,7 +108,7 @@ impl Stream {
         }
         let mut stop = self.st.shutdown.clone();
         loop {
-            if *stop.borrow() {
+            if *stop.borrow() || tokio::time::Instant::now() >= self.until {
                 return None;
             }
             let rec = match self.st.jobs.store.get_job(&self.id) {
@@ -141,6 +161,7 @@ impl Stream {
             let alive = tokio::select! {
                 a = changed => a,
                 _ = stop.wait_for(|s| *s) => return None,
+                _ = tokio::time::sleep_until(self.until) => return None,
             };
             if !alive {
                 // The handle's senders are gone (the job left this process); read the record.
@@ -156,10 +177,18 @@ async fn job_events(
     id: String,
     kind: JobKind,
     p: &Principal,
+    client: String,
 ) -> Result<Response, AppError> {
     load_job(&st, &id, kind, p)?;
+    let slot = st
+        .limits
+        .streams
+        .take(&client, st.cfg.max_streams_per_client)
+        .map_err(|n| too_many("event streams", n, "CAUSTICA_MAX_STREAMS_PER_CLIENT"))?;
     let handle = st.jobs.handle(&id);
     let s = Stream {
+        until: tokio::time::Instant::now() + st.cfg.stream_lifetime,
+        _slot: slot,
         state_rx: handle.as_ref().map(|h| h.subscribe()),
         progress_rx: handle.as_ref().map(|h| h.subscribe_progress()),
         handle,
@@ -181,15 +210,17 @@ async fn job_events(
 pub async fn bake_events(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
+    Extension(client): Extension<Client>,
     Path(id): Path<String>,
 ) -> Result<Response, AppError> {
-    job_events(st, id, JobKind::Bake, &p).await
+    job_events(st, id, JobKind::Bake, &p, client.0).await
 }
 
 pub async fn render_events(
     State(st): State<AppState>,
     Extension(p): Extension<Principal>,
+    Extension(client): Extension<Client>,
     Path(id): Path<String>,
 ) -> Result<Response, AppError> {
-    job_events(st, id, JobKind::Render, &p).await
+    job_events(st, id, JobKind::Render, &p, client.0).await
 }
