@@ -451,6 +451,89 @@ fn concurrent_claims(s: Arc<Store>) {
     assert_eq!(s.count_queued(JobKind::Render).unwrap(), 0);
 }
 
+/// Quotas that hold: the count and the hold are one step, so sixteen submissions of one key
+/// at once pass a cap of three exactly three times; a job's own hold does not count twice; a
+/// hold being submitted (no record yet) counts; a key's list reads its own holds; idempotency
+/// records expire.
+fn quotas_lists_and_expiry(s: Arc<Store>) {
+    assert_eq!(s.hold_job_within("rn_q1", "alice", 2).unwrap(), Ok(()));
+    assert_eq!(
+        s.hold_job_within("rn_q1", "alice", 2).unwrap(),
+        Ok(()),
+        "held already"
+    );
+    assert_eq!(s.hold_job_within("rn_q2", "alice", 2).unwrap(), Ok(()));
+    assert_eq!(
+        s.hold_job_within("rn_q3", "alice", 2).unwrap(),
+        Err(2),
+        "two being submitted count"
+    );
+    insert(&s, "rn_q1", JobKind::Render, Lane::Cpu, Priority::Render);
+    s.finish(
+        "rn_q1",
+        "",
+        JobState::Canceled,
+        0.0,
+        &[],
+        &serde_json::json!({}),
+        Some("canceled"),
+        None,
+    )
+    .unwrap();
+    assert_eq!(
+        s.hold_job_within("rn_q3", "alice", 2).unwrap(),
+        Ok(()),
+        "a finished job does not count"
+    );
+    let won: usize = std::thread::scope(|sc| {
+        let hs: Vec<_> = (0..16)
+            .map(|i| {
+                let s = &s;
+                sc.spawn(move || {
+                    s.hold_job_within(&format!("rn_race{i}"), "bob", 3)
+                        .unwrap()
+                        .is_ok()
+                })
+            })
+            .collect();
+        hs.into_iter().map(|h| usize::from(h.join().unwrap())).sum()
+    });
+    assert_eq!(won, 3, "sixteen submissions at once, a quota of three");
+    insert(
+        &s,
+        "rn_race_job",
+        JobKind::Render,
+        Lane::Cpu,
+        Priority::Render,
+    );
+    let mut f = filter(JobKind::Render);
+    f.owner = Some("nobody".into());
+    assert!(s.list_jobs(&f).unwrap().is_empty());
+    f.owner = Some("alice".into());
+    let ids: Vec<String> = s
+        .list_jobs(&f)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.1.id)
+        .collect();
+    assert_eq!(ids, ["rn_q1"], "alice's holds with a record");
+    f.owner = None;
+    f.state = Some(JobState::Queued);
+    let ids: Vec<String> = s
+        .list_jobs(&f)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.1.id)
+        .collect();
+    assert_eq!(ids, ["rn_race_job"]);
+
+    s.put_idempotency("old", "h", "rn_q1").unwrap();
+    let now = caustica::jobs::store::now_ms();
+    assert_eq!(s.expire_idempotency(now - 3_600_000).unwrap(), 0);
+    assert_eq!(s.expire_idempotency(now + 60_000).unwrap(), 1);
+    assert!(s.idempotency("old").unwrap().is_none());
+}
+
 /// What other processes hear: a queued job's lane, a job's changes, a cancellation asked of
 /// a running job. SQLite has no other processes and says so.
 fn notifications(s: &Store) {
@@ -496,6 +579,7 @@ fn run_suite(open: &dyn Fn(&str) -> Store) {
     claims_and_leases(&open("claims"));
     fair_claims(&open("fair"));
     concurrent_claims(Arc::new(open("concurrent")));
+    quotas_lists_and_expiry(Arc::new(open("quotas")));
     notifications(&open("notify"));
 }
 

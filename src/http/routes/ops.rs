@@ -12,9 +12,13 @@ pub async fn healthz() -> Json<serde_json::Value> {
     Json(serde_json::json!({"status": "ok"}))
 }
 
-/// Readiness; `storage_warnings` (and the end of a 503's detail) says what looked wrong with
-/// the data directory at start (an empty database, a garbage write-ahead log).
+/// Readiness: not ready (`503 store-unavailable`) while the job store cannot be reached, nor
+/// while the GPU worker probes its adapter; `storage_warnings` (and the end of a 503's detail)
+/// says what looked wrong with the data directory at start (an empty database, a garbage
+/// write-ahead log). `/healthz` asks nothing of the store: a process whose database is down
+/// is alive, only not ready.
 pub async fn readyz(State(st): State<AppState>) -> Result<Json<serde_json::Value>, AppError> {
+    st.jobs.store.reachable()?;
     let warnings = &st.jobs.store.warnings;
     let note = |e: AppError| {
         if warnings.is_empty() {

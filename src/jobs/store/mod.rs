@@ -24,6 +24,7 @@ pub mod sqlite;
 use super::job::{ErrorCode, JobKind, JobSpec, JobState, Priority};
 use crate::methods::{Lane, Method};
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -45,6 +46,10 @@ pub enum StoreError {
     #[error("artifact failed its check: {0}")]
     Integrity(String),
 }
+
+/// How long a hold without a job record counts against its key's quota: its job is being
+/// submitted (a hold left by a crash between the two stops counting after it).
+pub const SUBMITTING_MS: i64 = 10 * 60 * 1000;
 
 /// Which jobs [`JobDb::list_jobs`] returns.
 #[derive(Clone, Debug)]
@@ -243,6 +248,10 @@ pub enum StoreEvent {
 pub trait JobDb: Send + Sync {
     /// Which back-end, for logs and `/readyz`.
     fn backend(&self) -> &'static str;
+    /// Whether the database answers now (`/readyz`); an embedded one always does.
+    fn reachable(&self) -> Result<(), StoreError> {
+        Ok(())
+    }
     /// Stores a scene unless one with this id exists (ids are content hashes).
     /// `owner` holds the scene from the same transaction on, so that no sweep of unheld scenes
     /// can take it in between.
@@ -346,6 +355,18 @@ pub trait JobDb: Send + Sync {
     fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError>;
     /// Queued or running jobs `owner` holds.
     fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError>;
+    /// Holds job `id` for `owner` if it holds fewer than `cap` queued or running jobs (a hold
+    /// whose job is not recorded yet, made in the last [`SUBMITTING_MS`], counts: it is being
+    /// submitted), checked and held in one transaction, so that submissions at once cannot
+    /// pass the cap together; an existing hold is kept. `Err(n)`: it holds `n`, not held.
+    fn hold_job_within(
+        &self,
+        id: &str,
+        owner: &str,
+        cap: usize,
+    ) -> Result<Result<(), usize>, StoreError>;
+    /// Deletes the idempotency records made before `before_ms`; how many.
+    fn expire_idempotency(&self, before_ms: i64) -> Result<usize, StoreError>;
     /// How many hold `id`.
     fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError>;
     /// Drops every hold on `id`.
@@ -398,7 +419,42 @@ pub struct Store {
     bucket: Option<std::sync::Arc<bucket::Bucket>>,
     /// What looked wrong with the data directory at start (logged, and shown by `/readyz`).
     pub warnings: Vec<String>,
+    /// Artifacts whose hash was checked in this process, by name: the file as it was then.
+    verified: std::sync::Mutex<HashMap<String, FileSeen>>,
+    /// When each job's last use was last written ([`Store::used`]), ms.
+    used_at: std::sync::Mutex<HashMap<String, i64>>,
 }
+
+/// A file as [`Store::open_artifact`] checked it: device, inode, length, modification and
+/// change times (ns) and the SHA-256 it was held to. A file with all of these unchanged has
+/// not been written since (its change time cannot be set back), so it is not hashed again.
+#[derive(Clone, PartialEq)]
+struct FileSeen {
+    id: (u64, u64, u64, i128, i128),
+    sha256: String,
+}
+
+impl FileSeen {
+    fn of(meta: &std::fs::Metadata, sha256: &str) -> FileSeen {
+        use std::os::unix::fs::MetadataExt;
+        let ns = |s: i64, n: i64| s as i128 * 1_000_000_000 + n as i128;
+        FileSeen {
+            id: (
+                meta.dev(),
+                meta.ino(),
+                meta.len(),
+                ns(meta.mtime(), meta.mtime_nsec()),
+                ns(meta.ctime(), meta.ctime_nsec()),
+            ),
+            sha256: sha256.to_string(),
+        }
+    }
+}
+
+/// Most artifacts [`Store`] remembers as checked (then it forgets them all and checks again).
+const MAX_VERIFIED: usize = 100_000;
+/// A job's last use is written at most once in this long ([`Store::used`]).
+const USE_EVERY_MS: i64 = 60_000;
 
 impl std::ops::Deref for Store {
     type Target = dyn JobDb;
@@ -451,7 +507,26 @@ impl Store {
             artifacts,
             bucket,
             warnings,
+            verified: Default::default(),
+            used_at: Default::default(),
         })
+    }
+
+    /// Notes that job `id`'s result was served: written ([`JobDb::touch`]) at most once a
+    /// minute per job, so that serving is not a database write per request.
+    pub fn used(&self, id: &str) -> Result<(), StoreError> {
+        let now = now_ms();
+        {
+            let mut m = self.used_at.lock().unwrap_or_else(|e| e.into_inner());
+            if m.get(id).is_some_and(|&t| now - t < USE_EVERY_MS) {
+                return Ok(());
+            }
+            if m.len() >= MAX_VERIFIED {
+                m.clear();
+            }
+            m.insert(id.to_string(), now);
+        }
+        self.db.touch(id)
     }
 
     /// The bucket the artifacts are kept in, if any.
@@ -601,6 +676,13 @@ impl Store {
             )));
         }
         if let Some((_, sha)) = expect {
+            let seen = FileSeen::of(&meta, sha);
+            let mut verified = self.verified.lock().unwrap_or_else(|e| e.into_inner());
+            if verified.get(name) == Some(&seen) {
+                return Ok((f, meta.len()));
+            }
+            verified.remove(name);
+            drop(verified);
             let mut h = sha2::Sha256::new();
             let mut buf = vec![0u8; 256 << 10];
             loop {
@@ -615,6 +697,11 @@ impl Store {
                     "{name} does not hash to the SHA-256 recorded when it was written"
                 )));
             }
+            let mut verified = self.verified.lock().unwrap_or_else(|e| e.into_inner());
+            if verified.len() >= MAX_VERIFIED {
+                verified.clear();
+            }
+            verified.insert(name.to_string(), seen);
         }
         Ok((f, meta.len()))
     }

@@ -9,6 +9,15 @@
 //! (on the state, and on the worker that holds the job), so running one twice changes nothing
 //! the first did not.
 //!
+//! A call made for an HTTP request (on the async runtime, or a blocking task of it) never
+//! holds its thread longer than [`API_WAIT`] without a connection: it gives up while queued
+//! behind busy connections or while reconnecting, and answers `store-unavailable` (503 with
+//! `Retry-After`); while the database is known to be down ([`Health`]) such calls fail at
+//! once, save one probe a second that finds out when it is back. The wait itself is made in
+//! `block_in_place`, so the runtime moves its other tasks (`/healthz` among them) to another
+//! thread. Workers' calls (their own threads) keep trying for [`RECONNECT_FOR`], so that a
+//! restart of the database does not fail the jobs they run.
+//!
 //! Claiming is `SELECT … FOR UPDATE SKIP LOCKED` in one transaction with the update, so two
 //! workers never take one job and neither waits for the other's lock. Leases are compared
 //! with the database's clock, not the workers'. A trigger sends `NOTIFY caustica_jobs` (the
@@ -31,12 +40,74 @@ use std::time::{Duration, Instant};
 
 /// Connections (threads) in the pool.
 pub const POOL: usize = 4;
-/// How long a call keeps trying to reach a database that went away.
+/// How long a worker's call keeps trying to reach a database that went away.
 pub const RECONNECT_FOR: Duration = Duration::from_secs(60);
+/// How long a call made for an HTTP request waits for a connection (queued, or reconnecting)
+/// before it gives up with [`StoreError::Unavailable`].
+pub const API_WAIT: Duration = Duration::from_secs(2);
+/// How long connecting may take (a database host that drops packets, not one that refuses).
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(2);
+/// While the database is down, how often an HTTP request's call may try it.
+const PROBE_EVERY: Duration = Duration::from_secs(1);
+
+/// Whether the database was reachable at the last call: set down by a lost connection, up by
+/// any call that succeeds.
+#[derive(Default)]
+struct Health {
+    /// When the current outage was first seen.
+    down_since: Mutex<Option<Instant>>,
+    /// When an HTTP request's call last tried the database during the outage.
+    last_probe: Mutex<Option<Instant>>,
+}
+
+impl Health {
+    fn lost(&self) {
+        let mut d = self.down_since.lock().unwrap_or_else(|e| e.into_inner());
+        d.get_or_insert_with(Instant::now);
+    }
+
+    fn ok(&self) {
+        *self.down_since.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+
+    /// How long the database has been down, when it is and no probe is due: the call should
+    /// not try it.
+    fn skip(&self) -> Option<Duration> {
+        let since = (*self.down_since.lock().unwrap_or_else(|e| e.into_inner()))?;
+        let mut probe = self.last_probe.lock().unwrap_or_else(|e| e.into_inner());
+        if probe.is_some_and(|t| t.elapsed() < PROBE_EVERY) {
+            return Some(since.elapsed());
+        }
+        *probe = Some(Instant::now());
+        None
+    }
+}
+
+/// Whether the caller is the async runtime (an HTTP request) rather than a worker's thread.
+fn for_a_request() -> bool {
+    tokio::runtime::Handle::try_current().is_ok()
+}
+
+/// Waits in `block_in_place` when on a worker thread of a multi-threaded runtime (its other
+/// tasks move on), directly otherwise.
+pub(super) fn wait_outside_runtime<T>(f: impl FnOnce() -> T) -> T {
+    match tokio::runtime::Handle::try_current() {
+        Ok(h) if h.runtime_flavor() == tokio::runtime::RuntimeFlavor::MultiThread => {
+            tokio::task::block_in_place(f)
+        }
+        _ => f(),
+    }
+}
+
+/// A queued call's state: queued, taken by a connection, or given up by its caller.
+const QUEUED: u8 = 0;
+const TAKEN: u8 = 1;
+const ABANDONED: u8 = 2;
 
 /// Schema migrations, applied in order under an advisory lock (several processes may start
 /// at once); `caustica_migrations` records which ran.
-const MIGRATIONS: &[&str] = &[r#"
+const MIGRATIONS: &[&str] = &[
+    r#"
     CREATE TABLE scenes (
         id TEXT PRIMARY KEY,
         seq BIGSERIAL NOT NULL,
@@ -112,7 +183,19 @@ const MIGRATIONS: &[&str] = &[r#"
     END $$;
     CREATE TRIGGER jobs_notify AFTER INSERT OR UPDATE ON jobs
         FOR EACH ROW EXECUTE FUNCTION caustica_notify();
-"#];
+"#,
+    r#"
+    ALTER TABLE holds ADD COLUMN created_at BIGINT NOT NULL DEFAULT 0;
+    CREATE INDEX holds_owner ON holds(owner, kind);
+    CREATE INDEX jobs_kind_seq ON jobs(kind, seq);
+    CREATE INDEX jobs_kind_state_seq ON jobs(kind, state, seq);
+    CREATE INDEX jobs_scene_state ON jobs(scene_id, state);
+    ALTER TABLE idempotency ADD COLUMN created_at BIGINT NOT NULL DEFAULT 0;
+    UPDATE idempotency SET created_at = caustica_now_ms();
+    CREATE INDEX idempotency_job ON idempotency(job_id);
+    CREATE INDEX idempotency_created ON idempotency(created_at);
+"#,
+];
 
 /// The columns [`row_to_record`] reads, in its order.
 const COLUMNS: &str = "id, kind, method, scene_id, object, params, state, progress, stage,
@@ -130,10 +213,19 @@ struct Conn {
 impl Conn {
     fn client(&mut self) -> Result<&mut Client, postgres::Error> {
         if self.client.as_ref().is_none_or(|c| c.is_closed()) {
-            self.client = Some(Client::connect(&self.url, NoTls)?);
+            self.client = Some(connect(&self.url)?);
         }
         Ok(self.client.as_mut().expect("connected above"))
     }
+}
+
+/// A connection to `url`, giving up after [`CONNECT_TIMEOUT`] unless the URL sets its own.
+fn connect(url: &str) -> Result<Client, postgres::Error> {
+    let mut cfg: postgres::Config = url.parse()?;
+    if cfg.get_connect_timeout().is_none() {
+        cfg.connect_timeout(CONNECT_TIMEOUT);
+    }
+    cfg.connect(NoTls)
 }
 
 /// Whether `e` means the connection is gone (worth connecting again), not that the statement
@@ -160,6 +252,7 @@ pub struct PgDb {
     tasks: Mutex<Option<mpsc::Sender<Task>>>,
     /// Set when the store is dropped: the listener stops.
     stop: Arc<AtomicBool>,
+    health: Arc<Health>,
 }
 
 impl Drop for PgDb {
@@ -197,8 +290,10 @@ impl PgDb {
             url: url.to_string(),
             tasks: Mutex::new(Some(tx)),
             stop: Arc::new(AtomicBool::new(false)),
+            health: Arc::default(),
         };
-        db.run(|c| {
+        // However it is called, opening waits for the database as a worker does.
+        db.call(false, |c| {
             let mut tx = c.transaction()?;
             tx.execute("SELECT pg_advisory_xact_lock(72431)", &[])?;
             tx.batch_execute(
@@ -239,8 +334,8 @@ impl PgDb {
         self.run(move |c| {
             c.execute(
                 &format!(
-                    "INSERT INTO idempotency (key, request_hash, job_id) VALUES ($1, $2, $3) \
-                     {on_conflict}"
+                    "INSERT INTO idempotency (key, request_hash, job_id, created_at) \
+                     VALUES ($1, $2, $3, caustica_now_ms()) {on_conflict}"
                 ),
                 &[&k, &h, &j],
             )?;
@@ -249,20 +344,49 @@ impl PgDb {
     }
 
     /// Runs `f` on a pooled connection; on a lost connection, connects again and runs it once
-    /// more, for up to [`RECONNECT_FOR`].
+    /// more, for up to [`RECONNECT_FOR`] (a worker's call) or [`API_WAIT`] (an HTTP
+    /// request's, which also gives up queued that long, and fails at once while the database
+    /// is known to be down).
     fn run<T: Send + 'static>(
         &self,
         f: impl FnMut(&mut Client) -> Result<T, postgres::Error> + Send + 'static,
     ) -> Result<T, StoreError> {
+        self.call(for_a_request(), f)
+    }
+
+    /// [`PgDb::run`], for an HTTP request (`api`) or a worker.
+    fn call<T: Send + 'static>(
+        &self,
+        api: bool,
+        f: impl FnMut(&mut Client) -> Result<T, postgres::Error> + Send + 'static,
+    ) -> Result<T, StoreError> {
+        use std::sync::atomic::AtomicU8;
+        if api && let Some(down) = self.health.skip() {
+            return Err(StoreError::Unavailable(format!(
+                "the database has been unreachable for {:.0} s",
+                down.as_secs_f64()
+            )));
+        }
+        let deadline = Instant::now() + if api { API_WAIT } else { RECONNECT_FOR };
+        let state = Arc::new(AtomicU8::new(QUEUED));
         let (back, answer) = mpsc::sync_channel(1);
-        let mut f = f;
+        let (mut f, task_state, health) = (f, state.clone(), self.health.clone());
         let task: Task = Box::new(move |conn: &mut Conn| {
-            let start = Instant::now();
+            if task_state
+                .compare_exchange(QUEUED, TAKEN, Ordering::SeqCst, Ordering::SeqCst)
+                .is_err()
+            {
+                return;
+            }
             let mut wait = Duration::from_millis(50);
             let r = loop {
                 let r = conn.client().and_then(&mut f);
                 match r {
-                    Err(e) if is_connection_error(&e) && start.elapsed() < RECONNECT_FOR => {
+                    Err(e) if is_connection_error(&e) => {
+                        health.lost();
+                        if Instant::now() + wait >= deadline {
+                            break Err(e);
+                        }
                         tracing::warn!(
                             error = %super::pg_detail(&e),
                             "database connection lost; connecting again"
@@ -271,7 +395,10 @@ impl PgDb {
                         std::thread::sleep(wait);
                         wait = (wait * 2).min(Duration::from_secs(2));
                     }
-                    r => break r,
+                    r => {
+                        health.ok();
+                        break r;
+                    }
                 }
             };
             let _ = back.send(r);
@@ -285,13 +412,43 @@ impl PgDb {
         if sent != Some(true) {
             return Err(StoreError::Unavailable("the store is closed".into()));
         }
-        match answer.recv() {
-            Ok(Ok(v)) => Ok(v),
-            Ok(Err(e)) if is_connection_error(&e) => {
+        let got = wait_outside_runtime(|| {
+            loop {
+                match answer.recv_timeout(Duration::from_millis(25)) {
+                    Ok(r) => return Some(r),
+                    Err(mpsc::RecvTimeoutError::Disconnected) => return None,
+                    Err(mpsc::RecvTimeoutError::Timeout) => {
+                        // Still queued past the deadline: give it up (a connection that takes
+                        // it now skips it); taken: wait for its answer.
+                        if Instant::now() >= deadline
+                            && state
+                                .compare_exchange(
+                                    QUEUED,
+                                    ABANDONED,
+                                    Ordering::SeqCst,
+                                    Ordering::SeqCst,
+                                )
+                                .is_ok()
+                        {
+                            return None;
+                        }
+                    }
+                }
+            }
+        });
+        match got {
+            Some(Ok(v)) => Ok(v),
+            Some(Err(e)) if is_connection_error(&e) => {
                 Err(StoreError::Unavailable(super::pg_detail(&e)))
             }
-            Ok(Err(e)) => Err(e.into()),
-            Err(_) => Err(StoreError::Unavailable(
+            Some(Err(e)) => Err(e.into()),
+            None if state.load(Ordering::SeqCst) == ABANDONED => {
+                Err(StoreError::Unavailable(format!(
+                    "no database connection was free within {} s",
+                    API_WAIT.as_secs()
+                )))
+            }
+            None => Err(StoreError::Unavailable(
                 "the database thread stopped".into(),
             )),
         }
@@ -348,6 +505,10 @@ fn row_to_record(r: &Row) -> Result<JobRecord, StoreError> {
 impl JobDb for PgDb {
     fn backend(&self) -> &'static str {
         "postgres"
+    }
+
+    fn reachable(&self) -> Result<(), StoreError> {
+        self.run(|c| c.simple_query("SELECT 1").map(|_| ()))
     }
 
     fn put_scene(
@@ -468,31 +629,46 @@ impl JobDb for PgDb {
     }
 
     fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
+        use postgres::types::ToSql;
+        // Only the conditions asked for (as the SQLite back-end), so that the planner walks
+        // an index: a key's holds for a key's list, jobs by (kind, state, seq) otherwise.
         let f = f.clone();
         let rows = self.run(move |c| {
-            c.query(
-                &format!(
-                    "SELECT {COLUMNS}, seq FROM jobs j
-                     WHERE kind = $1
-                       AND ($2::TEXT IS NULL OR EXISTS (SELECT 1 FROM holds h
-                            WHERE h.kind = 'job' AND h.id = j.id AND h.owner = $2))
-                       AND ($3::TEXT IS NULL OR state = $3)
-                       AND ($4::TEXT IS NULL OR method = $4)
-                       AND ($5::BIGINT IS NULL OR created_at >= $5)
-                       AND ($6::BIGINT IS NULL OR seq < $6)
-                     ORDER BY seq DESC
-                     LIMIT $7"
+            let mut args: Vec<Box<dyn ToSql + Sync>> = vec![Box::new(f.kind.as_str())];
+            let mut sql = match &f.owner {
+                Some(o) => {
+                    args.push(Box::new(o.clone()));
+                    format!(
+                        "SELECT {}, j.seq FROM holds h JOIN jobs j ON j.id = h.id
+                         WHERE j.kind = $1 AND h.kind = 'job' AND h.owner = $2",
+                        super::sqlite::qualified("j")
+                    )
+                }
+                None => format!(
+                    "SELECT {}, j.seq FROM jobs j WHERE j.kind = $1",
+                    super::sqlite::qualified("j")
                 ),
-                &[
-                    &f.kind.as_str(),
-                    &f.owner,
-                    &f.state.map(|s| s.as_str()),
-                    &f.method.map(|m| m.name()),
-                    &f.created_since,
-                    &f.before_seq,
-                    &(f.limit as i64),
-                ],
-            )
+            };
+            let mut cond = |c: &str, v: Box<dyn ToSql + Sync>| {
+                args.push(v);
+                sql.push_str(&format!(" AND j.{c} ${}", args.len()));
+            };
+            if let Some(s) = f.state {
+                cond("state =", Box::new(s.as_str()));
+            }
+            if let Some(m) = f.method {
+                cond("method =", Box::new(m.name()));
+            }
+            if let Some(t) = f.created_since {
+                cond("created_at >=", Box::new(t));
+            }
+            if let Some(b) = f.before_seq {
+                cond("seq <", Box::new(b));
+            }
+            args.push(Box::new(f.limit as i64));
+            sql.push_str(&format!(" ORDER BY j.seq DESC LIMIT ${}", args.len()));
+            let refs: Vec<&(dyn ToSql + Sync)> = args.iter().map(|a| a.as_ref()).collect();
+            c.query(&sql, &refs)
         })?;
         Ok(super::readable(
             rows.iter().map(|r| (r.get::<_, i64>(23), row_to_record(r))),
@@ -795,7 +971,8 @@ impl JobDb for PgDb {
         let (id, owner) = (id.to_string(), owner.to_string());
         self.run(move |c| {
             c.execute(
-                "INSERT INTO holds (kind, id, owner) VALUES ($1, $2, $3) ON CONFLICT DO NOTHING",
+                "INSERT INTO holds (kind, id, owner, created_at)
+                 VALUES ($1, $2, $3, caustica_now_ms()) ON CONFLICT DO NOTHING",
                 &[&what.as_str(), &id, &owner],
             )?;
             Ok(())
@@ -839,6 +1016,61 @@ impl JobDb for PgDb {
                 &[&what.as_str(), &id],
             )?
             .map(|r| r.get(0)))
+        })
+    }
+
+    fn hold_job_within(
+        &self,
+        id: &str,
+        owner: &str,
+        cap: usize,
+    ) -> Result<Result<(), usize>, StoreError> {
+        let (id, owner) = (id.to_string(), owner.to_string());
+        self.run(move |c| {
+            let mut tx = c.transaction()?;
+            // One submission of a key at a time, across every process: the count and the hold
+            // are one step.
+            tx.execute(
+                "SELECT pg_advisory_xact_lock(72432, hashtext($1))",
+                &[&owner],
+            )?;
+            let held = tx
+                .query_opt(
+                    "SELECT 1 FROM holds WHERE kind = 'job' AND id = $1 AND owner = $2",
+                    &[&id, &owner],
+                )?
+                .is_some();
+            if !held {
+                let n: i64 = tx
+                    .query_one(
+                        "SELECT COUNT(*) FROM holds h LEFT JOIN jobs j ON j.id = h.id
+                         WHERE h.owner = $1 AND h.kind = 'job'
+                           AND (j.state IN ('queued', 'running')
+                                OR (j.id IS NULL AND h.created_at > caustica_now_ms() - $2))",
+                        &[&owner, &super::SUBMITTING_MS],
+                    )?
+                    .get(0);
+                if n as usize >= cap {
+                    return Ok(Err(n as usize));
+                }
+                tx.execute(
+                    "INSERT INTO holds (kind, id, owner, created_at)
+                     VALUES ('job', $1, $2, caustica_now_ms()) ON CONFLICT DO NOTHING",
+                    &[&id, &owner],
+                )?;
+            }
+            tx.commit()?;
+            Ok(Ok(()))
+        })
+    }
+
+    fn expire_idempotency(&self, before_ms: i64) -> Result<usize, StoreError> {
+        self.run(move |c| {
+            let n = c.execute(
+                "DELETE FROM idempotency WHERE created_at < $1",
+                &[&before_ms],
+            )?;
+            Ok(n as usize)
         })
     }
 
@@ -1129,7 +1361,7 @@ impl JobDb for PgDb {
 
 /// A connection that listens on the three channels.
 fn listen_client(url: &str) -> Result<Client, StoreError> {
-    let mut c = Client::connect(url, NoTls)?;
+    let mut c = connect(url)?;
     c.batch_execute("LISTEN caustica_jobs; LISTEN caustica_queue; LISTEN caustica_cancel")?;
     Ok(c)
 }

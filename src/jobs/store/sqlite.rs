@@ -86,6 +86,21 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN cancel_requested INTEGER NOT NULL DEFAULT 0;
     CREATE INDEX jobs_claim ON jobs(state, lane, priority, seq);
 "#,
+    // 6: indexes for every list, quota, sequence and idempotency query (a key's list, or a
+    // submission, reads that key's rows, not the table); when each hold and idempotency
+    // record was made (quotas count holds whose job is being submitted; records expire).
+    r#"
+    ALTER TABLE holds ADD COLUMN created_at INTEGER NOT NULL DEFAULT 0;
+    CREATE INDEX holds_owner ON holds(owner, kind);
+    CREATE INDEX jobs_seq ON jobs(seq);
+    CREATE INDEX jobs_kind_seq ON jobs(kind, seq);
+    CREATE INDEX jobs_kind_state_seq ON jobs(kind, state, seq);
+    CREATE INDEX jobs_scene_state ON jobs(scene_id, state);
+    ALTER TABLE idempotency ADD COLUMN created_at INTEGER NOT NULL DEFAULT 0;
+    UPDATE idempotency SET created_at = CAST(strftime('%s', 'now') AS INTEGER) * 1000;
+    CREATE INDEX idempotency_job ON idempotency(job_id);
+    CREATE INDEX idempotency_created ON idempotency(created_at);
+"#,
 ];
 
 /// The SQLite WAL header magic (big-endian; the low bit is the checksum byte order).
@@ -158,8 +173,19 @@ impl SqliteDb {
         })
     }
 
+    /// The connection; when another call holds it, waited for outside the async runtime
+    /// ([`super::postgres::wait_outside_runtime`]), so that a long statement does not stall
+    /// the requests that do not need the database.
     fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
-        self.conn.lock().unwrap_or_else(|e| e.into_inner())
+        match self.conn.try_lock() {
+            Ok(g) => g,
+            Err(std::sync::TryLockError::Poisoned(e)) => e.into_inner(),
+            Err(std::sync::TryLockError::WouldBlock) => {
+                super::postgres::wait_outside_runtime(|| {
+                    self.conn.lock().unwrap_or_else(|e| e.into_inner())
+                })
+            }
+        }
     }
 }
 
@@ -276,31 +302,46 @@ impl JobDb for SqliteDb {
     }
 
     fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
+        // Only the conditions asked for, so that the planner walks an index: a key's holds
+        // (holds_owner) for a key's list, jobs by (kind, state, seq) otherwise.
+        let mut args: Vec<Box<dyn rusqlite::ToSql>> = vec![Box::new(f.kind.as_str())];
+        let mut sql = match &f.owner {
+            Some(o) => {
+                args.push(Box::new(o.clone()));
+                format!(
+                    "SELECT {}, j.seq FROM holds h CROSS JOIN jobs j ON j.id = h.id
+                     WHERE j.kind = ?1 AND h.kind = 'job' AND h.owner = ?2",
+                    qualified("j")
+                )
+            }
+            None => format!(
+                "SELECT {}, j.seq FROM jobs j WHERE j.kind = ?1",
+                qualified("j")
+            ),
+        };
+        let mut cond = |c: &str, v: Box<dyn rusqlite::ToSql>| {
+            args.push(v);
+            sql.push_str(&format!(" AND j.{c} ?{}", args.len()));
+        };
+        if let Some(s) = f.state {
+            cond("state =", Box::new(s.as_str()));
+        }
+        if let Some(m) = f.method {
+            cond("method =", Box::new(m.name()));
+        }
+        if let Some(t) = f.created_since {
+            cond("created_at >=", Box::new(t));
+        }
+        if let Some(b) = f.before_seq {
+            cond("seq <", Box::new(b));
+        }
+        args.push(Box::new(f.limit as i64));
+        sql.push_str(&format!(" ORDER BY j.seq DESC LIMIT ?{}", args.len()));
         let c = self.conn();
-        let mut st = c.prepare(&format!(
-            "SELECT {COLUMNS}, seq FROM jobs j
-             WHERE kind = ?1
-               AND (?2 IS NULL OR EXISTS (SELECT 1 FROM holds h
-                                          WHERE h.kind = 'job' AND h.id = j.id AND h.owner = ?2))
-               AND (?3 IS NULL OR state = ?3)
-               AND (?4 IS NULL OR method = ?4)
-               AND (?5 IS NULL OR created_at >= ?5)
-               AND (?6 IS NULL OR seq < ?6)
-             ORDER BY seq DESC
-             LIMIT ?7"
-        ))?;
-        let rows = st.query_map(
-            params![
-                f.kind.as_str(),
-                f.owner,
-                f.state.map(|s| s.as_str()),
-                f.method.map(|m| m.name()),
-                f.created_since,
-                f.before_seq,
-                f.limit as i64
-            ],
-            |r| Ok((r.get::<_, i64>(23)?, row_to_record(r)?)),
-        )?;
+        let mut st = c.prepare(&sql)?;
+        let rows = st.query_map(rusqlite::params_from_iter(args.iter()), |r| {
+            Ok((r.get::<_, i64>(23)?, row_to_record(r)?))
+        })?;
         Ok(super::readable(rows.collect::<Result<Vec<_>, _>>()?))
     }
 
@@ -563,8 +604,8 @@ impl JobDb for SqliteDb {
 
     fn hold(&self, what: Held, id: &str, owner: &str) -> Result<(), StoreError> {
         self.conn().execute(
-            "INSERT OR IGNORE INTO holds (kind, id, owner) VALUES (?1, ?2, ?3)",
-            params![what.as_str(), id, owner],
+            "INSERT OR IGNORE INTO holds (kind, id, owner, created_at) VALUES (?1, ?2, ?3, ?4)",
+            params![what.as_str(), id, owner, now_ms()],
         )?;
         Ok(())
     }
@@ -601,6 +642,50 @@ impl JobDb for SqliteDb {
                 |r| r.get(0),
             )
             .optional()?)
+    }
+
+    fn hold_job_within(
+        &self,
+        id: &str,
+        owner: &str,
+        cap: usize,
+    ) -> Result<Result<(), usize>, StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        let held = tx
+            .query_row(
+                "SELECT 1 FROM holds WHERE kind = 'job' AND id = ?1 AND owner = ?2",
+                params![id, owner],
+                |_| Ok(()),
+            )
+            .optional()?
+            .is_some();
+        if !held {
+            let now = now_ms();
+            let n: i64 = tx.query_row(
+                "SELECT COUNT(*) FROM holds h LEFT JOIN jobs j ON j.id = h.id
+                 WHERE h.owner = ?1 AND h.kind = 'job'
+                   AND (j.state IN ('queued', 'running')
+                        OR (j.id IS NULL AND h.created_at > ?2))",
+                params![owner, now - super::SUBMITTING_MS],
+                |r| r.get(0),
+            )?;
+            if n as usize >= cap {
+                return Ok(Err(n as usize));
+            }
+            tx.execute(
+                "INSERT INTO holds (kind, id, owner, created_at) VALUES ('job', ?1, ?2, ?3)",
+                params![id, owner, now],
+            )?;
+        }
+        tx.commit()?;
+        Ok(Ok(()))
+    }
+
+    fn expire_idempotency(&self, before_ms: i64) -> Result<usize, StoreError> {
+        Ok(self
+            .conn()
+            .execute("DELETE FROM idempotency WHERE created_at < ?1", [before_ms])?)
     }
 
     fn active_jobs_of(&self, owner: &str) -> Result<usize, StoreError> {
@@ -756,8 +841,9 @@ impl JobDb for SqliteDb {
         job_id: &str,
     ) -> Result<(), StoreError> {
         self.conn().execute(
-            "INSERT OR IGNORE INTO idempotency (key, request_hash, job_id) VALUES (?1, ?2, ?3)",
-            params![key, request_hash, job_id],
+            "INSERT OR IGNORE INTO idempotency (key, request_hash, job_id, created_at)
+             VALUES (?1, ?2, ?3, ?4)",
+            params![key, request_hash, job_id, now_ms()],
         )?;
         Ok(())
     }
@@ -769,14 +855,24 @@ impl JobDb for SqliteDb {
         job_id: &str,
     ) -> Result<(), StoreError> {
         self.conn().execute(
-            "INSERT OR REPLACE INTO idempotency (key, request_hash, job_id) VALUES (?1, ?2, ?3)",
-            params![key, request_hash, job_id],
+            "INSERT OR REPLACE INTO idempotency (key, request_hash, job_id, created_at)
+             VALUES (?1, ?2, ?3, ?4)",
+            params![key, request_hash, job_id, now_ms()],
         )?;
         Ok(())
     }
 }
 
 type RowResult = Result<JobRecord, StoreError>;
+
+/// [`COLUMNS`], each prefixed with `table.`.
+pub(super) fn qualified(table: &str) -> String {
+    COLUMNS
+        .split(',')
+        .map(|c| format!("{table}.{}", c.trim()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
 fn row_to_record(r: &rusqlite::Row<'_>) -> rusqlite::Result<RowResult> {
     let params: String = r.get(5)?;

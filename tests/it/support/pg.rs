@@ -97,6 +97,16 @@ impl PgCluster {
         self.pg_ctl_start();
     }
 
+    /// Stops the server (fast) until [`PgCluster::start_again`]: an outage.
+    pub fn stop(&self) {
+        self.pg_ctl(&["stop", "-m", "fast", "-w"]);
+    }
+
+    /// Starts a stopped server again on the same port.
+    pub fn start_again(&self) {
+        self.pg_ctl_start();
+    }
+
     fn pg_ctl_start(&self) {
         let opts = format!(
             "-p {} -c listen_addresses=127.0.0.1 -k {} -c fsync=off -c max_connections=200",
