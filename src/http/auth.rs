@@ -36,17 +36,14 @@ impl Principal {
     }
 }
 
-/// Refuses a new job for `p` past [`super::HttpConfig::max_jobs_per_key`] queued or running
-/// jobs of theirs (users only: admins and the anonymous client of a keyless server have no
-/// quota), so that one client cannot fill the queues the others share.
-pub fn check_quota(st: &AppState, p: &Principal) -> Result<(), AppError> {
-    if p.admin || p.owner.is_empty() {
-        return Ok(());
-    }
-    let n = st.jobs.store.active_jobs_of(&p.owner)?;
-    let cap = st.cfg.max_jobs_per_key;
-    if n >= cap {
-        return Err(AppError::new(
+/// Holds job `id` for `p`, refusing it past [`super::HttpConfig::max_jobs_per_key`] queued
+/// or running jobs of theirs (users only: admins and the anonymous client of a keyless server
+/// have no quota), so that one client cannot fill the queues the others share. The count and
+/// the hold are one step in the store, so submissions at once cannot pass the quota together.
+pub fn hold_within_quota(st: &AppState, p: &Principal, id: &str) -> Result<(), AppError> {
+    match st.jobs.hold_job(id, &p.owner)? {
+        Ok(()) => Ok(()),
+        Err(n) => Err(AppError::new(
             StatusCode::TOO_MANY_REQUESTS,
             "quota",
             "Quota reached",
@@ -56,9 +53,20 @@ pub fn check_quota(st: &AppState, p: &Principal) -> Result<(), AppError> {
                 p.owner
             ),
         )
-        .retry_after(5));
+        .retry_after(5)),
     }
-    Ok(())
+}
+
+/// The job quota [`hold_within_quota`] holds to: `cap` for a user key, none for an admin key
+/// or the anonymous client.
+pub fn quota(keys: &Keys, cap: usize) -> crate::jobs::Quota {
+    let admins: std::collections::HashSet<String> = keys
+        .by_hash
+        .values()
+        .filter(|p| p.admin)
+        .map(|p| p.owner.clone())
+        .collect();
+    Box::new(move |owner| (!owner.is_empty() && !admins.contains(owner)).then_some(cap))
 }
 
 /// The configured keys, by the SHA-256 of the key.

@@ -27,6 +27,9 @@ pub struct JobConfig {
     pub render_timeout: Duration,
     /// Scene limits applied to uploads and renders.
     pub limits: crate::scene::Limits,
+    /// Most bytes of resolved scenes kept in memory between jobs
+    /// ([`crate::scene::World::heap_bytes`]); a scene over it is resolved for each job.
+    pub scene_cache_bytes: u64,
     /// Skip the GPU readiness probe at start (tests of the queue alone).
     pub probe_gpu: bool,
     /// The shared job store (`postgres://…`); `None`: SQLite in the data directory, one
@@ -63,6 +66,7 @@ impl JobConfig {
                 max_image_side: 4096,
                 ..Default::default()
             },
+            scene_cache_bytes: 512 << 20,
             probe_gpu: true,
             database: None,
             artifacts: None,
@@ -77,7 +81,8 @@ impl JobConfig {
     /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
     /// `CAUSTICA_MAX_QUEUED_BAKES`, `CAUSTICA_MAX_PHOTONS`, `CAUSTICA_MAX_SPP`,
     /// `CAUSTICA_RENDER_TTL_S`, `CAUSTICA_BAKE_TTL_S`, `CAUSTICA_MAX_RENDER_BYTES` (0: keep),
-    /// `CAUSTICA_JOB_MEMORY` (bytes),
+    /// `CAUSTICA_IDEMPOTENCY_TTL_S`,
+    /// `CAUSTICA_JOB_MEMORY`, `CAUSTICA_SCENE_CACHE_BYTES` (bytes),
     /// `CAUSTICA_BAKE_TIMEOUT_S`, `CAUSTICA_RENDER_TIMEOUT_S`, `CAUSTICA_MAX_IMAGE_SIDE`,
     /// `CAUSTICA_MAX_TRIANGLES`, `CAUSTICA_LEASE_S`. An unparsable or out-of-range value is an
     /// error naming it.
@@ -100,6 +105,9 @@ impl JobConfig {
         if let Some(v) = env_num(get, "CAUSTICA_MAX_SPP", 1.0, 1024.0, true)? {
             self.caps.max_spp = v as u32;
         }
+        if let Some(v) = env_num(get, "CAUSTICA_SCENE_CACHE_BYTES", 0.0, 1e15, true)? {
+            self.scene_cache_bytes = v as u64;
+        }
         if let Some(v) = env_num(get, "CAUSTICA_JOB_MEMORY", 1e6, 1e15, true)? {
             self.job_memory = v as u64;
         }
@@ -108,6 +116,9 @@ impl JobConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_BAKE_TTL_S", 0.0, 1e10, false)? {
             self.retention.bake_ttl = (v > 0.0).then(|| Duration::from_secs_f64(v));
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_IDEMPOTENCY_TTL_S", 1.0, 1e10, false)? {
+            self.retention.idempotency_ttl = Duration::from_secs_f64(v);
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_RENDER_BYTES", 0.0, 1e15, true)? {
             self.retention.max_render_bytes = (v > 0.0).then_some(v as u64);
@@ -149,6 +160,9 @@ pub struct Retention {
     pub bake_ttl: Option<Duration>,
     /// Most bytes of render images kept (None: no cap).
     pub max_render_bytes: Option<u64>,
+    /// Idempotency records are deleted this long after they were made (a retry after it
+    /// makes a new job).
+    pub idempotency_ttl: Duration,
     pub sweep_every: Duration,
 }
 
@@ -158,6 +172,7 @@ impl Default for Retention {
             render_ttl: Some(Duration::from_secs(7 * 24 * 3600)),
             bake_ttl: None,
             max_render_bytes: Some(10 << 30),
+            idempotency_ttl: Duration::from_secs(24 * 3600),
             sweep_every: Duration::from_secs(60),
         }
     }

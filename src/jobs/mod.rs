@@ -212,9 +212,29 @@ pub struct JobSystem {
     /// The store is shared with other processes (PostgreSQL): workers claim jobs from it, and
     /// handles of jobs run elsewhere follow their records.
     shared: bool,
+    /// How many queued or running jobs a key may hold (none: no quota), set by the service
+    /// ([`JobSystem::set_quota`]); what [`JobSystem::hold_job`] holds to.
+    quota: std::sync::OnceLock<Quota>,
 }
 
+/// The job quota of a key, by its name: `None` for no quota.
+pub type Quota = Box<dyn Fn(&str) -> Option<usize> + Send + Sync>;
+
 impl JobSystem {
+    /// Sets the job quota of keys (once; later calls change nothing).
+    pub fn set_quota(&self, q: Quota) {
+        let _ = self.quota.set(q);
+    }
+
+    /// Holds job `id` for `owner`, within the owner's quota ([`JobDb::hold_job_within`]: the
+    /// check and the hold are one step): `Err(n)` when the owner already holds `n`, its quota.
+    pub fn hold_job(&self, id: &str, owner: &str) -> Result<Result<(), usize>, StoreError> {
+        match self.quota.get().and_then(|q| q(owner)) {
+            Some(cap) => self.store.hold_job_within(id, owner, cap),
+            None => self.store.hold(store::Held::Job, id, owner).map(Ok),
+        }
+    }
+
     /// Opens the store, re-queues what a previous process left unfinished and starts the
     /// workers.
     pub fn start(cfg: JobConfig) -> Result<Arc<JobSystem>, SubmitError> {
@@ -236,7 +256,7 @@ impl JobSystem {
             None => ArtifactStore::new(cfg.data_dir.join("bakes")),
         };
         let sys = Arc::new(JobSystem {
-            scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone()),
+            scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone(), cfg.scene_cache_bytes),
             store,
             metrics: Arc::new(Metrics::new(cfg.bake_timeout, cfg.render_timeout)),
             bakes,
@@ -257,6 +277,7 @@ impl JobSystem {
             memory: Arc::new(Mutex::new(0)),
             worker_id,
             shared,
+            quota: std::sync::OnceLock::new(),
             cfg,
         });
         // With a shared store, jobs left running by a process that died go back to the queue
@@ -927,7 +948,7 @@ impl JobSystem {
         let expect = r.artifact_len.zip(r.artifact_sha256.as_deref());
         match self.store.open_artifact(path, expect) {
             Ok(b) => {
-                if let Err(e) = self.store.touch(&r.id) {
+                if let Err(e) = self.store.used(&r.id) {
                     tracing::warn!(job = %r.id, error = %e, "last use not recorded");
                 }
                 Ok(b)
@@ -966,8 +987,9 @@ impl JobSystem {
         });
     }
 
-    /// Deletes finished jobs past their time to live, then the least recently served renders
-    /// while render images take more than the cap ([`Retention`]). Returns how many went.
+    /// Deletes finished jobs past their time to live, idempotency records past theirs, then
+    /// the least recently served renders while render images take more than the cap
+    /// ([`Retention`]). Returns how many went.
     pub fn sweep(&self) -> Result<usize, StoreError> {
         let r = &self.cfg.retention;
         let now = store::now_ms();
@@ -980,6 +1002,12 @@ impl JobSystem {
             {
                 deleted += usize::from(self.store.delete_job(&id)?);
             }
+        }
+        let expired = self
+            .store
+            .expire_idempotency(now - r.idempotency_ttl.as_millis() as i64)?;
+        if expired > 0 {
+            tracing::info!(expired, "idempotency records expired");
         }
         for id in self.store.unheld_scenes(now - 600_000)? {
             if self.store.delete_scene(&id)? {

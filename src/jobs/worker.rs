@@ -146,7 +146,13 @@ impl JobCtx<'_> {
             };
             let bake = spec.bake_id();
             let had = store.holds(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
-            store.hold(Held::Job, &bake, &owner).map_err(|e| err(&e))?;
+            // Within the key's quota, as the bakes it asks for itself.
+            self.system
+                .hold_job(&bake, &owner)
+                .map_err(|e| err(&e))?
+                .map_err(|n| {
+                    format!("key '{owner}' holds {n} queued or running jobs, its quota")
+                })?;
             let submitted = self.system.submit(&bake, &spec);
             if submitted.is_err() && !had {
                 let _ = store.release(Held::Job, &bake, &owner);

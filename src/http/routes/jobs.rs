@@ -398,7 +398,7 @@ pub(super) async fn serve_artifact(
         && none_match(v, tag)
     {
         // Served from the client's copy: counts as a use for the least-recently-served eviction.
-        if let Err(e) = st.jobs.store.touch(&r.id) {
+        if let Err(e) = st.jobs.store.used(&r.id) {
             tracing::warn!(job = %r.id, error = %e, "last use not recorded");
         }
         let mut resp = StatusCode::NOT_MODIFIED.into_response();

@@ -104,9 +104,8 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
             let id = render_id();
             let jobs = st.jobs.clone();
             let (id2, spec2) = (id.clone(), spec.clone());
-            crate::http::auth::check_quota(&st, &p)?;
             // Held before it exists, so that it is never a job nobody holds.
-            st.jobs.store.hold(Held::Job, &id, &p.owner)?;
+            crate::http::auth::hold_within_quota(&st, &p, &id)?;
             let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
             let (h, _) = submitted.inspect_err(|_| {
                 let _ = st.jobs.store.release(Held::Job, &id, &p.owner);
