@@ -16,8 +16,55 @@ use std::collections::HashMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::{Arc, Mutex};
 
-/// Resolved worlds kept in memory.
+/// Resolved worlds kept in memory, at most (besides [`Scenes::new`]'s byte budget).
 const CACHE_SIZE: usize = 32;
+
+/// Resolved worlds by scene id, least recently used first out, bounded by count and by bytes
+/// ([`World::heap_bytes`]); a world larger than the whole budget is not kept.
+struct Cache {
+    worlds: HashMap<String, (Arc<World>, u64, u64)>,
+    bytes: u64,
+    budget: u64,
+    clock: u64,
+}
+
+impl Cache {
+    fn get(&mut self, id: &str) -> Option<Arc<World>> {
+        self.clock += 1;
+        let e = self.worlds.get_mut(id)?;
+        e.2 = self.clock;
+        Some(e.0.clone())
+    }
+
+    fn insert(&mut self, id: &str, world: Arc<World>) {
+        self.remove(id);
+        let size = world.heap_bytes();
+        if size > self.budget {
+            return;
+        }
+        while self.worlds.len() >= CACHE_SIZE || self.bytes + size > self.budget {
+            let Some(oldest) = self
+                .worlds
+                .iter()
+                .min_by_key(|(_, e)| e.2)
+                .map(|(k, _)| k.clone())
+            else {
+                break;
+            };
+            self.remove(&oldest);
+        }
+        self.clock += 1;
+        self.bytes += size;
+        self.worlds
+            .insert(id.to_string(), (world, size, self.clock));
+    }
+
+    fn remove(&mut self, id: &str) {
+        if let Some((_, size, _)) = self.worlds.remove(id) {
+            self.bytes -= size;
+        }
+    }
+}
 
 /// A scene as uploaded.
 pub enum SceneInput {
@@ -61,7 +108,7 @@ pub struct ObjectInfo {
 pub struct Scenes {
     store: Arc<Store>,
     limits: Limits,
-    cache: Mutex<HashMap<String, Arc<World>>>,
+    cache: Mutex<Cache>,
 }
 
 /// Lowercase hex of bytes (a digest).
@@ -187,12 +234,24 @@ fn gltf_scene(
 }
 
 impl Scenes {
-    pub fn new(store: Arc<Store>, limits: Limits) -> Scenes {
+    /// Scenes in `store`, resolved within `limits`, with at most `cache_bytes` of resolved
+    /// worlds kept in memory.
+    pub fn new(store: Arc<Store>, limits: Limits, cache_bytes: u64) -> Scenes {
         Scenes {
             store,
             limits,
-            cache: Mutex::new(HashMap::new()),
+            cache: Mutex::new(Cache {
+                worlds: HashMap::new(),
+                bytes: 0,
+                budget: cache_bytes,
+                clock: 0,
+            }),
         }
+    }
+
+    /// Bytes of resolved worlds the cache holds.
+    pub fn cache_bytes(&self) -> u64 {
+        self.cache.lock().unwrap_or_else(|e| e.into_inner()).bytes
     }
 
     pub fn limits(&self) -> &Limits {
@@ -241,18 +300,13 @@ impl Scenes {
 
     fn remember(&self, id: &str, world: Arc<World>) {
         let mut c = self.cache.lock().unwrap_or_else(|e| e.into_inner());
-        if c.len() >= CACHE_SIZE
-            && let Some(k) = c.keys().next().cloned()
-        {
-            c.remove(&k);
-        }
-        c.insert(id.to_string(), world);
+        c.insert(id, world);
     }
 
     /// The resolved world of a stored scene.
     pub fn world(&self, id: &str) -> Result<Arc<World>, JobError> {
         if let Some(w) = self.cache.lock().unwrap_or_else(|e| e.into_inner()).get(id) {
-            return Ok(w.clone());
+            return Ok(w);
         }
         let s = self
             .store
@@ -333,4 +387,47 @@ pub fn probe_world() -> Result<World, SceneError> {
         &MapSource::default(),
         &Limits::default(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere(segments: u32) -> SceneInput {
+        let scene = serde_json::json!({
+            "camera": {"eye": [0, 2, 3], "target": [0, 0, 0], "width": 8, "height": 8},
+            "lights": [{"type": "directional", "direction": [0, -1, 0], "irradiance": 1.0}],
+            "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+            "objects": [{"name": "s", "shape": {"type": "sphere", "radius": 0.5,
+                                                 "segments": segments}, "material": "glass"}]
+        });
+        SceneInput::Json {
+            scene: serde_json::to_vec(&scene).unwrap(),
+            files: vec![],
+        }
+    }
+
+    /// The cache of resolved scenes holds to its byte budget: distinct heavy scenes push the
+    /// least recently used out, and a scene larger than the whole budget is not kept.
+    #[test]
+    fn the_scene_cache_is_bounded_by_bytes() {
+        let dir = std::env::temp_dir().join(format!("caustica-scene-cache-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let store = Arc::new(Store::open(&dir).unwrap());
+        let budget = 4 << 20;
+        let scenes = Scenes::new(store, Limits::default(), budget);
+        let mut ids = vec![];
+        for segments in [200, 201, 202, 203, 204, 205] {
+            ids.push(scenes.ingest(sphere(segments), "").unwrap().id);
+            assert!(scenes.cache_bytes() <= budget, "{}", scenes.cache_bytes());
+        }
+        assert!(scenes.cache_bytes() > budget / 2, "the cache is used");
+        // The first was pushed out; it is resolved again from the store when asked for.
+        let w = scenes.world(&ids[0]).unwrap();
+        assert!(w.heap_bytes() > 512 << 10, "{}", w.heap_bytes());
+        let big = scenes.ingest(sphere(800), "").unwrap().id;
+        assert!(scenes.cache_bytes() <= budget);
+        assert!(scenes.world(&big).unwrap().heap_bytes() > budget);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -100,6 +100,11 @@ impl Medium {
     }
 
     /// Whether the medium fills a closed mesh rather than a box.
+    /// Triangles of the closed mesh it fills (0 for a box).
+    pub fn boundary_triangles(&self) -> usize {
+        self.boundary.as_ref().map_or(0, |b| b.0.triangle_count())
+    }
+
     pub fn has_boundary_mesh(&self) -> bool {
         self.boundary.is_some()
     }

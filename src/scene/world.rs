@@ -596,6 +596,34 @@ pub struct World {
 }
 
 impl World {
+    /// About how many bytes the world holds in memory: its meshes (each shared mesh once),
+    /// environment maps and media boundaries — what a cache of worlds counts.
+    pub fn heap_bytes(&self) -> u64 {
+        use std::collections::HashSet;
+        let mut seen = HashSet::new();
+        let mut n = 0u64;
+        for p in self.objects.iter().flat_map(|o| &o.parts) {
+            if seen.insert(Arc::as_ptr(&p.mesh)) {
+                let m = &p.mesh;
+                n += (m.positions.len() * 12 + m.normals.len() * 12 + m.indices.len() * 12) as u64;
+            }
+        }
+        for l in &self.lights {
+            if let Light::Environment { map: Some(m), .. } = l
+                && seen.insert(Arc::as_ptr(m).cast())
+            {
+                n += m.texels.len() as u64 * 12;
+            }
+        }
+        // A medium's boundary is an acceleration structure: ~150 bytes a triangle.
+        n += self
+            .media
+            .iter()
+            .map(|m| m.boundary_triangles() as u64 * 150)
+            .sum::<u64>();
+        n + std::mem::size_of::<World>() as u64
+    }
+
     /// Indices of the objects with a part whose material `pick` accepts (e.g.
     /// [`Material::is_specular`]: the objects that cast caustics).
     pub fn objects_with(&self, pick: impl Fn(&Material) -> bool) -> Vec<usize> {
