@@ -233,9 +233,30 @@ impl From<SceneError> for AppError {
     }
 }
 
+/// Whether `e` says the disk (or the database's file system) is full.
+fn disk_full(e: &StoreError) -> bool {
+    match e {
+        StoreError::Io(io) => io.kind() == std::io::ErrorKind::StorageFull,
+        StoreError::Db(rusqlite::Error::SqliteFailure(f, _)) => {
+            f.code == rusqlite::ErrorCode::DiskFull
+        }
+        StoreError::Pg(p) => p.code() == Some(&::postgres::error::SqlState::DISK_FULL),
+        _ => false,
+    }
+}
+
 impl From<StoreError> for AppError {
     fn from(e: StoreError) -> Self {
         tracing::error!(error = %e, "storage error");
+        if disk_full(&e) {
+            return AppError::new(
+                StatusCode::INSUFFICIENT_STORAGE,
+                "storage-full",
+                "Storage full",
+                format!("the server's storage is full: {e}"),
+            )
+            .retry_after(60);
+        }
         if let StoreError::Unavailable(why) = &e {
             return AppError::new(
                 StatusCode::SERVICE_UNAVAILABLE,
@@ -380,5 +401,25 @@ impl From<SubmitError> for AppError {
             SubmitError::Job(j) => j.into(),
             SubmitError::Store(s) => s.into(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_disk_is_507_with_retry_after() {
+        let io = std::io::Error::from(std::io::ErrorKind::StorageFull);
+        let e = AppError::from(StoreError::Io(io));
+        assert_eq!(e.status, StatusCode::INSUFFICIENT_STORAGE);
+        assert_eq!((e.kind, e.retry_after), ("storage-full", Some(60)));
+        let sqlite = rusqlite::Error::SqliteFailure(
+            rusqlite::ffi::Error::new(rusqlite::ffi::SQLITE_FULL),
+            None,
+        );
+        assert_eq!(AppError::from(StoreError::Db(sqlite)).kind, "storage-full");
+        let other = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        assert_eq!(AppError::from(StoreError::Io(other)).status, 500);
     }
 }

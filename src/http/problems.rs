@@ -245,10 +245,17 @@ pub const PROBLEMS: &[ProblemDoc] = &[
         "Retry after the seconds in Retry-After, against the restarted server.",
     ),
     doc(
+        "storage-full",
+        "Storage full",
+        &[507],
+        "The server's disk (or its database's) is full: nothing new can be stored.",
+        "Retry after the seconds in Retry-After; an operator frees room or deletes old results.",
+    ),
+    doc(
         "store-unavailable",
         "Job store unavailable",
         &[503],
-        "The shared job store (PostgreSQL) cannot be reached: the server tried again for a minute.",
+        "The shared job store (PostgreSQL) cannot be reached: a request waits at most 2 s for it, and while it is known to be down requests are answered at once. /readyz answers this too, until the store is back.",
         "Retry after the seconds in Retry-After; the jobs already accepted are kept.",
     ),
     doc(
@@ -257,6 +264,13 @@ pub const PROBLEMS: &[ProblemDoc] = &[
         &[422],
         "The job alone needs more memory than the server gives all jobs together.",
         "Ask for less (fewer photons, a smaller image or grid).",
+    ),
+    doc(
+        "too-many",
+        "Too many at once",
+        &[429],
+        "Your client (API key, or address on a server without keys) holds as many connections, uploads or event streams at once as one client may; the detail names the limit and its setting.",
+        "Retry after the seconds in Retry-After, once one of yours has ended.",
     ),
     doc(
         "unauthorized",

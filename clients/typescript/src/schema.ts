@@ -136,7 +136,7 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** A GPU adapter was found and rendered a probe frame */
+        /** The job store answers, and a GPU adapter was found and rendered a probe frame */
         get: operations["readyz"];
         put?: never;
         post?: never;
@@ -227,7 +227,11 @@ export interface paths {
          *     new stage or state; at most ten a second). The stream ends with one `done` event whose
          *     data is the whole job (as `GET /v1/bakes/{id}` answers it) once the job is finished,
          *     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-         *     event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+         *     event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+         *     stream lasts at most the server's stream lifetime (300 s by default), then ends
+         *     without `done`; its first event's `retry:` (1 s) tells the client when to connect
+         *     again (an `EventSource` does by itself). One client may follow 16 streams at once
+         *     (then `429`, problem type `too-many`).
          */
         get: operations["bakeEvents"];
         put?: never;
@@ -327,7 +331,11 @@ export interface paths {
          *     new stage or state; at most ten a second). The stream ends with one `done` event whose
          *     data is the whole job (as `GET /v1/renders/{id}` answers it) once the job is finished,
          *     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-         *     event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+         *     event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+         *     stream lasts at most the server's stream lifetime (300 s by default), then ends
+         *     without `done`; its first event's `retry:` (1 s) tells the client when to connect
+         *     again (an `EventSource` does by itself). One client may follow 16 streams at once
+         *     (then `429`, problem type `too-many`).
          */
         get: operations["renderEvents"];
         put?: never;
@@ -985,7 +993,7 @@ export interface components {
             title: string;
             /**
              * Format: uri-reference
-             * @description A reference relative to the server (`/problems/{slug}`) whose page documents the type. The slugs: already-finished, artifact-lost, bad-request, busy, canceled, forbidden, headers-too-large, idempotency-key-reused, internal, invalid-render, invalid-request, invalid-scene, job-timeout, limit-exceeded, malformed-request, method-not-allowed, no-gpu, no-memory, not-acceptable, not-found, not-ready, overloaded, payload-too-large, queue-full, quota, range-not-satisfiable, render-failed, request-timeout, scene-in-use, shutting-down, store-unavailable, too-big, unauthorized, unsupported-media-type, uri-too-long.
+             * @description A reference relative to the server (`/problems/{slug}`) whose page documents the type. The slugs: already-finished, artifact-lost, bad-request, busy, canceled, forbidden, headers-too-large, idempotency-key-reused, internal, invalid-render, invalid-request, invalid-scene, job-timeout, limit-exceeded, malformed-request, method-not-allowed, no-gpu, no-memory, not-acceptable, not-found, not-ready, overloaded, payload-too-large, queue-full, quota, range-not-satisfiable, render-failed, request-timeout, scene-in-use, shutting-down, storage-full, store-unavailable, too-big, too-many, unauthorized, unsupported-media-type, uri-too-long.
              */
             type: string;
         };
@@ -1558,7 +1566,7 @@ export interface components {
         };
     };
     responses: {
-        /** @description Queue full (429), or shutting down / no GPU / busy (503); retry after the given seconds. */
+        /** @description Queue full, quota reached or too many at once for this client (429), or shutting down / no GPU / busy / job store unavailable (503), or storage full (507); retry after the given seconds. */
         Busy: {
             headers: {
                 "Retry-After"?: number;
@@ -1978,6 +1986,7 @@ export interface operations {
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
+            507: components["responses"]["Busy"];
         };
     };
     getBake: {
@@ -2145,6 +2154,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2196,6 +2206,7 @@ export interface operations {
             414: components["responses"]["Problem"];
             415: components["responses"]["Problem"];
             422: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2373,6 +2384,7 @@ export interface operations {
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
             504: components["responses"]["Problem"];
+            507: components["responses"]["Busy"];
         };
     };
     getRender: {
@@ -2464,6 +2476,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2695,9 +2708,11 @@ export interface operations {
             414: components["responses"]["Problem"];
             415: components["responses"]["Problem"];
             422: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
+            507: components["responses"]["Busy"];
         };
     };
     getScene: {

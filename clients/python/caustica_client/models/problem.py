@@ -33,7 +33,7 @@ class Problem:
                 reused, internal, invalid-render, invalid-request, invalid-scene, job-timeout, limit-exceeded, malformed-
                 request, method-not-allowed, no-gpu, no-memory, not-acceptable, not-found, not-ready, overloaded, payload-too-
                 large, queue-full, quota, range-not-satisfiable, render-failed, request-timeout, scene-in-use, shutting-down,
-                store-unavailable, too-big, unauthorized, unsupported-media-type, uri-too-long.
+                storage-full, store-unavailable, too-big, too-many, unauthorized, unsupported-media-type, uri-too-long.
             field (None | str | Unset): The JSON path of the request field at fault, when there is one.
             instance (None | str | Unset):
      """

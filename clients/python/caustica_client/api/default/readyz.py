@@ -96,7 +96,7 @@ def sync_detailed(
     client: AuthenticatedClient | Client,
 
 ) -> Response[Problem | ReadyzResponse200]:
-    """ A GPU adapter was found and rendered a probe frame
+    """ The job store answers, and a GPU adapter was found and rendered a probe frame
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -122,7 +122,7 @@ def sync(
     client: AuthenticatedClient | Client,
 
 ) -> Problem | ReadyzResponse200 | None:
-    """ A GPU adapter was found and rendered a probe frame
+    """ The job store answers, and a GPU adapter was found and rendered a probe frame
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -143,7 +143,7 @@ async def asyncio_detailed(
     client: AuthenticatedClient | Client,
 
 ) -> Response[Problem | ReadyzResponse200]:
-    """ A GPU adapter was found and rendered a probe frame
+    """ The job store answers, and a GPU adapter was found and rendered a probe frame
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -169,7 +169,7 @@ async def asyncio(
     client: AuthenticatedClient | Client,
 
 ) -> Problem | ReadyzResponse200 | None:
-    """ A GPU adapter was found and rendered a probe frame
+    """ The job store answers, and a GPU adapter was found and rendered a probe frame
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.

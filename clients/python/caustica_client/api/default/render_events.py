@@ -66,6 +66,13 @@ def _parse_response(*, client: AuthenticatedClient | Client, response: httpx.Res
 
         return response_414
 
+    if response.status_code == 429:
+        response_429 = Problem.from_dict(response.json())
+
+
+
+        return response_429
+
     if response.status_code == 431:
         response_431 = Problem.from_dict(response.json())
 
@@ -116,7 +123,11 @@ def sync_detailed(
     new stage or state; at most ten a second). The stream ends with one `done` event whose
     data is the whole job (as `GET /v1/renders/{id}` answers it) once the job is finished,
     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-    event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+    event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+    stream lasts at most the server's stream lifetime (300 s by default), then ends
+    without `done`; its first event's `retry:` (1 s) tells the client when to connect
+    again (an `EventSource` does by itself). One client may follow 16 streams at once
+    (then `429`, problem type `too-many`).
 
     Args:
         id (str):
@@ -155,7 +166,11 @@ def sync(
     new stage or state; at most ten a second). The stream ends with one `done` event whose
     data is the whole job (as `GET /v1/renders/{id}` answers it) once the job is finished,
     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-    event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+    event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+    stream lasts at most the server's stream lifetime (300 s by default), then ends
+    without `done`; its first event's `retry:` (1 s) tells the client when to connect
+    again (an `EventSource` does by itself). One client may follow 16 streams at once
+    (then `429`, problem type `too-many`).
 
     Args:
         id (str):
@@ -189,7 +204,11 @@ async def asyncio_detailed(
     new stage or state; at most ten a second). The stream ends with one `done` event whose
     data is the whole job (as `GET /v1/renders/{id}` answers it) once the job is finished,
     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-    event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+    event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+    stream lasts at most the server's stream lifetime (300 s by default), then ends
+    without `done`; its first event's `retry:` (1 s) tells the client when to connect
+    again (an `EventSource` does by itself). One client may follow 16 streams at once
+    (then `429`, problem type `too-many`).
 
     Args:
         id (str):
@@ -228,7 +247,11 @@ async def asyncio(
     new stage or state; at most ten a second). The stream ends with one `done` event whose
     data is the whole job (as `GET /v1/renders/{id}` answers it) once the job is finished,
     or `gone` (`{id}`) when it was deleted meanwhile; a finished job's stream is its `done`
-    event alone. Comment lines keep an idle stream alive; server shutdown ends it.
+    event alone. Comment lines keep an idle stream alive; server shutdown ends it. A
+    stream lasts at most the server's stream lifetime (300 s by default), then ends
+    without `done`; its first event's `retry:` (1 s) tells the client when to connect
+    again (an `EventSource` does by itself). One client may follow 16 streams at once
+    (then `429`, problem type `too-many`).
 
     Args:
         id (str):
