@@ -24,6 +24,7 @@ mod http_bad_input;
 mod http_bakes;
 mod http_concurrency;
 mod http_fairness;
+mod http_hostile;
 mod http_keys;
 mod http_limits;
 mod http_memory;
