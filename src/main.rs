@@ -1155,6 +1155,10 @@ fn worker(
     let shutdown = rt.block_on(async { shutdown_signal() })?;
     let sys = JobSystem::start(jc)
         .with_context(|| format!("starting the worker with {}", data_dir.display()))?;
+    // The bakes a csl render queues hold to their key's quota here as in the API (admin keys,
+    // known from CAUSTICA_API_KEYS(_FILE), have none).
+    let keys = caustica::http::auth::Keys::from_env(None, &env).map_err(anyhow::Error::msg)?;
+    sys.set_quota(caustica::http::auth::quota(&keys, hc.max_jobs_per_key));
     // Tests and scripts read this line to know the worker is up.
     println!("caustica worker {} running", sys.worker_id());
     use std::io::Write;

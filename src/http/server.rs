@@ -305,9 +305,15 @@ pub async fn run(
                 });
             }
             Err(why) => {
-                let slot = match shedding.clone().try_acquire_owned() {
-                    Ok(p) => Some((p, SHED_READ)),
-                    Err(_) => quick
+                // An address over its own cap gets only the quick slots: its reconnects do not
+                // take the slots that answer everyone else's overload.
+                let first = match why {
+                    Shed::Overloaded => shedding.clone().try_acquire_owned().ok(),
+                    Shed::PerClient(_) => None,
+                };
+                let slot = match first {
+                    Some(p) => Some((p, SHED_READ)),
+                    None => quick
                         .clone()
                         .try_acquire_owned()
                         .ok()

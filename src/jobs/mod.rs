@@ -237,7 +237,12 @@ impl JobSystem {
 
     /// Opens the store, re-queues what a previous process left unfinished and starts the
     /// workers.
+    /// Its store calls are a worker's (they wait out a database restart), wherever it runs.
     pub fn start(cfg: JobConfig) -> Result<Arc<JobSystem>, SubmitError> {
+        store::postgres::as_worker(|| Self::start_here(cfg))
+    }
+
+    fn start_here(cfg: JobConfig) -> Result<Arc<JobSystem>, SubmitError> {
         let store = Arc::new(Store::open_with(
             &cfg.data_dir,
             cfg.database.as_deref(),
@@ -690,6 +695,13 @@ impl JobSystem {
         Ok(())
     }
 
+    /// Takes `bytes` of the job memory budget for work a request does itself (a comparison
+    /// of two renders): `NoMemory` when it does not fit beside the jobs', `TooBig` when it
+    /// never would.
+    pub fn hold_request_memory(&self, bytes: u64) -> Result<MemoryHold, SubmitError> {
+        self.hold_memory(bytes, false)
+    }
+
     /// Takes `bytes` of the job memory budget (with `force`, even past it).
     fn hold_memory(&self, bytes: u64, force: bool) -> Result<MemoryHold, SubmitError> {
         let total = self.cfg.job_memory;
@@ -906,6 +918,10 @@ impl JobSystem {
     /// still has the job as running, which the next start re-queues. Returns how many worker
     /// threads were abandoned.
     pub fn shutdown(&self, grace: Duration) -> usize {
+        store::postgres::as_worker(|| self.shutdown_here(grace))
+    }
+
+    fn shutdown_here(&self, grace: Duration) -> usize {
         self.queues.lock().unwrap_or_else(|e| e.into_inner()).closed = true;
         self.wake.notify_all();
         let threads: Vec<_> =
@@ -931,6 +947,9 @@ impl JobSystem {
                      at the next start)"
                 );
             }
+        }
+        if let Err(e) = self.store.flush_uses() {
+            tracing::warn!(error = %e, "the last uses of results were not recorded");
         }
         abandoned
     }
@@ -994,6 +1013,8 @@ impl JobSystem {
         let r = &self.cfg.retention;
         let now = store::now_ms();
         let mut deleted = 0;
+        // The uses served since the last sweep, before the eviction by last use reads them.
+        self.store.flush_uses()?;
         for (kind, ttl) in [(JobKind::Render, r.render_ttl), (JobKind::Bake, r.bake_ttl)] {
             let Some(ttl) = ttl else { continue };
             for id in self

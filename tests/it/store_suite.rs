@@ -221,7 +221,8 @@ fn records(s: &Store) {
         ["rn_1"]
     );
     assert!(s.finished_before(JobKind::Render, 0).unwrap().is_empty());
-    s.touch("rn_1").unwrap();
+    s.touch(&[("rn_1".to_string(), caustica::jobs::store::now_ms())])
+        .unwrap();
 
     // A lost artifact fails the job once, for the reader that saw that artifact.
     assert!(!s.fail_lost("rn_1", Some("00"), "lost").unwrap());

@@ -375,8 +375,8 @@ pub trait JobDb: Send + Sync {
     fn unheld_scenes(&self, before_ms: i64) -> Result<Vec<String>, StoreError>;
     /// Drops `owner`'s hold on `id`; how many holds remain.
     fn release(&self, what: Held, id: &str, owner: &str) -> Result<usize, StoreError>;
-    /// Notes that job `id`'s result was just served.
-    fn touch(&self, id: &str) -> Result<(), StoreError>;
+    /// Records when each job's result was last served (`(id, ms)`; a later time stands).
+    fn touch(&self, uses: &[(String, i64)]) -> Result<(), StoreError>;
     /// Deletes a finished job's record, its holds and the idempotency keys that name it;
     /// `Some(artifact file name, if any)` when it did, `None` when the job is not finished (or
     /// not there). [`Store::delete_job`] removes the file after.
@@ -421,7 +421,7 @@ pub struct Store {
     pub warnings: Vec<String>,
     /// Artifacts whose hash was checked in this process, by name: the file as it was then.
     verified: std::sync::Mutex<HashMap<String, FileSeen>>,
-    /// When each job's last use was last written ([`Store::used`]), ms.
+    /// When each job's result was last served, not yet written ([`Store::used`]), ms.
     used_at: std::sync::Mutex<HashMap<String, i64>>,
 }
 
@@ -453,8 +453,8 @@ impl FileSeen {
 
 /// Most artifacts [`Store`] remembers as checked (then it forgets them all and checks again).
 const MAX_VERIFIED: usize = 100_000;
-/// A job's last use is written at most once in this long ([`Store::used`]).
-const USE_EVERY_MS: i64 = 60_000;
+/// Most uses [`Store::used`] keeps before it writes them.
+const MAX_USES: usize = 10_000;
 
 impl std::ops::Deref for Store {
     type Target = dyn JobDb;
@@ -512,21 +512,28 @@ impl Store {
         })
     }
 
-    /// Notes that job `id`'s result was served: written ([`JobDb::touch`]) at most once a
-    /// minute per job, so that serving is not a database write per request.
+    /// Notes that job `id`'s result was served: kept in memory and written with the others
+    /// by [`Store::flush_uses`] (the retention sweep, shutdown), or once [`MAX_USES`] jobs
+    /// wait, so that serving is not a database write per request.
     pub fn used(&self, id: &str) -> Result<(), StoreError> {
-        let now = now_ms();
-        {
+        let full = {
             let mut m = self.used_at.lock().unwrap_or_else(|e| e.into_inner());
-            if m.get(id).is_some_and(|&t| now - t < USE_EVERY_MS) {
-                return Ok(());
-            }
-            if m.len() >= MAX_VERIFIED {
-                m.clear();
-            }
-            m.insert(id.to_string(), now);
+            m.insert(id.to_string(), now_ms());
+            m.len() >= MAX_USES
+        };
+        if full { self.flush_uses() } else { Ok(()) }
+    }
+
+    /// Writes the uses [`Store::used`] kept ([`JobDb::touch`], one transaction).
+    pub fn flush_uses(&self) -> Result<(), StoreError> {
+        let uses: Vec<(String, i64)> =
+            std::mem::take(&mut *self.used_at.lock().unwrap_or_else(|e| e.into_inner()))
+                .into_iter()
+                .collect();
+        if uses.is_empty() {
+            return Ok(());
         }
-        self.db.touch(id)
+        self.db.touch(&uses)
     }
 
     /// The bucket the artifacts are kept in, if any.

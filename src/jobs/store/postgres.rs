@@ -49,6 +49,9 @@ pub const API_WAIT: Duration = Duration::from_secs(2);
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(2);
 /// While the database is down, how often an HTTP request's call may try it.
 const PROBE_EVERY: Duration = Duration::from_secs(1);
+/// Longest an HTTP request waits for the answer of a call a connection has taken (a
+/// statement behind a lock, a connection that stopped answering); the call itself goes on.
+const API_ANSWER: Duration = Duration::from_secs(20);
 
 /// Whether the database was reachable at the last call: set down by a lost connection, up by
 /// any call that succeeds.
@@ -83,9 +86,23 @@ impl Health {
     }
 }
 
+thread_local! {
+    /// Set while [`as_worker`] runs: this thread's calls wait as a worker's do.
+    static WORKER: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with this thread's store calls made as a worker's (retried for
+/// [`RECONNECT_FOR`]), even on the async runtime: starting and stopping the job system.
+pub fn as_worker<T>(f: impl FnOnce() -> T) -> T {
+    let before = WORKER.with(|w| w.replace(true));
+    let r = f();
+    WORKER.with(|w| w.set(before));
+    r
+}
+
 /// Whether the caller is the async runtime (an HTTP request) rather than a worker's thread.
 fn for_a_request() -> bool {
-    tokio::runtime::Handle::try_current().is_ok()
+    !WORKER.with(|w| w.get()) && tokio::runtime::Handle::try_current().is_ok()
 }
 
 /// Waits in `block_in_place` when on a worker thread of a multi-threaded runtime (its other
@@ -418,6 +435,10 @@ impl PgDb {
                     Ok(r) => return Some(r),
                     Err(mpsc::RecvTimeoutError::Disconnected) => return None,
                     Err(mpsc::RecvTimeoutError::Timeout) => {
+                        // An HTTP request stops waiting for a taken call after API_ANSWER.
+                        if api && Instant::now() >= deadline + API_ANSWER {
+                            return None;
+                        }
                         // Still queued past the deadline: give it up (a connection that takes
                         // it now skips it); taken: wait for its answer.
                         if Instant::now() >= deadline
@@ -446,6 +467,12 @@ impl PgDb {
                 Err(StoreError::Unavailable(format!(
                     "no database connection was free within {} s",
                     API_WAIT.as_secs()
+                )))
+            }
+            None if api && state.load(Ordering::SeqCst) == TAKEN => {
+                Err(StoreError::Unavailable(format!(
+                    "the database did not answer within {} s",
+                    (API_WAIT + API_ANSWER).as_secs()
                 )))
             }
             None => Err(StoreError::Unavailable(
@@ -1034,9 +1061,12 @@ impl JobDb for PgDb {
                 "SELECT pg_advisory_xact_lock(72432, hashtext($1))",
                 &[&owner],
             )?;
+            // As the SQLite back-end: a hold of a finished job counts as a new submission.
             let held = tx
                 .query_opt(
-                    "SELECT 1 FROM holds WHERE kind = 'job' AND id = $1 AND owner = $2",
+                    "SELECT 1 FROM holds h LEFT JOIN jobs j ON j.id = h.id
+                     WHERE h.kind = 'job' AND h.id = $1 AND h.owner = $2
+                       AND (j.id IS NULL OR j.state IN ('queued', 'running'))",
                     &[&id, &owner],
                 )?
                 .is_some();
@@ -1144,14 +1174,18 @@ impl JobDb for PgDb {
         })
     }
 
-    fn touch(&self, id: &str) -> Result<(), StoreError> {
-        let id = id.to_string();
+    fn touch(&self, uses: &[(String, i64)]) -> Result<(), StoreError> {
+        let uses = uses.to_vec();
         self.run(move |c| {
-            c.execute(
-                "UPDATE jobs SET accessed_at = $2 WHERE id = $1",
-                &[&id, &now_ms()],
-            )?;
-            Ok(())
+            let mut tx = c.transaction()?;
+            for (id, at) in &uses {
+                tx.execute(
+                    "UPDATE jobs SET accessed_at = GREATEST(COALESCE(accessed_at, 0), $2)
+                     WHERE id = $1",
+                    &[id, at],
+                )?;
+            }
+            tx.commit()
         })
     }
 
@@ -1274,7 +1308,8 @@ impl JobDb for PgDb {
         job_id: &str,
     ) -> Result<(), StoreError> {
         self.write_idempotency(
-            "ON CONFLICT (key) DO UPDATE SET request_hash = $2, job_id = $3",
+            "ON CONFLICT (key) DO UPDATE SET request_hash = $2, job_id = $3, \
+             created_at = EXCLUDED.created_at",
             key,
             request_hash,
             job_id,

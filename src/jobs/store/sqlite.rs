@@ -174,8 +174,9 @@ impl SqliteDb {
     }
 
     /// The connection; when another call holds it, waited for outside the async runtime
-    /// ([`super::postgres::wait_outside_runtime`]), so that a long statement does not stall
-    /// the requests that do not need the database.
+    /// ([`super::postgres::wait_outside_runtime`]), so that requests queued behind a
+    /// statement do not stall the runtime's other tasks. The statement itself runs where it
+    /// is called (indexed: milliseconds at a million rows, see `benches/store.rs`).
     fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
         match self.conn.try_lock() {
             Ok(g) => g,
@@ -652,9 +653,13 @@ impl JobDb for SqliteDb {
     ) -> Result<Result<(), usize>, StoreError> {
         let mut c = self.conn();
         let tx = c.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+        // Held and queued, running or being submitted: counted already. Held but finished
+        // (a failed bake asked for again runs again): a new job, counted like one.
         let held = tx
             .query_row(
-                "SELECT 1 FROM holds WHERE kind = 'job' AND id = ?1 AND owner = ?2",
+                "SELECT 1 FROM holds h LEFT JOIN jobs j ON j.id = h.id
+                 WHERE h.kind = 'job' AND h.id = ?1 AND h.owner = ?2
+                   AND (j.id IS NULL OR j.state IN ('queued', 'running'))",
                 params![id, owner],
                 |_| Ok(()),
             )
@@ -674,7 +679,8 @@ impl JobDb for SqliteDb {
                 return Ok(Err(n as usize));
             }
             tx.execute(
-                "INSERT INTO holds (kind, id, owner, created_at) VALUES ('job', ?1, ?2, ?3)",
+                "INSERT OR IGNORE INTO holds (kind, id, owner, created_at)
+                 VALUES ('job', ?1, ?2, ?3)",
                 params![id, owner, now],
             )?;
         }
@@ -741,11 +747,16 @@ impl JobDb for SqliteDb {
         Ok(n as usize)
     }
 
-    fn touch(&self, id: &str) -> Result<(), StoreError> {
-        self.conn().execute(
-            "UPDATE jobs SET accessed_at = ?2 WHERE id = ?1",
-            params![id, now_ms()],
-        )?;
+    fn touch(&self, uses: &[(String, i64)]) -> Result<(), StoreError> {
+        let mut c = self.conn();
+        let tx = c.transaction()?;
+        for (id, at) in uses {
+            tx.execute(
+                "UPDATE jobs SET accessed_at = MAX(COALESCE(accessed_at, 0), ?2) WHERE id = ?1",
+                params![id, at],
+            )?;
+        }
+        tx.commit()?;
         Ok(())
     }
 
