@@ -253,7 +253,7 @@ export interface paths {
         put?: never;
         /**
          * Two finished EXR renders compared, as `caustica compare` does
-         * @description The relative L1 (Σ|a−b| / Σ|b| after a 3×3 blur of both) and the flux ratio (Σa / Σb) of render `a` against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format: exr` and be of one size (422 naming `a` or `b`).
+         * @description The relative L1 (Σ|a−b| / Σ|b| after a 3×3 blur of both) and the flux ratio (Σa / Σb) of render `a` against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format: exr` and be of one size (422 naming `a` or `b`). The comparison holds both images in memory (~160 B a pixel each) against the server's job memory: `503` no-memory with `Retry-After` when that does not fit beside the jobs', `422` too-big when it exceeds the whole budget.
          */
         post: operations["compare"];
         delete?: never;

@@ -7,7 +7,7 @@ use super::{blocking, json_body, principal};
 use crate::frame::Frame;
 use crate::http::{AppError, AppState};
 use crate::jobs::store::JobRecord;
-use crate::jobs::{JobKind, JobState};
+use crate::jobs::{JobKind, JobState, SubmitError};
 use crate::reference::compare;
 use axum::Json;
 use axum::extract::{Request, State};
@@ -49,6 +49,15 @@ fn exr_frame(st: &AppState, r: &JobRecord, field: &str) -> Result<Frame, AppErro
         .map_err(|e| AppError::internal(format!("render {}: {e}", r.id)))
 }
 
+/// Bytes a comparison holds for render `r`: its file, and its decoded frame with the
+/// decoder's and the blur's working copies (~160 B a pixel, from the size the render
+/// recorded; else eight times the file).
+fn compare_memory(r: &JobRecord) -> u64 {
+    let file = r.artifact_len.unwrap_or(0);
+    let px = r.info["width"].as_u64().zip(r.info["height"].as_u64());
+    file + px.map_or(file * 8, |(w, h)| w * h * 160)
+}
+
 pub async fn post_compare(
     State(st): State<AppState>,
     req: Request,
@@ -64,7 +73,26 @@ pub async fn post_compare(
             return Err(not_finished(JobKind::Render, &r.id, r.state));
         }
     }
+    // Both files and both decoded frames are held at once: counted against the job memory
+    // budget, so that parallel comparisons of large renders wait their turn (503) instead of
+    // taking memory the jobs were promised.
+    let held = st
+        .jobs
+        .hold_request_memory(compare_memory(&ra) + compare_memory(&rb))
+        .map_err(|e| match e {
+            SubmitError::TooBig { need, total } => AppError::new(
+                axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+                "too-big",
+                "Job too big",
+                format!(
+                    "comparing these renders holds about {need} MiB, more than the {total} MiB \
+                     this server gives jobs: compare smaller renders"
+                ),
+            ),
+            e => e.into(),
+        })?;
     blocking(move || {
+        let _held = held;
         let (fa, fb) = (exr_frame(&st, &ra, "a")?, exr_frame(&st, &rb, "b")?);
         if (fa.width, fa.height) != (fb.width, fb.height) {
             return Err(AppError::invalid(

@@ -22,8 +22,18 @@ use std::time::Instant;
 
 static RENDER_SEQ: AtomicU64 = AtomicU64::new(0);
 
-/// Held while a render with an `Idempotency-Key` is looked up and submitted.
-static IDEMPOTENT_RENDERS: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+/// Held while a render with an `Idempotency-Key` is looked up and submitted: one lock of 64,
+/// by the key's hash, so that two requests with one key make one render while other keys'
+/// submissions (almost always under another lock) do not wait for them.
+static IDEMPOTENT_RENDERS: [tokio::sync::Mutex<()>; 64] =
+    [const { tokio::sync::Mutex::const_new(()) }; 64];
+
+/// The lock of idempotency key `k` among [`IDEMPOTENT_RENDERS`].
+fn idempotency_lock(k: &str) -> &'static tokio::sync::Mutex<()> {
+    let h = sha256_hex(k.as_bytes());
+    let i = usize::from_str_radix(&h[..4], 16).unwrap_or(0) % IDEMPOTENT_RENDERS.len();
+    &IDEMPOTENT_RENDERS[i]
+}
 
 fn render_id() -> String {
     use std::hash::{BuildHasher, Hasher};
@@ -84,7 +94,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
     // submitted under one lock so that two such requests at once make one render.
     let hash = sha256_hex(&serde_json::to_vec(&spec).expect("spec serialises"));
     let _one_at_a_time = match &key {
-        Some(_) => Some(IDEMPOTENT_RENDERS.lock().await),
+        Some(k) => Some(idempotency_lock(k).lock().await),
         None => None,
     };
     let replay = match &key {

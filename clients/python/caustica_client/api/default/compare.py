@@ -160,7 +160,9 @@ def sync_detailed(
     against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through
     render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera
     CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format:
-    exr` and be of one size (422 naming `a` or `b`).
+    exr` and be of one size (422 naming `a` or `b`). The comparison holds both images in memory (~160 B
+    a pixel each) against the server's job memory: `503` no-memory with `Retry-After` when that does not
+    fit beside the jobs', `422` too-big when it exceeds the whole budget.
 
     Args:
         body (CompareBody):
@@ -197,7 +199,9 @@ def sync(
     against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through
     render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera
     CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format:
-    exr` and be of one size (422 naming `a` or `b`).
+    exr` and be of one size (422 naming `a` or `b`). The comparison holds both images in memory (~160 B
+    a pixel each) against the server's job memory: `503` no-memory with `Retry-After` when that does not
+    fit beside the jobs', `422` too-big when it exceeds the whole budget.
 
     Args:
         body (CompareBody):
@@ -229,7 +233,9 @@ async def asyncio_detailed(
     against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through
     render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera
     CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format:
-    exr` and be of one size (422 naming `a` or `b`).
+    exr` and be of one size (422 naming `a` or `b`). The comparison holds both images in memory (~160 B
+    a pixel each) against the server's job memory: `503` no-memory with `Retry-After` when that does not
+    fit beside the jobs', `422` too-big when it exceeds the whole budget.
 
     Args:
         body (CompareBody):
@@ -266,7 +272,9 @@ async def asyncio(
     against render `b` (the reference), over the pixels whose 3×3 neighbourhood sees `object` through
     render a's camera: the figures `caustica compare a.exr b.exr --scene SCENE --object OBJECT --camera
     CAMERA` prints for the same images. Both renders must have succeeded (409 otherwise) with `format:
-    exr` and be of one size (422 naming `a` or `b`).
+    exr` and be of one size (422 naming `a` or `b`). The comparison holds both images in memory (~160 B
+    a pixel each) against the server's job memory: `503` no-memory with `Retry-After` when that does not
+    fit beside the jobs', `422` too-big when it exceeds the whole budget.
 
     Args:
         body (CompareBody):
