@@ -1,9 +1,11 @@
-//! Hostile-client figures against a running `caustica serve` (the hardening issue's "done
-//! when"): `/healthz` latency under a slow-connection flood, small-render latency under a bake
-//! flood, and the server's resident memory around hostile JSON bodies.
+//! Hostile-client figures against a running `caustica serve` (the hardening and hostile-load
+//! issues' "done when"): `/healthz` latency under a slow-connection flood, small-render latency
+//! under a bake flood, the server's resident memory around hostile JSON bodies; then one
+//! client against another (the attacker connects from 127.0.0.2, so a keyless loopback server
+//! sees two clients): slow uploads, a flood of event streams, heavy scenes for the cache.
 //!
 //! cargo run --release --example hostile -- --url http://127.0.0.1:8080 [--pid PID]
-//!     [--slow 200] [--idle 2000] [--bakes 64] [--renders 50]
+//!     [--slow 200] [--idle 2000] [--bakes 64] [--renders 50] [--only clients]
 //! `--pid` (the server's process id, same machine) adds its resident memory (VmRSS, VmHWM).
 //! Bounded: every phase stops after its requests; nothing here waits on a timer to
 //! synchronise (the pauses pace the attack).
@@ -61,6 +63,10 @@ async fn main() {
     let scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
     if !pid.is_empty() {
         println!("idle server: {}", memory(&pid));
+    }
+    if arg("--only", "") == "clients" {
+        one_client_against_another(&base, &pid).await;
+        return;
     }
 
     // 1. Hostile JSON: a million lights (53 MB) and, under the JSON limit, 120 000.
@@ -196,4 +202,174 @@ async fn main() {
     if !pid.is_empty() {
         println!("after: {}", memory(&pid));
     }
+    one_client_against_another(&base, &pid).await;
+}
+
+/// A connection from 127.0.0.2: another client than the victim's 127.0.0.1.
+async fn attacker(addr: &str) -> std::io::Result<TcpStream> {
+    let sock = tokio::net::TcpSocket::new_v4()?;
+    sock.bind("127.0.0.2:0".parse().unwrap())?;
+    sock.connect(addr.parse().map_err(std::io::Error::other)?)
+        .await
+}
+
+/// The victim's requests for `span`, one every 50 ms: latencies and statuses.
+async fn victim(
+    c: &reqwest::Client,
+    base: &str,
+    post: bool,
+    span: Duration,
+) -> (Vec<Duration>, std::collections::BTreeMap<u16, usize>) {
+    let mut lat = Vec::new();
+    let mut statuses = std::collections::BTreeMap::new();
+    let t = Instant::now();
+    while t.elapsed() < span {
+        let h = Instant::now();
+        let r = if post {
+            c.post(format!("{base}/v1/scenes"))
+                .header("content-type", "application/json")
+                .body(SCENE)
+                .send()
+                .await
+        } else {
+            c.get(format!("{base}/v1/renders")).send().await
+        };
+        lat.push(h.elapsed());
+        *statuses
+            .entry(r.map(|r| r.status().as_u16()).unwrap_or(0))
+            .or_insert(0) += 1;
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    (lat, statuses)
+}
+
+/// Whether the server answered on `s` within `wait`, and the status it gave.
+async fn answered(s: &mut TcpStream, wait: Duration) -> Option<String> {
+    use tokio::io::AsyncReadExt;
+    let mut b = [0u8; 64];
+    match tokio::time::timeout(wait, s.read(&mut b)).await {
+        Ok(Ok(n)) if n > 12 => Some(String::from_utf8_lossy(&b[9..12]).into_owned()),
+        _ => None,
+    }
+}
+
+async fn one_client_against_another(base: &str, pid: &str) {
+    let addr = base.trim_start_matches("http://").to_string();
+    let c = reqwest::Client::builder()
+        .timeout(Duration::from_secs(120))
+        .build()
+        .unwrap();
+    let span = Duration::from_secs(10);
+
+    // 4. Eight uploads declaring 64 MiB each, a byte a second.
+    let (lat, st) = victim(&c, base, true, span).await;
+    println!(
+        "victim's scene POSTs, baseline: {} {st:?}",
+        percentiles(lat)
+    );
+    let mut slow = Vec::new();
+    for _ in 0..8 {
+        if let Ok(mut s) = attacker(&addr).await {
+            let _ = s
+                .write_all(
+                    b"POST /v1/scenes HTTP/1.1\r\nHost: x\r\nContent-Type: model/gltf-binary\r\n\
+                      Content-Length: 67108864\r\n\r\ng",
+                )
+                .await;
+            slow.push(s);
+        }
+    }
+    let drip = {
+        let t = Instant::now();
+        async move {
+            let mut refused = 0;
+            let mut i = 0;
+            while t.elapsed() < span {
+                for s in slow.iter_mut() {
+                    let _ = s.write_all(b"l").await;
+                }
+                tokio::time::sleep(Duration::from_secs(1)).await;
+                i += 1;
+            }
+            for s in slow.iter_mut() {
+                if answered(s, Duration::from_millis(100)).await.as_deref() == Some("429") {
+                    refused += 1;
+                }
+            }
+            (refused, i)
+        }
+    };
+    let ((lat, st), (refused, _)) = tokio::join!(victim(&c, base, true, span), drip);
+    println!(
+        "victim's scene POSTs under 8 slow 64 MiB uploads: {} {st:?}; attacker: {refused} of 8 \
+         refused 429",
+        percentiles(lat)
+    );
+
+    // 5. A flood of event streams on one long bake.
+    let r = c
+        .post(format!("{base}/v1/bakes"))
+        .json(
+            &serde_json::json!({"scene": serde_json::from_str::<serde_json::Value>(SCENE).unwrap(),
+            "object": "glass", "method": "reference",
+            "params": {"photons": 1000, "spp": 1024, "width": 1024, "height": 1024, "seed": 99}}),
+        )
+        .send()
+        .await
+        .unwrap();
+    let loc = r.headers()["location"].to_str().unwrap().to_string();
+    let (lat, st) = victim(&c, base, false, span).await;
+    println!("victim's GETs, baseline: {} {st:?}", percentiles(lat));
+    let mut streams = Vec::new();
+    for _ in 0..1100 {
+        if let Ok(mut s) = attacker(&addr).await {
+            let req = format!("GET {loc}/events HTTP/1.1\r\nHost: x\r\n\r\n");
+            let _ = s.write_all(req.as_bytes()).await;
+            streams.push(s);
+        }
+    }
+    let mut by_status = std::collections::BTreeMap::<String, usize>::new();
+    for s in streams.iter_mut() {
+        let st = answered(s, Duration::from_millis(200))
+            .await
+            .unwrap_or_else(|| "none".into());
+        *by_status.entry(st).or_insert(0) += 1;
+    }
+    let (lat, st) = victim(&c, base, false, span).await;
+    println!(
+        "victim's GETs under {} event streams of the attacker (answers: {by_status:?}): {} {st:?}",
+        streams.len(),
+        percentiles(lat)
+    );
+    drop(streams);
+    let _ = c.delete(format!("{base}{loc}")).send().await;
+
+    // 6. Heavy scenes for the cache: 40 spheres of 2000 segments (587 bytes each).
+    let before = (!pid.is_empty()).then(|| memory(pid));
+    let mut statuses = std::collections::BTreeMap::<u16, usize>::new();
+    for i in 0..40 {
+        let scene = serde_json::json!({
+            "camera": {"eye": [0, 2, 3], "target": [0, 0, 0], "width": 8, "height": 8},
+            "lights": [{"type": "directional", "direction": [0, -1, 0], "irradiance": 1.0}],
+            "materials": {"glass": {"type": "dielectric", "ior": 1.5}},
+            "objects": [{"name": "s", "shape": {"type": "sphere", "radius": 0.5 + i as f64 * 1e-3,
+                                                 "segments": 2000}, "material": "glass"}]
+        });
+        let r = c
+            .post(format!("{base}/v1/scenes"))
+            .json(&scene)
+            .send()
+            .await
+            .unwrap();
+        *statuses.entry(r.status().as_u16()).or_insert(0) += 1;
+    }
+    println!(
+        "40 scenes of 2000-segment spheres: {statuses:?}; before: {}; after: {}",
+        before.unwrap_or_default(),
+        if pid.is_empty() {
+            String::new()
+        } else {
+            memory(pid)
+        }
+    );
 }
