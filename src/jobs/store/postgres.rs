@@ -203,7 +203,7 @@ const MIGRATIONS: &[&str] = &[
 "#,
     r#"
     ALTER TABLE holds ADD COLUMN created_at BIGINT NOT NULL DEFAULT 0;
-    CREATE INDEX holds_owner ON holds(owner, kind);
+    CREATE INDEX holds_owner ON holds(owner, kind, created_at, id);
     CREATE INDEX jobs_kind_seq ON jobs(kind, seq);
     CREATE INDEX jobs_kind_state_seq ON jobs(kind, state, seq);
     CREATE INDEX jobs_scene_state ON jobs(scene_id, state);

@@ -91,7 +91,7 @@ const MIGRATIONS: &[&str] = &[
     // record was made (quotas count holds whose job is being submitted; records expire).
     r#"
     ALTER TABLE holds ADD COLUMN created_at INTEGER NOT NULL DEFAULT 0;
-    CREATE INDEX holds_owner ON holds(owner, kind);
+    CREATE INDEX holds_owner ON holds(owner, kind, created_at, id);
     CREATE INDEX jobs_seq ON jobs(seq);
     CREATE INDEX jobs_kind_seq ON jobs(kind, seq);
     CREATE INDEX jobs_kind_state_seq ON jobs(kind, state, seq);
@@ -305,15 +305,15 @@ impl JobDb for SqliteDb {
     fn list_jobs(&self, f: &JobFilter) -> Result<Vec<(i64, JobRecord)>, StoreError> {
         // Only the conditions asked for, so that the planner walks an index: a key's holds
         // (holds_owner) for a key's list, jobs by (kind, state, seq) otherwise.
+        // A key's page is chosen from its holds by (id, seq) alone; only the page's rows are
+        // read whole.
         let mut args: Vec<Box<dyn rusqlite::ToSql>> = vec![Box::new(f.kind.as_str())];
         let mut sql = match &f.owner {
             Some(o) => {
                 args.push(Box::new(o.clone()));
-                format!(
-                    "SELECT {}, j.seq FROM holds h CROSS JOIN jobs j ON j.id = h.id
-                     WHERE j.kind = ?1 AND h.kind = 'job' AND h.owner = ?2",
-                    qualified("j")
-                )
+                "SELECT j.id FROM holds h INDEXED BY holds_owner CROSS JOIN jobs j ON j.id = h.id
+                 WHERE j.kind = ?1 AND h.kind = 'job' AND h.owner = ?2"
+                    .to_string()
             }
             None => format!(
                 "SELECT {}, j.seq FROM jobs j WHERE j.kind = ?1",
@@ -338,6 +338,12 @@ impl JobDb for SqliteDb {
         }
         args.push(Box::new(f.limit as i64));
         sql.push_str(&format!(" ORDER BY j.seq DESC LIMIT ?{}", args.len()));
+        if f.owner.is_some() {
+            sql = format!(
+                "SELECT {}, j.seq FROM jobs j WHERE j.id IN ({sql}) ORDER BY j.seq DESC",
+                qualified("j")
+            );
+        }
         let c = self.conn();
         let mut st = c.prepare(&sql)?;
         let rows = st.query_map(rusqlite::params_from_iter(args.iter()), |r| {
@@ -667,11 +673,16 @@ impl JobDb for SqliteDb {
             .is_some();
         if !held {
             let now = now_ms();
+            // The jobs queued or running anywhere (a few hundred at most: the queues are
+            // capped) held by the key, and the key's recent holds whose job is being
+            // submitted: neither reads the key's finished jobs.
             let n: i64 = tx.query_row(
-                "SELECT COUNT(*) FROM holds h LEFT JOIN jobs j ON j.id = h.id
-                 WHERE h.owner = ?1 AND h.kind = 'job'
-                   AND (j.state IN ('queued', 'running')
-                        OR (j.id IS NULL AND h.created_at > ?2))",
+                "SELECT (SELECT COUNT(*) FROM jobs j CROSS JOIN holds h
+                         ON h.kind = 'job' AND h.id = j.id AND h.owner = ?1
+                         WHERE j.state IN ('queued', 'running'))
+                      + (SELECT COUNT(*) FROM holds h
+                         WHERE h.owner = ?1 AND h.kind = 'job' AND h.created_at > ?2
+                           AND NOT EXISTS (SELECT 1 FROM jobs j WHERE j.id = h.id))",
                 params![owner, now - super::SUBMITTING_MS],
                 |r| r.get(0),
             )?;
