@@ -66,6 +66,41 @@ pub struct JobFilter {
     pub limit: usize,
 }
 
+/// A value a [`JobFilter`] condition compares with.
+pub(super) enum FilterArg {
+    Text(String),
+    Int(i64),
+}
+
+impl JobFilter {
+    /// The optional conditions (state, method, time, cursor) that are set, as a column with
+    /// its operator and the value: what both back-ends add to their lists' `WHERE`.
+    pub(super) fn conditions(&self) -> Vec<(&'static str, FilterArg)> {
+        let text = |s: &str| FilterArg::Text(s.to_string());
+        [
+            self.state.map(|s| ("state =", text(s.as_str()))),
+            self.method.map(|m| ("method =", text(m.name()))),
+            self.created_since
+                .map(|t| ("created_at >=", FilterArg::Int(t))),
+            self.before_seq.map(|b| ("seq <", FilterArg::Int(b))),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+}
+
+/// Waits in `block_in_place` when on a worker thread of a multi-threaded runtime (its other
+/// tasks move on), directly otherwise.
+pub(super) fn wait_outside_runtime<T>(f: impl FnOnce() -> T) -> T {
+    match tokio::runtime::Handle::try_current() {
+        Ok(h) if h.runtime_flavor() == tokio::runtime::RuntimeFlavor::MultiThread => {
+            tokio::task::block_in_place(f)
+        }
+        _ => f(),
+    }
+}
+
 /// What a hold is on: a scene or a job.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Held {

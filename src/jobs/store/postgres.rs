@@ -1,6 +1,10 @@
 //! The PostgreSQL back-end of [`JobDb`], shared by API and worker processes
 //! (`--database postgres://…`).
 //!
+//! One file over 1,000 lines: the schema and one short SQL statement for each of the
+//! interface's methods, beside the connection pool they all go through; its seam, should it
+//! grow further, is the pool (`Conn`, `Health`, `PgDb::call`) into a module of its own.
+//!
 //! The synchronous `postgres` client must not run inside an async runtime, and the store's
 //! callers include the HTTP handlers; so each connection lives on a thread of its own (a small
 //! pool, [`POOL`] threads) and a call is a closure sent to whichever is free, its answer sent
@@ -27,6 +31,7 @@
 //! client's connection follows the first ([`JobDb::listen`]).
 
 use super::sqlite::{fair_order, lane_str, lost_message, parse_lane, parse_priority};
+use super::{FilterArg, wait_outside_runtime};
 use super::{
     Held, JobDb, JobFilter, JobRecord, MAX_ATTEMPTS, Reaped, StoreError, StoreEvent,
     StoredArtifact, StoredScene, now_ms,
@@ -103,17 +108,6 @@ pub fn as_worker<T>(f: impl FnOnce() -> T) -> T {
 /// Whether the caller is the async runtime (an HTTP request) rather than a worker's thread.
 fn for_a_request() -> bool {
     !WORKER.with(|w| w.get()) && tokio::runtime::Handle::try_current().is_ok()
-}
-
-/// Waits in `block_in_place` when on a worker thread of a multi-threaded runtime (its other
-/// tasks move on), directly otherwise.
-pub(super) fn wait_outside_runtime<T>(f: impl FnOnce() -> T) -> T {
-    match tokio::runtime::Handle::try_current() {
-        Ok(h) if h.runtime_flavor() == tokio::runtime::RuntimeFlavor::MultiThread => {
-            tokio::task::block_in_place(f)
-        }
-        _ => f(),
-    }
 }
 
 /// A queued call's state: queued, taken by a connection, or given up by its caller.
@@ -676,21 +670,12 @@ impl JobDb for PgDb {
                     super::sqlite::qualified("j")
                 ),
             };
-            let mut cond = |c: &str, v: Box<dyn ToSql + Sync>| {
-                args.push(v);
+            for (c, v) in f.conditions() {
+                args.push(match v {
+                    FilterArg::Text(t) => Box::new(t),
+                    FilterArg::Int(i) => Box::new(i),
+                });
                 sql.push_str(&format!(" AND j.{c} ${}", args.len()));
-            };
-            if let Some(s) = f.state {
-                cond("state =", Box::new(s.as_str()));
-            }
-            if let Some(m) = f.method {
-                cond("method =", Box::new(m.name()));
-            }
-            if let Some(t) = f.created_since {
-                cond("created_at >=", Box::new(t));
-            }
-            if let Some(b) = f.before_seq {
-                cond("seq <", Box::new(b));
             }
             args.push(Box::new(f.limit as i64));
             sql.push_str(&format!(" ORDER BY j.seq DESC LIMIT ${}", args.len()));

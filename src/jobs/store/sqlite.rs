@@ -174,7 +174,7 @@ impl SqliteDb {
     }
 
     /// The connection; when another call holds it, waited for outside the async runtime
-    /// ([`super::postgres::wait_outside_runtime`]), so that requests queued behind a
+    /// ([`super::wait_outside_runtime`]), so that requests queued behind a
     /// statement do not stall the runtime's other tasks. The statement itself runs where it
     /// is called (indexed: milliseconds at a million rows, see `benches/store.rs`).
     fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
@@ -182,9 +182,7 @@ impl SqliteDb {
             Ok(g) => g,
             Err(std::sync::TryLockError::Poisoned(e)) => e.into_inner(),
             Err(std::sync::TryLockError::WouldBlock) => {
-                super::postgres::wait_outside_runtime(|| {
-                    self.conn.lock().unwrap_or_else(|e| e.into_inner())
-                })
+                super::wait_outside_runtime(|| self.conn.lock().unwrap_or_else(|e| e.into_inner()))
             }
         }
     }
@@ -320,21 +318,12 @@ impl JobDb for SqliteDb {
                 qualified("j")
             ),
         };
-        let mut cond = |c: &str, v: Box<dyn rusqlite::ToSql>| {
-            args.push(v);
+        for (c, v) in f.conditions() {
+            args.push(match v {
+                super::FilterArg::Text(t) => Box::new(t),
+                super::FilterArg::Int(i) => Box::new(i),
+            });
             sql.push_str(&format!(" AND j.{c} ?{}", args.len()));
-        };
-        if let Some(s) = f.state {
-            cond("state =", Box::new(s.as_str()));
-        }
-        if let Some(m) = f.method {
-            cond("method =", Box::new(m.name()));
-        }
-        if let Some(t) = f.created_since {
-            cond("created_at >=", Box::new(t));
-        }
-        if let Some(b) = f.before_seq {
-            cond("seq <", Box::new(b));
         }
         args.push(Box::new(f.limit as i64));
         sql.push_str(&format!(" ORDER BY j.seq DESC LIMIT ?{}", args.len()));
