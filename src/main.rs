@@ -238,7 +238,8 @@ enum Cmd {
         #[arg(long)]
         api_keys: Option<PathBuf>,
         /// JSON logs (also CAUSTICA_LOG_FORMAT=json). Limits and timeouts come from the
-        /// environment (docs/service.md): CAUSTICA_CPU_WORKERS, CAUSTICA_MAX_QUEUED,
+        /// environment (docs/service.md): CAUSTICA_CPU_WORKERS, CAUSTICA_GPU_WORKERS,
+        /// CAUSTICA_GPU_JOBS_PER_KEY, CAUSTICA_BAKE_AFTER_S, CAUSTICA_MAX_QUEUED,
         /// CAUSTICA_MAX_QUEUED_BAKES, CAUSTICA_MAX_PHOTONS, CAUSTICA_MAX_SPP,
         /// CAUSTICA_BAKE_TIMEOUT_S, CAUSTICA_RENDER_TIMEOUT_S, CAUSTICA_MAX_IMAGE_SIDE,
         /// CAUSTICA_MAX_TRIANGLES, CAUSTICA_MAX_BODY, CAUSTICA_MAX_JSON_BODY,

@@ -2,7 +2,7 @@
 //! scopes instead of panics, device-loss detection and recreation, and texture readback with
 //! the 256-byte row padding wgpu requires.
 //!
-//! One [`GpuContext`] is meant to be shared behind an `Arc` by the GPU worker; the device it
+//! One [`GpuContext`] is meant to be shared behind an `Arc` by the GPU workers; the device it
 //! holds can be replaced (after a loss) without the owner noticing, except through
 //! [`GpuContext::generation`], which tells caches (pipelines, textures) to rebuild.
 

@@ -10,6 +10,13 @@ pub struct JobConfig {
     /// Threads taking CPU jobs (each job may use rayon's pool inside). With more than one,
     /// the first is kept for renders.
     pub cpu_workers: usize,
+    /// Threads taking GPU jobs, each with a renderer of its own on the one device (besides
+    /// one that takes only small renders).
+    pub gpu_workers: usize,
+    /// Most GPU jobs one key runs at once (small renders aside); its next waits meanwhile.
+    pub gpu_jobs_per_key: usize,
+    /// A bake that has waited this long goes ahead of renders on the workers that take bakes.
+    pub bake_after: Duration,
     /// Most renders waiting; past it render submissions are refused (429).
     pub max_queued: usize,
     /// Most bakes waiting; past it bake submissions are refused (429). Counted apart from
@@ -53,6 +60,9 @@ impl JobConfig {
             cpu_workers: std::thread::available_parallelism()
                 .map(|n| n.get())
                 .unwrap_or(2),
+            gpu_workers: 2,
+            gpu_jobs_per_key: 1,
+            bake_after: Duration::from_secs(30),
             max_queued: 256,
             max_queued_bakes: 64,
             caps: RequestCaps::default(),
@@ -77,9 +87,16 @@ impl JobConfig {
 }
 
 impl JobConfig {
+    /// How long a progressive render (`photons`, `reference`) traces at most: half the render
+    /// timeout, the rest left to its last frame, the self-check and storing the image.
+    pub fn render_budget(&self) -> Duration {
+        self.render_timeout / 2
+    }
+
     /// Overrides from the environment (`get` looks a variable up; `caustica serve` passes
     /// `std::env::var`): `CAUSTICA_CPU_WORKERS`, `CAUSTICA_MAX_QUEUED`,
     /// `CAUSTICA_MAX_QUEUED_BAKES`, `CAUSTICA_MAX_PHOTONS`, `CAUSTICA_MAX_SPP`,
+    /// `CAUSTICA_GPU_WORKERS`, `CAUSTICA_GPU_JOBS_PER_KEY`, `CAUSTICA_BAKE_AFTER_S`,
     /// `CAUSTICA_RENDER_TTL_S`, `CAUSTICA_BAKE_TTL_S`, `CAUSTICA_MAX_RENDER_BYTES` (0: keep),
     /// `CAUSTICA_IDEMPOTENCY_TTL_S`,
     /// `CAUSTICA_JOB_MEMORY`, `CAUSTICA_SCENE_CACHE_BYTES` (bytes),
@@ -92,6 +109,15 @@ impl JobConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_CPU_WORKERS", 1.0, 1024.0, true)? {
             self.cpu_workers = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_GPU_WORKERS", 1.0, 64.0, true)? {
+            self.gpu_workers = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_GPU_JOBS_PER_KEY", 1.0, 1024.0, true)? {
+            self.gpu_jobs_per_key = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_BAKE_AFTER_S", 0.0, 1e7, false)? {
+            self.bake_after = Duration::from_secs_f64(v);
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_QUEUED", 1.0, 1e6, true)? {
             self.max_queued = v as usize;

@@ -244,11 +244,14 @@ impl JobSpec {
     }
 }
 
-/// Builds the job for a spec.
+/// Builds the job for a spec. A render's progressive methods (`photons`, `reference`) trace for
+/// at most `budget` (the request may ask for less), so that they return their frame within the
+/// server's render timeout rather than fail at it.
 pub fn build_job(
     spec: &JobSpec,
     world: Arc<World>,
     limits: &Limits,
+    budget: Duration,
 ) -> Result<Box<dyn Job>, JobError> {
     Ok(match spec.kind {
         JobKind::Bake => Box::new(super::bake::BakeJob::new(
@@ -263,6 +266,7 @@ pub fn build_job(
             spec.method,
             &spec.params,
             limits,
+            budget,
         )?),
     })
 }

@@ -1,6 +1,6 @@
-//! Jobs: a bounded priority queue, a CPU pool for bakes and reference renders, one GPU worker
-//! owning the [`Renderer`](crate::render::Renderer), progress, cancellation, timeouts and
-//! persistence.
+//! Jobs: a bounded priority queue, a CPU pool for bakes and reference renders, GPU workers each
+//! owning a [`Renderer`](crate::render::Renderer) on one shared device, progress, cancellation,
+//! timeouts and persistence.
 //!
 //! - [`job`]: what a job is ([`Job`], [`JobKind`], [`JobState`], [`JobSpec`], [`JobError`] and
 //!   its [`ErrorCode`]); the two job types, [`render::RenderJob`] and [`bake::BakeJob`], are
@@ -27,11 +27,11 @@ pub use config::{JobConfig, RequestCaps, Retention, env_num};
 pub use job::{
     Artifact, ErrorCode, Job, JobError, JobKind, JobSpec, JobState, Priority, build_job,
 };
-pub use worker::{GpuSlot, JobCtx};
+pub use worker::{GpuDevice, GpuSlot, JobCtx};
 
 use crate::methods::ArtifactStore;
 use metrics::Metrics;
-use queue::{Queued, Queues};
+use queue::{Queued, Queues, Take};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
@@ -200,9 +200,11 @@ pub struct JobSystem {
     abort: AtomicBool,
     readiness: Mutex<Readiness>,
     threads: Mutex<Vec<std::thread::JoinHandle<()>>>,
-    /// The one renderer. The GPU worker takes its jobs; a CPU job that ends on the GPU (a `csl`
-    /// render: bake on the CPU pool, then one frame) borrows it through the same lock, so the
-    /// device is never used by two threads at once and a long bake never holds it.
+    /// The device the GPU workers share, each with a renderer of its own.
+    device: Arc<GpuDevice>,
+    /// The first GPU worker's renderer; a CPU job that ends on the GPU (a `csl` render: bake on
+    /// the CPU pool, then one frame) borrows it through the same lock, so a long bake never
+    /// holds a renderer.
     gpu: Arc<Mutex<GpuSlot>>,
     /// Bytes of [`JobConfig::job_memory`] that queued and running jobs hold.
     memory: Arc<Mutex<u64>>,
@@ -260,6 +262,7 @@ impl JobSystem {
             Some(b) => ArtifactStore::new(cfg.data_dir.join("bakes")).with_remote(b),
             None => ArtifactStore::new(cfg.data_dir.join("bakes")),
         };
+        let device = Arc::new(GpuDevice::default());
         let sys = Arc::new(JobSystem {
             scenes: scenes::Scenes::new(store.clone(), cfg.limits.clone(), cfg.scene_cache_bytes),
             store,
@@ -278,7 +281,8 @@ impl JobSystem {
                 }
             }),
             threads: Mutex::new(Vec::new()),
-            gpu: Arc::new(Mutex::new(GpuSlot::default())),
+            gpu: Arc::new(Mutex::new(GpuSlot::on(device.clone()))),
+            device,
             memory: Arc::new(Mutex::new(0)),
             worker_id,
             shared,
@@ -298,7 +302,7 @@ impl JobSystem {
             let r = sys
                 .scenes
                 .world(&rec.scene_id)
-                .and_then(|w| build_job(&spec, w, &sys.cfg.limits));
+                .and_then(|w| build_job(&spec, w, &sys.cfg.limits, sys.cfg.render_budget()));
             match r {
                 Ok(job) => {
                     sys.store
@@ -340,8 +344,14 @@ impl JobSystem {
             0
         };
         // With more than one CPU worker, the first takes only renders, so that a render never
-        // waits behind long bakes; one more takes only small renders, so that a preview never
-        // waits behind big renders either (it shares the cores for its short run).
+        // waits behind long bakes, and one more takes only bakes, so that a bake never waits
+        // behind renders either; one more takes only small renders, so that a preview never
+        // waits behind big renders (it shares the cores for its short run). The others take
+        // a bake that waited past `bake_after` before renders.
+        let cpu = |up_to| Take {
+            bake_after: (up_to == Priority::Bake).then_some(sys.cfg.bake_after),
+            ..Take::by_priority(Lane::Cpu, up_to)
+        };
         let roles = (0..n)
             .map(|i| {
                 let up_to = if n > 1 && i == 0 {
@@ -349,17 +359,24 @@ impl JobSystem {
                 } else {
                     Priority::Bake
                 };
-                (format!("caustica-cpu-{i}"), up_to)
+                (format!("caustica-cpu-{i}"), cpu(up_to))
             })
-            .chain(cpu_lane.then(|| ("caustica-cpu-small".to_string(), Priority::Small)));
-        for (name, up_to) in roles {
+            .chain(cpu_lane.then(|| ("caustica-cpu-small".to_string(), cpu(Priority::Small))))
+            .chain((n > 1).then(|| {
+                let bakes = Take {
+                    from: Priority::Bake,
+                    ..cpu(Priority::Bake)
+                };
+                ("caustica-cpu-bake".to_string(), bakes)
+            }));
+        for (name, take) in roles {
             let s = sys.clone();
             threads.push(
                 std::thread::Builder::new()
                     .name(name)
                     .spawn(move || {
                         let gpu = s.gpu.clone();
-                        s.worker(Lane::Cpu, Some(&gpu), up_to)
+                        s.worker(take, Some(&gpu))
                     })
                     .expect("spawn worker"),
             );
@@ -372,19 +389,36 @@ impl JobSystem {
                 .expect("spawn janitor"),
         );
         if gpu_lane {
-            let s = sys.clone();
-            threads.push(
-                std::thread::Builder::new()
-                    .name("caustica-gpu".into())
-                    .spawn(move || {
-                        let slot = s.gpu.clone();
-                        if s.cfg.probe_gpu {
-                            s.probe(&slot);
-                        }
-                        s.worker(Lane::Gpu, Some(&slot), Priority::Bake);
-                    })
-                    .expect("spawn GPU worker"),
-            );
+            // Several GPU workers, each with a renderer of its own on the one device, a key
+            // running at most `gpu_jobs_per_key` of their jobs at once: one key's long render
+            // leaves the other workers to the other keys (the GPU interleaves their work). One
+            // more takes only small renders.
+            let gpu = |up_to| Take {
+                per_key: Some(sys.cfg.gpu_jobs_per_key),
+                bake_after: (up_to == Priority::Bake).then_some(sys.cfg.bake_after),
+                ..Take::by_priority(Lane::Gpu, up_to)
+            };
+            let roles = (0..sys.cfg.gpu_workers.max(1))
+                .map(|i| (format!("caustica-gpu-{i}"), gpu(Priority::Bake)))
+                .chain([("caustica-gpu-small".to_string(), gpu(Priority::Small))]);
+            for (i, (name, take)) in roles.enumerate() {
+                let s = sys.clone();
+                threads.push(
+                    std::thread::Builder::new()
+                        .name(name)
+                        .spawn(move || {
+                            let slot = match i {
+                                0 => s.gpu.clone(),
+                                _ => Arc::new(Mutex::new(GpuSlot::on(s.device.clone()))),
+                            };
+                            if i == 0 && s.cfg.probe_gpu {
+                                s.probe(&slot);
+                            }
+                            s.worker(take, Some(&slot));
+                        })
+                        .expect("spawn GPU worker"),
+                );
+            }
         } else {
             *sys.readiness.lock().unwrap_or_else(|e| e.into_inner()) = Readiness::NoGpuLane;
         }
@@ -658,7 +692,7 @@ impl JobSystem {
             }
         }
         let world = self.scenes.world(&spec.scene_id)?;
-        let job = build_job(spec, world, &self.cfg.limits)?;
+        let job = build_job(spec, world, &self.cfg.limits, self.cfg.render_budget())?;
         if spec.kind == JobKind::Render {
             self.cfg.caps.check(&spec.params).map_err(JobError::from)?;
         }
@@ -746,6 +780,7 @@ impl JobSystem {
             job,
             memory,
             claimed: None,
+            counted: false,
         };
         self.queues
             .lock()
@@ -810,20 +845,20 @@ impl JobSystem {
         h.state.send_replace(state);
     }
 
-    /// The next job of `lane` (highest priority, then oldest) of priority at most `up_to`.
-    /// Waits for one; None once the queues are closed.
-    fn next(&self, lane: Lane, up_to: Priority) -> Option<Queued> {
+    /// The next job by `take` ([`Queues::take`]), or claimed from a shared store (by lane and
+    /// priority alone). Waits for one; None once the queues are closed.
+    fn next(&self, take: &Take) -> Option<Queued> {
         let mut qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
         loop {
             if qs.closed {
                 return None;
             }
-            if let Some(q) = qs.pop(lane, up_to) {
+            if let Some(q) = qs.take(take) {
                 return Some(q);
             }
             if self.shared {
                 drop(qs);
-                if let Some(q) = self.claim(lane, up_to) {
+                if let Some(q) = self.claim(take.lane, take.up_to) {
                     return Some(q);
                 }
                 qs = self.queues.lock().unwrap_or_else(|e| e.into_inner());
@@ -860,10 +895,9 @@ impl JobSystem {
                     return None;
                 }
             };
-            let built = self
-                .scenes
-                .world(&rec.scene_id)
-                .and_then(|w| build_job(&rec.spec(), w, &self.cfg.limits));
+            let built = self.scenes.world(&rec.scene_id).and_then(|w| {
+                build_job(&rec.spec(), w, &self.cfg.limits, self.cfg.render_budget())
+            });
             let job = match built {
                 Ok(j) => j,
                 Err(e) => {
@@ -907,6 +941,7 @@ impl JobSystem {
                 claimed: Some(Duration::from_millis(
                     (rec.started_at.unwrap_or(rec.created_at) - rec.created_at).max(0) as u64,
                 )),
+                counted: false,
             });
         }
     }

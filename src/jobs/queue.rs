@@ -8,6 +8,12 @@
 //! tag in that class, and the lowest tag runs first (oldest first among equal tags). So a key
 //! that queues a hundred renders gets every other start, not the next hundred, once a second
 //! key queues one; a key alone is served oldest first as before.
+//!
+//! A worker takes by a [`Take`]: a range of priorities (the small workers only small renders,
+//! the bake worker only bakes), a
+//! cap on the jobs one key runs at once in the lane (the GPU lane: one, so that one key's long
+//! render leaves the other GPU workers to the other keys), and an age past which a waiting bake
+//! goes ahead of renders (so bakes are not starved by a steady flow of renders).
 //! The [`super::JobSystem`] holds them behind a mutex and wakes workers with a condvar.
 
 use super::JobHandle;
@@ -15,6 +21,35 @@ use super::job::{Job, JobKind, Priority};
 use crate::methods::Lane;
 use std::collections::{BinaryHeap, HashMap};
 use std::sync::Arc;
+use std::time::Duration;
+
+/// What a worker takes from the queues.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Take {
+    pub lane: Lane,
+    /// Jobs of priority at least this (`Priority::Small`: any) …
+    pub from: Priority,
+    /// … and at most this (`Priority::Bake`: any).
+    pub up_to: Priority,
+    /// A key runs at most this many jobs of the lane at once, small renders aside; its next
+    /// one waits, even with a worker free, while they run.
+    pub per_key: Option<usize>,
+    /// A bake that has waited this long goes ahead of renders.
+    pub bake_after: Option<Duration>,
+}
+
+impl Take {
+    /// Any job of `lane` up to `up_to`, by priority alone.
+    pub fn by_priority(lane: Lane, up_to: Priority) -> Take {
+        Take {
+            lane,
+            from: Priority::Small,
+            up_to,
+            per_key: None,
+            bake_after: None,
+        }
+    }
+}
 
 /// A queued job waiting for a worker.
 pub(crate) struct Queued {
@@ -32,6 +67,9 @@ pub(crate) struct Queued {
     /// Claimed from a shared store (already running under this process's lease): how long
     /// it waited there, from its record (submission to claim, by the two processes' clocks).
     pub claimed: Option<std::time::Duration>,
+    /// Taken under a per-key cap: counted among its key's running jobs until
+    /// [`Queues::finished`].
+    pub counted: bool,
 }
 
 impl PartialEq for Queued {
@@ -60,6 +98,8 @@ pub(crate) struct Queues {
     vtime: HashMap<(Lane, Priority), u64>,
     /// Per (key, lane, priority): the tag of the key's last job queued there.
     last: HashMap<(String, Lane, Priority), u64>,
+    /// Per (key, lane): its running jobs taken under a per-key cap.
+    running: HashMap<(String, Lane), usize>,
     /// No more jobs are taken; workers exit when they see it.
     pub closed: bool,
 }
@@ -106,20 +146,71 @@ impl Queues {
 
     /// The next job of `lane` (highest priority, then lowest tag, then oldest) whose priority
     /// is at most `up_to` (`Priority::Bake`: any job).
+    #[cfg(test)]
     pub fn pop(&mut self, lane: Lane, up_to: Priority) -> Option<Queued> {
-        let heap = self.lane(lane);
-        let take = heap.peek().is_some_and(|q| q.priority <= up_to);
-        let q = if take { heap.pop()? } else { return None };
-        let v = self.vtime.entry((lane, q.priority)).or_insert(0);
+        self.take(&Take::by_priority(lane, up_to))
+    }
+
+    /// The next job by `t`: of its lane and priorities, its key under the cap, a bake waiting
+    /// past `bake_after` first, then highest priority, lowest tag, oldest. Scans the lane
+    /// (bounded by the queue caps, a few hundred jobs).
+    pub fn take(&mut self, t: &Take) -> Option<Queued> {
+        let heap = match t.lane {
+            Lane::Cpu => &mut self.cpu,
+            Lane::Gpu => &mut self.gpu,
+        };
+        if heap.is_empty() {
+            return None;
+        }
+        let running = &self.running;
+        let capped = |q: &Queued| {
+            t.per_key.is_some_and(|cap| {
+                q.priority != Priority::Small
+                    && running
+                        .get(&(q.owner.clone(), t.lane))
+                        .is_some_and(|n| *n >= cap)
+            })
+        };
+        let aged = |q: &Queued| {
+            q.priority == Priority::Bake
+                && t.bake_after
+                    .is_some_and(|d| q.handle.enqueued.elapsed() >= d)
+        };
+        let mut items = std::mem::take(heap).into_vec();
+        let best = items
+            .iter()
+            .enumerate()
+            .filter(|(_, q)| (t.from..=t.up_to).contains(&q.priority) && !capped(q))
+            .min_by_key(|(_, q)| (!aged(q), q.priority, q.tag, q.seq))
+            .map(|(i, _)| i);
+        let q = best.map(|i| items.swap_remove(i));
+        *heap = BinaryHeap::from(items);
+        let mut q = q?;
+        if t.per_key.is_some() && q.priority != Priority::Small {
+            *self.running.entry((q.owner.clone(), t.lane)).or_insert(0) += 1;
+            q.counted = true;
+        }
+        let v = self.vtime.entry((t.lane, q.priority)).or_insert(0);
         *v = (*v).max(q.tag);
         // Keys whose last tag the class has passed start afresh there: forget them, so that
         // the map holds only keys with jobs at or ahead of the class's time.
-        let (vt, p) = (*v, q.priority);
+        let (vt, p, lane) = (*v, q.priority, t.lane);
         if self.last.len() > 64 {
             self.last
                 .retain(|(_, l, pr), t| (*l, *pr) != (lane, p) || *t > vt);
         }
         Some(q)
+    }
+
+    /// A job taken under a per-key cap ([`Queued::counted`]) of `owner` in `lane` ended.
+    pub fn finished(&mut self, owner: &str, lane: Lane) {
+        let k = (owner.to_string(), lane);
+        if let Some(n) = self.running.get_mut(&k) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                self.running.remove(&k);
+            }
+        }
     }
 
     /// Drops the job `id`; whether it was queued. Its key's last tag in its class goes back to
@@ -198,6 +289,7 @@ mod tests {
             job: Box::new(Stub(Lane::Cpu, priority)),
             handle: JobHandle::new(id.into()),
             claimed: None,
+            counted: false,
             memory: MemoryHold {
                 bytes: 0,
                 pool: Arc::new(Mutex::new(0)),
@@ -266,5 +358,67 @@ mod tests {
         q.push(job("f", "f1", Priority::Render, seq.next().unwrap()));
         q.push(job("e", "e5", Priority::Render, seq.next().unwrap()));
         assert_eq!(drain(&mut q), ["f0", "e5", "f1"]);
+    }
+
+    #[test]
+    fn a_key_runs_at_most_its_cap_and_a_bake_that_waited_goes_first() {
+        let mut q = Queues::default();
+        let t = Take {
+            per_key: Some(1),
+            ..Take::by_priority(Lane::Cpu, Priority::Bake)
+        };
+        let mut seq = 0..;
+        for (o, i, p) in [
+            ("a", "a0", Priority::Render),
+            ("a", "a1", Priority::Render),
+            ("a", "a-small", Priority::Small),
+            ("b", "b0", Priority::Render),
+        ] {
+            q.push(job(o, i, p, seq.next().unwrap()));
+        }
+        let take = |q: &mut Queues| q.take(&t).map(|j| (j.handle.id.clone(), j.counted));
+        // A small render is not counted against its key's cap.
+        assert_eq!(take(&mut q), Some(("a-small".into(), false)));
+        assert_eq!(take(&mut q), Some(("a0".into(), true)));
+        // a runs a0: its a1 waits and b's job goes ahead of it, then nothing can start.
+        assert_eq!(take(&mut q), Some(("b0".into(), true)));
+        assert_eq!(take(&mut q), None);
+        assert_eq!(q.len(), 1, "a1 is still queued");
+        q.finished("a", Lane::Cpu);
+        assert_eq!(take(&mut q), Some(("a1".into(), true)));
+        // Without a cap a key's jobs are not counted.
+        q.push(job("a", "a2", Priority::Render, seq.next().unwrap()));
+        let a2 = q.pop(Lane::Cpu, Priority::Bake).unwrap();
+        assert_eq!((a2.handle.id.as_str(), a2.counted), ("a2", false));
+
+        // A bake goes after renders, unless it waited past `bake_after`.
+        q.push(job("c", "bake", Priority::Bake, seq.next().unwrap()));
+        q.push(job("c", "render", Priority::Render, seq.next().unwrap()));
+        let aged = Take {
+            bake_after: Some(Duration::ZERO),
+            ..Take::by_priority(Lane::Cpu, Priority::Bake)
+        };
+        assert_eq!(q.take(&aged).unwrap().handle.id, "bake");
+        q.push(job("c", "bake2", Priority::Bake, seq.next().unwrap()));
+        let patient = Take {
+            bake_after: Some(Duration::from_secs(3600)),
+            ..aged
+        };
+        assert_eq!(q.take(&patient).unwrap().handle.id, "render");
+        // A worker that takes renders only never takes a bake, however long it waited; one
+        // that takes bakes only, no render.
+        let renders = Take {
+            up_to: Priority::Render,
+            ..aged
+        };
+        assert!(q.take(&renders).is_none());
+        q.push(job("c", "render2", Priority::Render, seq.next().unwrap()));
+        let bakes = Take {
+            from: Priority::Bake,
+            ..patient
+        };
+        assert_eq!(q.take(&bakes).unwrap().handle.id, "bake2");
+        assert!(q.take(&bakes).is_none());
+        assert_eq!(q.take(&renders).unwrap().handle.id, "render2");
     }
 }

@@ -12,7 +12,7 @@ use crate::scene::types::{CameraDesc, LightDesc};
 use crate::scene::{Limits, MapSource, World};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema,
@@ -284,7 +284,7 @@ pub fn apply_overrides(
 /// Most pixels (over all frames) of a small render ([`Job::small`]), and most camera samples of
 /// a small `reference` render.
 pub const SMALL_PIXELS: u64 = 1 << 20;
-/// Most photons of a small `reference` render.
+/// Most photons of a small `reference` or `photons` render.
 pub const SMALL_PHOTONS: u64 = 4_000_000;
 
 pub struct RenderJob {
@@ -298,12 +298,14 @@ pub struct RenderJob {
 }
 
 impl RenderJob {
-    /// Checks the parameters, applies the camera and light overrides and plans the frames.
+    /// Checks the parameters, applies the camera and light overrides and plans the frames; a
+    /// progressive method traces for at most `budget` ([`super::job::build_job`]).
     pub fn new(
         world: Arc<World>,
         method: Method,
         v: &serde_json::Value,
         limits: &Limits,
+        budget: Duration,
     ) -> Result<Self, JobError> {
         let p: RenderParams = from_value(v, "")?;
         if !p.exposure.is_finite() || p.exposure.abs() > 64.0 {
@@ -337,7 +339,11 @@ impl RenderJob {
                 ParamError::new("format", "a sequence is an animated PNG: format png").into(),
             );
         }
-        let plan = method.imp().plan(&world, &p.method_args())?;
+        let args = MethodArgs {
+            time_budget: Some(budget.as_secs_f64()),
+            ..p.method_args()
+        };
+        let plan = method.imp().plan(&world, &args)?;
         Ok(RenderJob {
             world,
             requested: method,
@@ -406,7 +412,8 @@ impl Job for RenderJob {
     }
 
     /// Small: at most [`SMALL_PIXELS`] pixels over all frames, and for `reference` at most
-    /// [`SMALL_PHOTONS`] photons and [`SMALL_PIXELS`] camera samples; a GPU method's frame. The
+    /// [`SMALL_PHOTONS`] photons and [`SMALL_PIXELS`] camera samples; a GPU method's frame, for
+    /// `photons` (frames of photons until a count) at most [`SMALL_PHOTONS`] photons. The
     /// baked methods are not small: their frame may have to bake first.
     fn small(&self) -> bool {
         let c = &self.world.camera;
@@ -421,6 +428,13 @@ impl Job for RenderJob {
                 let photons = self.p.photons.unwrap_or(d.photons);
                 let spp = self.p.spp.unwrap_or(d.spp) as u64;
                 photons <= SMALL_PHOTONS && pixels * spp <= SMALL_PIXELS
+            }
+            Method::Photons => {
+                let photons = self
+                    .p
+                    .photons
+                    .unwrap_or(crate::methods::photons::DEFAULT_PHOTONS);
+                photons <= SMALL_PHOTONS
             }
             m => m.info().lane == Lane::Gpu,
         }

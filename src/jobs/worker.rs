@@ -2,8 +2,8 @@
 //! sees ([`JobCtx`]: progress, cancellation, its deadline, the GPU, the artifact store), and
 //! how a job's end is recorded.
 
-use super::job::{Artifact, ErrorCode, JobError, JobKind, JobState, Priority};
-use super::queue::Queued;
+use super::job::{Artifact, ErrorCode, JobError, JobKind, JobState};
+use super::queue::{Queued, Take};
 use super::{JobHandle, JobSystem, Readiness, panic_message, scenes};
 use crate::methods::{Env, Gpu, Lane, MethodError};
 use crate::render::Renderer;
@@ -12,23 +12,54 @@ use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// The GPU worker's device: created on first use; its error is kept when there is none.
+/// The device the GPU workers share: created on first use; its error is kept when there is
+/// none. wgpu's device and queue take work from several threads (error scopes are per thread).
 #[derive(Default)]
+pub struct GpuDevice(Mutex<Option<Result<Arc<crate::gpu::GpuContext>, String>>>);
+
+impl GpuDevice {
+    fn get(&self) -> Result<Arc<crate::gpu::GpuContext>, String> {
+        let mut d = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        d.get_or_insert_with(|| {
+            catch_unwind(|| {
+                let cfg = crate::gpu::GpuConfig::from_env();
+                crate::gpu::GpuContext::new(&cfg)
+                    .map(Arc::new)
+                    .map_err(|e| e.to_string())
+            })
+            .unwrap_or_else(|p| Err(panic_message(p)))
+        })
+        .clone()
+    }
+}
+
+/// A GPU worker's renderer (its pipelines and caches) on the shared device: created on first
+/// use; its error is kept when there is none.
 pub struct GpuSlot {
+    device: Arc<GpuDevice>,
     renderer: Option<Renderer>,
     error: Option<String>,
 }
 
 impl GpuSlot {
+    /// A slot whose renderer will be made on `device`.
+    pub fn on(device: Arc<GpuDevice>) -> GpuSlot {
+        GpuSlot {
+            device,
+            renderer: None,
+            error: None,
+        }
+    }
+
     /// The renderer, or why there is none.
     fn get(&mut self) -> Result<&mut Renderer, String> {
         if self.renderer.is_none() && self.error.is_none() {
-            let made = catch_unwind(|| -> Result<Renderer, String> {
-                let cfg = crate::gpu::GpuConfig::from_env();
-                let ctx = crate::gpu::GpuContext::new(&cfg).map_err(|e| e.to_string())?;
-                Renderer::new(Arc::new(ctx)).map_err(|e| e.to_string())
-            })
-            .unwrap_or_else(|p| Err(panic_message(p)));
+            let made = self.device.get().and_then(|ctx| {
+                catch_unwind(AssertUnwindSafe(|| {
+                    Renderer::new(ctx).map_err(|e| e.to_string())
+                }))
+                .unwrap_or_else(|p| Err(panic_message(p)))
+            });
             match made {
                 Ok(r) => self.renderer = Some(r),
                 Err(e) => {
@@ -205,18 +236,18 @@ impl Gpu for JobCtx<'_> {
 }
 
 impl JobSystem {
-    /// Takes jobs of `lane` of priority at most `up_to` until the queues close.
+    /// Takes jobs by `take` until the queues close.
     /// Each CPU worker runs its jobs in a thread pool of its own (as many threads as cores),
     /// so that jobs on different workers share the cores through the operating system's
     /// scheduler: in one shared pool, a render's parallel loop waits until a bake's loop has
     /// left a thread idle, which for a bake's camera pass (one loop over the whole image) is
     /// the whole pass (a 64×48 render waited 25 s behind a 256² × 1024-sample bake).
-    pub(super) fn worker(&self, lane: Lane, gpu: Option<&Mutex<GpuSlot>>, up_to: Priority) {
+    pub(super) fn worker(&self, take: Take, gpu: Option<&Mutex<GpuSlot>>) {
         let name = std::thread::current()
             .name()
             .unwrap_or("caustica-cpu")
             .to_string();
-        let own_pool = (lane == Lane::Cpu)
+        let own_pool = (take.lane == Lane::Cpu)
             .then(|| {
                 rayon::ThreadPoolBuilder::new()
                     .thread_name(move |i| format!("{name}-{i}"))
@@ -225,10 +256,19 @@ impl JobSystem {
                     .ok()
             })
             .flatten();
-        while let Some(q) = self.next(lane, up_to) {
+        while let Some(q) = self.next(&take) {
+            let counted = q.counted.then(|| q.owner.clone());
             match &own_pool {
                 Some(pool) => pool.install(|| self.run_one(q, gpu)),
                 None => self.run_one(q, gpu),
+            }
+            if let Some(owner) = counted {
+                // Its key may start its next job now, on any worker of the lane.
+                self.queues
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .finished(&owner, take.lane);
+                self.wake.notify_all();
             }
         }
     }

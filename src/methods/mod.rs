@@ -164,7 +164,7 @@ pub enum Lane {
     /// The CPU pool (bakes, reference renders, a baked method's preparation before it borrows
     /// the GPU for its frame).
     Cpu,
-    /// The single GPU worker.
+    /// The GPU workers (one device).
     Gpu,
 }
 

@@ -85,7 +85,8 @@ impl ProgressiveArgs {
 }
 
 /// The parameters of a request: `photons` in all (frames of `photons_per_frame`), its seed,
-/// its time budget (`progressive.time_budget_ms`, or the CLI's `--time-budget` seconds).
+/// its time budget (the least of `progressive.time_budget_ms` and `time_budget`: the CLI's
+/// `--time-budget` seconds, or the server's budget for a job).
 pub fn params(args: &MethodArgs) -> Result<PhotonsParams, ParamError> {
     let p = match &args.progressive {
         Some(v) => ProgressiveArgs::parse(v, "progressive")?,
@@ -107,10 +108,14 @@ pub fn params(args: &MethodArgs) -> Result<PhotonsParams, ParamError> {
     Ok(PhotonsParams {
         photons: per_frame,
         frames: frames as u32,
-        time_budget: p
-            .time_budget_ms
-            .map(Duration::from_millis)
-            .or(args.time_budget.map(Duration::from_secs_f64)),
+        // The request's budget, within the server's (a job's `time_budget`).
+        time_budget: [
+            p.time_budget_ms.map(Duration::from_millis),
+            args.time_budget.map(Duration::from_secs_f64),
+        ]
+        .into_iter()
+        .flatten()
+        .min(),
         error_target: p.error_target,
         footprint: p.footprint.unwrap_or(d.footprint),
         seed: args.seed.unwrap_or(d.seed),
@@ -242,5 +247,23 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(params(&too_many).unwrap_err().field, "photons");
+    }
+
+    #[test]
+    fn the_time_budget_is_the_least_of_the_requests_and_the_servers() {
+        let budget = |ms: Option<u64>, server: Option<f64>| {
+            let args = MethodArgs {
+                time_budget: server,
+                progressive: ms.map(|ms| json!({ "time_budget_ms": ms })),
+                ..Default::default()
+            };
+            params(&args).unwrap().time_budget
+        };
+        let s = Duration::from_secs;
+        assert_eq!(budget(Some(600_000), Some(150.0)), Some(s(150)));
+        assert_eq!(budget(Some(2_000), Some(150.0)), Some(s(2)));
+        assert_eq!(budget(None, Some(150.0)), Some(s(150)));
+        assert_eq!(budget(Some(2_000), None), Some(s(2)));
+        assert_eq!(budget(None, None), None);
     }
 }

@@ -111,6 +111,7 @@ fn run(
 fn statistics(stats: &ReferenceStats) -> serde_json::Value {
     serde_json::json!({
         "photons_traced": stats.photons_traced,
+        "stopped_by": if stats.stopped_by_time { "time budget" } else { "photons" },
         "caustic_photons_stored": stats.caustic_photons_stored,
         "camera_samples": stats.camera_samples,
     })
@@ -139,7 +140,17 @@ impl RenderPlan for Plan {
             adapter: "cpu".into(),
             statistics: Some(statistics(&stats)),
             notes: vec![note(&stats)],
-            warnings: Vec::new(),
+            warnings: stats
+                .stopped_by_time
+                .then(|| {
+                    format!(
+                        "tracing stopped at its time budget after {} of {} photons: the \
+                         caustics are noisier than asked",
+                        stats.photons_traced, self.0.photons
+                    )
+                })
+                .into_iter()
+                .collect(),
             made_by: None,
         })
     }

@@ -128,6 +128,8 @@ impl Components {
 #[derive(Clone, Debug, Default)]
 pub struct ReferenceStats {
     pub photons_traced: u64,
+    /// Tracing stopped at [`ReferenceParams::time_budget`], before all the photons asked for.
+    pub stopped_by_time: bool,
     pub caustic_photons_stored: usize,
     pub camera_samples: u64,
     pub stages: Vec<(String, Duration)>,
@@ -299,6 +301,7 @@ pub fn render(
             return Err(ReferenceError::Canceled);
         }
         if params.time_budget.is_some_and(|b| t0.elapsed() > b) {
+            stats.stopped_by_time = done < chunks.len();
             break;
         }
     }

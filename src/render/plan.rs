@@ -304,7 +304,9 @@ impl<'a> FramePlan<'a> {
             let bytes = l.record_bytes().max(l.bvh.triangles.len() as u64 * 48);
             if bytes > max_storage {
                 return Err(RenderError::Limit(format!(
-                    "{} photons a frame ({bytes} bytes of stored photons or triangles) over the                      adapter's storage binding limit of {max_storage}; ask for fewer                      photons.photons",
+                    "{} photons a frame ({bytes} bytes of stored photons or triangles) over the \
+                     adapter's storage binding limit of {max_storage}; ask for fewer \
+                     progressive.photons_per_frame",
                     l.photons_per_frame
                 )));
             }

@@ -298,16 +298,19 @@ async fn shutdown_puts_a_running_bake_back_in_the_queue_and_the_next_start_runs_
 async fn long_bakes_do_not_block_renders() {
     let srv = Server::start("bake-busy", |j, _| j.cpu_workers = 2).await;
     let mut locs = Vec::new();
-    for seed in [1, 2] {
+    for seed in [1, 2, 3] {
         let r = srv.post_json("/v1/bakes", &long_bake(seed)).await;
         locs.push(r.headers()["location"].to_str().unwrap().to_string());
     }
-    poll("a bake to run", Duration::from_secs(60), || async {
-        let (_, v) = srv.get_json(&locs[0]).await;
-        (v["state"] == "running").then_some(())
-    })
-    .await;
-    // The second bake waits; the render does not.
+    // One on the worker that takes only bakes, one on the one that takes anything.
+    for loc in &locs[..2] {
+        poll("a bake to run", Duration::from_secs(60), || async {
+            let (_, v) = srv.get_json(loc).await;
+            (v["state"] == "running").then_some(())
+        })
+        .await;
+    }
+    // The third bake waits; the render does not.
     let r = srv
         .post_json(
             "/v1/renders",
@@ -316,7 +319,7 @@ async fn long_bakes_do_not_block_renders() {
         )
         .await;
     assert_eq!(r.status(), 200);
-    let (_, v) = srv.get_json(&locs[1]).await;
+    let (_, v) = srv.get_json(&locs[2]).await;
     assert_eq!(v["state"], "queued");
     for l in &locs {
         srv.client.delete(srv.url(l)).send().await.unwrap();

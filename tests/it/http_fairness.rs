@@ -67,6 +67,43 @@ async fn a_small_render_flows_while_big_renders_hold_every_worker() {
     srv.stop().await;
 }
 
+/// Big renders hold both general CPU workers: a small bake still runs at once, on the worker
+/// that takes only bakes (it used to wait for a render to end).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bake_runs_while_big_renders_hold_every_other_worker() {
+    let srv = Server::start("fair-bake", |j, _| j.cpu_workers = 2).await;
+    let mut big = Vec::new();
+    for seed in 0..2 {
+        let r = srv
+            .post_json(
+                "/v1/renders",
+                &serde_json::json!({"scene": scene_sized(64, 64), "method": "reference",
+                    "photons": 100_000_000u64, "seed": seed, "wait": false}),
+            )
+            .await;
+        assert_eq!(r.status(), 202);
+        big.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    for loc in &big {
+        state_is(&srv, loc, "running", Duration::from_secs(60)).await;
+    }
+    let id = srv
+        .submit_bake(
+            &serde_json::json!({"scene": scene_sized(8, 8), "object": "glass",
+            "method": "reference",
+            "params": {"photons": 1000, "spp": 1, "width": 8, "height": 8, "seed": 5}}),
+        )
+        .await;
+    srv.bake_succeeded(&id, Duration::from_secs(60)).await;
+    for loc in &big {
+        let (_, v) = srv.get_json(loc).await;
+        assert_eq!(v["state"], "running", "the big renders still run: {v}");
+        delete(&srv, loc).await;
+        state_is(&srv, loc, "canceled", Duration::from_secs(30)).await;
+    }
+    srv.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_flood_of_bakes_leaves_renders_room() {
     let srv = Server::start("fair-flood", |j, _| {
@@ -126,6 +163,45 @@ async fn a_render_cannot_ask_past_the_servers_caps() {
         let p = problem(srv.post_json("/v1/renders", &body).await, 422).await;
         assert_eq!(p["field"], field, "{p}");
         assert!(p["detail"].as_str().unwrap().contains(want), "{p}");
+    }
+    srv.stop().await;
+}
+
+/// A progressive render that asks for more than the server's time (400 M photons with ten
+/// minutes of frames; 30 M reference photons, ~40 s on two cores) stops tracing at half the
+/// render timeout and returns its frame, instead of failing at the timeout.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_progressive_render_returns_its_frame_within_the_servers_time() {
+    let srv = Server::start("fair-budget", |j, _| {
+        j.caps.max_photons = 1_000_000_000;
+        j.render_timeout = Duration::from_secs(20);
+    })
+    .await;
+    for body in [
+        serde_json::json!({"scene": scene_sized(32, 32), "method": "photons",
+            "photons": 400_000_000u64, "wait": false,
+            "progressive": {"photons_per_frame": 100_000, "time_budget_ms": 600_000}}),
+        serde_json::json!({"scene": scene_sized(32, 32), "method": "reference",
+            "photons": 30_000_000u64, "spp": 1, "wait": false}),
+    ] {
+        let r = srv.post_json("/v1/renders", &body).await;
+        assert_eq!(r.status(), 202, "{}", r.text().await.unwrap());
+        let loc = r.headers()["location"].to_str().unwrap().to_string();
+        let v = poll("the render to end", Duration::from_secs(120), || async {
+            let (_, v) = srv.get_json(&loc).await;
+            (v["state"] != "queued" && v["state"] != "running").then_some(v)
+        })
+        .await;
+        assert_eq!(v["state"], "succeeded", "{v}");
+        assert_eq!(v["info"]["statistics"]["stopped_by"], "time budget", "{v}");
+        let art = srv
+            .client
+            .get(srv.url(v["artifact"].as_str().unwrap()))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(art.status(), 200);
+        image::load_from_memory(&art.bytes().await.unwrap()).unwrap();
     }
     srv.stop().await;
 }

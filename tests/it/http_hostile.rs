@@ -1,7 +1,8 @@
 //! The service under hostile load (issue: hostile load): one client cannot shut out another.
 //! Slow uploads hold only the bytes they sent and are capped per key; event streams are capped
 //! per key and end after their lifetime with a `retry:`; submissions at once cannot pass a
-//! key's job quota; a database outage answers fast 503s while `/healthz` answers and
+//! key's job quota; one key's long GPU render leaves the other GPU workers to other keys; a
+//! database outage answers fast 503s while `/healthz` answers and
 //! `/readyz` says not ready, and the service comes back with the database.
 
 use crate::support::pg::PgCluster;
@@ -270,6 +271,95 @@ async fn the_job_quota_holds_under_parallel_submissions() {
     let active = v["items"].as_array().unwrap().len() + running["items"].as_array().unwrap().len();
     assert_eq!(active, 3, "{v} {running}");
     for loc in &accepted {
+        let r = srv
+            .client
+            .delete(srv.url(loc))
+            .bearer_auth(ALICE)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    srv.stop().await;
+}
+
+/// The job at `loc`'s state, as `key` sees it.
+async fn state(srv: &Server, key: &str, loc: &str) -> String {
+    let r = srv
+        .client
+        .get(srv.url(loc))
+        .bearer_auth(key)
+        .send()
+        .await
+        .unwrap();
+    let v: serde_json::Value = r.json().await.unwrap();
+    v["state"].as_str().unwrap().to_string()
+}
+
+/// Alice queues two photon renders that would run for minutes: one runs on a GPU worker, her
+/// second waits (one GPU job per key) though a worker is free, and bob's render — big enough
+/// not to be a small one — runs on that worker and ends while hers runs.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_keys_long_gpu_render_leaves_the_other_gpu_workers_to_others() {
+    let srv = Server::start("hostile-lanes", |j, h| {
+        j.cpu_workers = 1;
+        j.gpu_workers = 2;
+        j.caps.max_photons = 1_000_000_000;
+        h.keys = keys();
+    })
+    .await;
+    let post = |key: &'static str, body: serde_json::Value| {
+        srv.client
+            .post(srv.url("/v1/renders"))
+            .bearer_auth(key)
+            .json(&body)
+            .send()
+    };
+    let mut hers = vec![];
+    for seed in 0..2u64 {
+        let body = serde_json::json!({"scene": scene_sized(64, 64), "method": "photons",
+            "photons": 1_000_000_000u64, "seed": seed, "wait": false,
+            "progressive": {"photons_per_frame": 1_000_000, "time_budget_ms": 600_000}});
+        let r = post(ALICE, body).await.unwrap();
+        assert_eq!(r.status(), 202);
+        hers.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    poll(
+        "alice's first render to run",
+        Duration::from_secs(60),
+        || async { (state(&srv, ALICE, &hers[0]).await == "running").then_some(()) },
+    )
+    .await;
+    // 1,025 × 1,024 pixels: past the small renders' 2^20, so not on the small worker.
+    let r = post(
+        BOB,
+        serde_json::json!({"scene": scene_sized(1025, 1024), "method": "direct", "wait": false}),
+    )
+    .await
+    .unwrap();
+    assert_eq!(r.status(), 202);
+    let his = r.headers()["location"].to_str().unwrap().to_string();
+    poll("bob's render to end", Duration::from_secs(120), || async {
+        let s = state(&srv, BOB, &his).await;
+        (s != "queued" && s != "running").then_some(s)
+    })
+    .await;
+    assert_eq!(state(&srv, BOB, &his).await, "succeeded");
+    let first = srv
+        .client
+        .get(srv.url(&hers[0]))
+        .bearer_auth(ALICE)
+        .send()
+        .await
+        .unwrap();
+    let first: serde_json::Value = first.json().await.unwrap();
+    assert_eq!(first["state"], "running", "{first}");
+    assert_eq!(
+        state(&srv, ALICE, &hers[1]).await,
+        "queued",
+        "alice's second waits for her first"
+    );
+    for loc in &hers {
         let r = srv
             .client
             .delete(srv.url(loc))
