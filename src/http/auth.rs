@@ -57,6 +57,43 @@ pub fn hold_within_quota(st: &AppState, p: &Principal, id: &str) -> Result<(), A
     }
 }
 
+/// Refuses a request of `p` that would store `adding` bytes more (0: a job, whose result's
+/// size is not known yet) past [`super::HttpConfig::max_bytes_per_key`] of scenes and results
+/// (users only, as the job quota). A check before the write, not one step with it: keys may
+/// pass it by what they write at once (at most their uploads in flight and running jobs).
+pub fn within_storage(st: &AppState, p: &Principal, adding: u64) -> Result<(), AppError> {
+    let cap = st.cfg.max_bytes_per_key;
+    if cap == 0 || p.admin || p.owner.is_empty() {
+        return Ok(());
+    }
+    let held = st.jobs.store.held_bytes(&p.owner)?;
+    let over = match adding {
+        0 => held >= cap,
+        n => held.saturating_add(n) > cap,
+    };
+    if !over {
+        return Ok(());
+    }
+    let mib = |b: u64| format!("{:.1} MiB", b as f64 / (1 << 20) as f64);
+    Err(AppError::new(
+        StatusCode::TOO_MANY_REQUESTS,
+        "quota",
+        "Quota reached",
+        format!(
+            "key '{}' holds {} of scenes and results{}, and may hold {}              (CAUSTICA_MAX_BYTES_PER_KEY); delete renders, bakes or scenes it no longer needs",
+            p.owner,
+            mib(held),
+            if adding > 0 {
+                format!(" and sends {}", mib(adding))
+            } else {
+                String::new()
+            },
+            mib(cap)
+        ),
+    )
+    .retry_after(60))
+}
+
 /// The job quota [`hold_within_quota`] holds to: `cap` for a user key, none for an admin key
 /// or the anonymous client.
 pub fn quota(keys: &Keys, cap: usize) -> crate::jobs::Quota {

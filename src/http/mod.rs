@@ -105,6 +105,9 @@ pub struct HttpConfig {
     /// Most queued or running jobs one user key may hold (admin keys and a server without
     /// keys: no quota); past it `429`.
     pub max_jobs_per_key: usize,
+    /// Most bytes of scenes and results one user key may hold (0: no quota); past it a new
+    /// scene or job is refused `429`.
+    pub max_bytes_per_key: u64,
     /// Origins whose web pages may call the API (CORS; `*`: any); empty, the default: no CORS
     /// headers, so browsers refuse cross-origin calls.
     pub cors_origins: Vec<String>,
@@ -153,6 +156,7 @@ impl Default for HttpConfig {
             shutdown_grace: Duration::from_secs(20),
             keys: auth::Keys::default(),
             max_jobs_per_key: 32,
+            max_bytes_per_key: 4 << 30,
             cors_origins: Vec::new(),
             observe: None,
         }
@@ -165,6 +169,7 @@ impl HttpConfig {
     /// `CAUSTICA_MAX_CONNECTIONS_PER_CLIENT`, `CAUSTICA_MAX_UPLOADS_PER_CLIENT`,
     /// `CAUSTICA_MAX_STREAMS_PER_CLIENT`, `CAUSTICA_STREAM_LIFETIME_S`,
     /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`, `CAUSTICA_MAX_JOBS_PER_KEY`,
+    /// `CAUSTICA_MAX_BYTES_PER_KEY`,
     /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`, `CAUSTICA_CORS_ORIGINS` (a
     /// comma-separated list of origins, `https://host[:port]`, or `*`). An unparsable or
     /// out-of-range value is an error naming it.
@@ -209,6 +214,9 @@ impl HttpConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_JOBS_PER_KEY", 1.0, 1e6, true)? {
             self.max_jobs_per_key = v as usize;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_MAX_BYTES_PER_KEY", 0.0, 1e15, true)? {
+            self.max_bytes_per_key = v as u64;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);

@@ -206,8 +206,10 @@ pub const PROBLEMS: &[ProblemDoc] = &[
         "quota",
         "Quota reached",
         &[429],
-        "Your key holds as many queued or running jobs as it may (32 by default).",
-        "Wait for some to finish, or cancel some.",
+        "Your key holds as many queued or running jobs as it may (32 by default), or as many \
+         bytes of scenes and results (4 GiB by default).",
+        "Wait for some jobs to finish, or cancel some; delete results and scenes you no longer \
+         need.",
     ),
     doc(
         "range-not-satisfiable",

@@ -77,6 +77,18 @@ pub enum SceneInput {
     Gltf { bytes: Vec<u8>, binary: bool },
 }
 
+impl SceneInput {
+    /// Bytes given: about what storing it takes.
+    pub fn bytes(&self) -> u64 {
+        match self {
+            SceneInput::Json { scene, files } => {
+                (scene.len() + files.iter().map(|(_, b)| b.len()).sum::<usize>()) as u64
+            }
+            SceneInput::Gltf { bytes, .. } => bytes.len() as u64,
+        }
+    }
+}
+
 /// What a client learns about a stored scene.
 #[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct SceneInfo {

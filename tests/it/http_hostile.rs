@@ -1,9 +1,9 @@
 //! The service under hostile load (issue: hostile load): one client cannot shut out another.
 //! Slow uploads hold only the bytes they sent and are capped per key; event streams are capped
 //! per key and end after their lifetime with a `retry:`; submissions at once cannot pass a
-//! key's job quota; one key's long GPU render leaves the other GPU workers to other keys; a
-//! database outage answers fast 503s while `/healthz` answers and
-//! `/readyz` says not ready, and the service comes back with the database.
+//! key's job quota; a key's scenes are capped by bytes; one key's long GPU render leaves the
+//! other GPU workers to other keys; a database outage answers fast 503s while `/healthz`
+//! answers and `/readyz` says not ready, and the service comes back with the database.
 
 use crate::support::pg::PgCluster;
 use crate::support::scenes::{long_bake, scene_sized};
@@ -280,6 +280,49 @@ async fn the_job_quota_holds_under_parallel_submissions() {
             .unwrap();
         assert_eq!(r.status(), 200);
     }
+    srv.stop().await;
+}
+
+/// Alice's scenes count against her storage quota: past it a new scene gets 429 quota naming
+/// the setting, while bob's go through; deleting one of hers makes room again.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_keys_storage_is_capped() {
+    let body = |i: u32| serde_json::to_vec(&scene_sized(8, 8 + i)).unwrap();
+    let len = body(0).len() as u64;
+    let srv = Server::start("hostile-storage", |_, h| {
+        h.keys = keys();
+        h.max_bytes_per_key = 2 * len + len / 2;
+    })
+    .await;
+    let post = |key: &'static str, i: u32| {
+        srv.client
+            .post(srv.url("/v1/scenes"))
+            .bearer_auth(key)
+            .header("content-type", "application/json")
+            .body(body(i))
+            .send()
+    };
+    let mut hers = vec![];
+    for i in 0..2 {
+        let r = post(ALICE, i).await.unwrap();
+        assert_eq!(r.status(), 201);
+        hers.push(r.headers()["location"].to_str().unwrap().to_string());
+    }
+    let p = problem(post(ALICE, 2).await.unwrap(), 429).await;
+    assert_eq!(p["type"], "/problems/quota", "{p}");
+    let detail = p["detail"].as_str().unwrap();
+    assert!(detail.contains("CAUSTICA_MAX_BYTES_PER_KEY"), "{p}");
+    assert!(detail.contains("key 'alice'"), "{p}");
+    assert_eq!(post(BOB, 2).await.unwrap().status(), 201, "bob has room");
+    let r = srv
+        .client
+        .delete(srv.url(&hers[0]))
+        .bearer_auth(ALICE)
+        .send()
+        .await
+        .unwrap();
+    assert!(r.status().is_success(), "{}", r.status());
+    assert_eq!(post(ALICE, 2).await.unwrap().status(), 201, "room again");
     srv.stop().await;
 }
 

@@ -63,6 +63,10 @@ fn scenes_holds_and_keys(s: &Store) {
         .unwrap();
     s.put_scene("sc_2", br#"{"name":"two"}"#, &[], "bob")
         .unwrap();
+    // Each holder counts a scene whole: its JSON (14 bytes) and files (3).
+    assert_eq!(s.held_bytes("alice").unwrap(), 17);
+    assert_eq!(s.held_bytes("bob").unwrap(), 17 + 14);
+    assert_eq!(s.held_bytes("carol").unwrap(), 0);
     assert!(s.scene_exists("sc_1").unwrap());
     assert!(!s.scene_exists("sc_9").unwrap());
     let got = s.get_scene("sc_1").unwrap().unwrap();
@@ -192,6 +196,11 @@ fn records(s: &Store) {
         )
         .unwrap()
     );
+    // Its artifact's bytes count for its holders.
+    let before = s.held_bytes("dora").unwrap();
+    s.hold(Held::Job, "rn_1", "dora").unwrap();
+    assert_eq!(s.held_bytes("dora").unwrap(), before + a.len);
+    s.release(Held::Job, "rn_1", "dora").unwrap();
     let got = s.get_job("rn_1").unwrap().unwrap();
     assert_eq!(got.state, JobState::Succeeded);
     assert_eq!(got.timings, timings);

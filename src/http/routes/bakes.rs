@@ -71,6 +71,9 @@ pub async fn post_bake(State(st): State<AppState>, req: Request) -> Result<Respo
     let (id2, spec2) = (id.clone(), spec.clone());
     // Held before it is submitted: a holder's DELETE in between cannot cancel it under us.
     let held_before = st.jobs.store.holds(Held::Job, &id, &p.owner)?;
+    if !held_before {
+        crate::http::auth::within_storage(&st, &p, 0)?;
+    }
     crate::http::auth::hold_within_quota(&st, &p, &id)?;
     let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
     if submitted.is_err() && !held_before {

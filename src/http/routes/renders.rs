@@ -115,6 +115,7 @@ pub async fn post_render(State(st): State<AppState>, req: Request) -> Result<Res
             let jobs = st.jobs.clone();
             let (id2, spec2) = (id.clone(), spec.clone());
             // Held before it exists, so that it is never a job nobody holds.
+            crate::http::auth::within_storage(&st, &p, 0)?;
             crate::http::auth::hold_within_quota(&st, &p, &id)?;
             let submitted = blocking(move || Ok(jobs.submit(&id2, &spec2)?)).await;
             let (h, _) = submitted.inspect_err(|_| {

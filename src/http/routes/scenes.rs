@@ -128,6 +128,7 @@ pub async fn post_scene(State(st): State<AppState>, req: Request) -> Result<Resp
             )));
         }
     };
+    crate::http::auth::within_storage(&st, &p, input.bytes())?;
     let info = ingest(&st, input, &p).await?;
     let loc = format!("/v1/scenes/{}", info.id);
     Ok((StatusCode::CREATED, [(header::LOCATION, loc)], Json(info)).into_response())

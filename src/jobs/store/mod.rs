@@ -404,6 +404,9 @@ pub trait JobDb: Send + Sync {
     fn expire_idempotency(&self, before_ms: i64) -> Result<usize, StoreError>;
     /// How many hold `id`.
     fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError>;
+    /// Bytes `owner` holds: its scenes (JSON and files) and its jobs' artifacts, each counted
+    /// whole whoever else holds it too. Walks the owner's holds.
+    fn held_bytes(&self, owner: &str) -> Result<u64, StoreError>;
     /// Drops every hold on `id`.
     fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError>;
     /// Scenes stored before `before_ms` that nobody holds.

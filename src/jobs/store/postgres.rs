@@ -1116,6 +1116,26 @@ impl JobDb for PgDb {
         })
     }
 
+    fn held_bytes(&self, owner: &str) -> Result<u64, StoreError> {
+        let owner = owner.to_string();
+        self.run(move |c| {
+            let n: i64 = c
+                .query_one(
+                    "SELECT (
+                       (SELECT COALESCE(SUM(j.artifact_len), 0) FROM holds h
+                         JOIN jobs j ON j.id = h.id WHERE h.owner = $1 AND h.kind = 'job')
+                     + (SELECT COALESCE(SUM(octet_length(s.scene_json)), 0) FROM holds h
+                         JOIN scenes s ON s.id = h.id WHERE h.owner = $1 AND h.kind = 'scene')
+                     + (SELECT COALESCE(SUM(octet_length(f.bytes)), 0) FROM holds h
+                         JOIN scene_files f ON f.scene_id = h.id
+                         WHERE h.owner = $1 AND h.kind = 'scene'))::BIGINT",
+                    &[&owner],
+                )?
+                .get(0);
+            Ok(n.max(0) as u64)
+        })
+    }
+
     fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
         let id = id.to_string();
         self.run(move |c| {

@@ -1,6 +1,7 @@
 //! The SQLite back-end of [`JobDb`]: one file under the data directory (bundled SQLite, WAL),
-//! one connection behind a mutex (every statement is short, and SQLite serialises writers
-//! anyway). Leases and claims work as on PostgreSQL, so the same suite passes; only one
+//! one writing connection behind a mutex (every statement is short, and SQLite serialises
+//! writers anyway) and four read-only ones for the API's lookups and lists, which WAL lets
+//! read beside the writer. Leases and claims work as on PostgreSQL, so the same suite passes; only one
 //! process uses the file.
 
 use super::{
@@ -112,8 +113,17 @@ const COLUMNS: &str = "id, kind, method, scene_id, object, params, state, progre
     artifact_len, artifact_sha256, lane, priority, worker, attempts";
 
 pub struct SqliteDb {
+    /// The one connection that writes (SQLite takes one writer at a time).
     conn: Mutex<Connection>,
+    /// Read-only connections for the API's lookups and lists: in WAL mode they read the last
+    /// committed state beside the writer and each other.
+    readers: Vec<Mutex<Connection>>,
+    /// The reader to wait for when all are taken (round robin).
+    next_reader: std::sync::atomic::AtomicUsize,
 }
+
+/// How many read-only connections [`SqliteDb`] keeps.
+const READERS: usize = 4;
 
 impl SqliteDb {
     /// Opens (creating if needed) `dir/caustica.sqlite3` and runs the migrations; what looks
@@ -168,9 +178,38 @@ impl SqliteDb {
                 artifacts.display()
             ));
         }
+        let readers = (0..READERS)
+            .map(|_| {
+                use rusqlite::OpenFlags;
+                let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+                let r = Connection::open_with_flags(&db, flags)?;
+                r.busy_timeout(std::time::Duration::from_secs(5))?;
+                Ok(Mutex::new(r))
+            })
+            .collect::<Result<Vec<_>, StoreError>>()?;
         Ok(SqliteDb {
             conn: Mutex::new(conn),
+            readers,
+            next_reader: Default::default(),
         })
+    }
+
+    /// A read-only connection: a free one, else the next in turn, waited for outside the
+    /// async runtime as [`Self::conn`].
+    fn read(&self) -> std::sync::MutexGuard<'_, Connection> {
+        for r in &self.readers {
+            match r.try_lock() {
+                Ok(g) => return g,
+                Err(std::sync::TryLockError::Poisoned(e)) => return e.into_inner(),
+                Err(std::sync::TryLockError::WouldBlock) => {}
+            }
+        }
+        let i = self
+            .next_reader
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            % self.readers.len();
+        let r = &self.readers[i];
+        super::wait_outside_runtime(|| r.lock().unwrap_or_else(|e| e.into_inner()))
     }
 
     /// The connection; when another call holds it, waited for outside the async runtime
@@ -224,14 +263,14 @@ impl JobDb for SqliteDb {
 
     fn scene_exists(&self, id: &str) -> Result<bool, StoreError> {
         Ok(self
-            .conn()
+            .read()
             .query_row("SELECT 1 FROM scenes WHERE id = ?1", [id], |_| Ok(()))
             .optional()?
             .is_some())
     }
 
     fn get_scene(&self, id: &str) -> Result<Option<StoredScene>, StoreError> {
-        let c = self.conn();
+        let c = self.read();
         let Some((scene_json, created_at)) = c
             .query_row(
                 "SELECT scene_json, created_at FROM scenes WHERE id = ?1",
@@ -289,7 +328,7 @@ impl JobDb for SqliteDb {
     }
 
     fn get_job(&self, id: &str) -> Result<Option<JobRecord>, StoreError> {
-        let c = self.conn();
+        let c = self.read();
         let r = c
             .query_row(
                 &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
@@ -333,7 +372,7 @@ impl JobDb for SqliteDb {
                 qualified("j")
             );
         }
-        let c = self.conn();
+        let c = self.read();
         let mut st = c.prepare(&sql)?;
         let rows = st.query_map(rusqlite::params_from_iter(args.iter()), |r| {
             Ok((r.get::<_, i64>(23)?, row_to_record(r)?))
@@ -348,7 +387,7 @@ impl JobDb for SqliteDb {
         before: Option<i64>,
         limit: usize,
     ) -> Result<Vec<(i64, String, String, i64)>, StoreError> {
-        let c = self.conn();
+        let c = self.read();
         let mut st = c.prepare(
             "SELECT rowid, id, COALESCE(json_extract(CAST(scene_json AS TEXT), '$.name'), ''),
                     created_at
@@ -608,7 +647,7 @@ impl JobDb for SqliteDb {
 
     fn holds(&self, what: Held, id: &str, owner: &str) -> Result<bool, StoreError> {
         Ok(self
-            .conn()
+            .read()
             .query_row(
                 "SELECT 1 FROM holds WHERE kind = ?1 AND id = ?2 AND owner = ?3",
                 params![what.as_str(), id, owner],
@@ -631,7 +670,7 @@ impl JobDb for SqliteDb {
 
     fn first_holder(&self, what: Held, id: &str) -> Result<Option<String>, StoreError> {
         Ok(self
-            .conn()
+            .read()
             .query_row(
                 "SELECT owner FROM holds WHERE kind = ?1 AND id = ?2 ORDER BY rowid LIMIT 1",
                 params![what.as_str(), id],
@@ -705,12 +744,27 @@ impl JobDb for SqliteDb {
     }
 
     fn holders(&self, what: Held, id: &str) -> Result<usize, StoreError> {
-        let n: i64 = self.conn().query_row(
+        let n: i64 = self.read().query_row(
             "SELECT COUNT(*) FROM holds WHERE kind = ?1 AND id = ?2",
             params![what.as_str(), id],
             |r| r.get(0),
         )?;
         Ok(n as usize)
+    }
+
+    fn held_bytes(&self, owner: &str) -> Result<u64, StoreError> {
+        let n: i64 = self.read().query_row(
+            "SELECT
+               (SELECT COALESCE(SUM(j.artifact_len), 0) FROM holds h JOIN jobs j ON j.id = h.id
+                 WHERE h.owner = ?1 AND h.kind = 'job')
+             + (SELECT COALESCE(SUM(length(s.scene_json)), 0) FROM holds h
+                 JOIN scenes s ON s.id = h.id WHERE h.owner = ?1 AND h.kind = 'scene')
+             + (SELECT COALESCE(SUM(length(f.bytes)), 0) FROM holds h
+                 JOIN scene_files f ON f.scene_id = h.id WHERE h.owner = ?1 AND h.kind = 'scene')",
+            params![owner],
+            |r| r.get(0),
+        )?;
+        Ok(n.max(0) as u64)
     }
 
     fn release_all(&self, what: Held, id: &str) -> Result<(), StoreError> {
@@ -836,7 +890,7 @@ impl JobDb for SqliteDb {
 
     fn idempotency(&self, key: &str) -> Result<Option<(String, String)>, StoreError> {
         Ok(self
-            .conn()
+            .read()
             .query_row(
                 "SELECT request_hash, job_id FROM idempotency WHERE key = ?1",
                 [key],
