@@ -1,8 +1,11 @@
 //! The SQLite job store at scale: `CAUSTICA_BENCH_ROWS` job records (100,000 by default; all
-//! finished but the last 100, as the queue caps keep it), each held by one of 100 keys, then the queries a request makes: a page of a key's list (a key
-//! with 1,000 jobs, and one with none), a page of everything (an admin's list), a submission's
-//! quota check and hold, and an insert (its sequence number). Each should cost about the same
-//! at 1,000 rows and at 1,000,000: they read the rows they need through an index.
+//! finished but the last 100, as the queue caps keep it), each held by one of 100 keys, then
+//! the queries a request makes: a page of a key's list (a key with 1% of the jobs, and one with
+//! none), a page of everything (an admin's list), a submission's quota check and hold, the
+//! bytes a key holds (its storage quota: walks the key's holds), an insert (its sequence
+//! number), and a key's page while another thread lists without pause (the read-only
+//! connections). The lists, the hold and the insert should cost about the same at 1,000 rows
+//! and at 1,000,000: they read the rows they need through an index.
 //!
 //! `cargo bench --profile dev --bench store` (add `CAUSTICA_BENCH_ROWS=1000000` for the large
 //! table; filling it takes a while).
@@ -73,6 +76,22 @@ fn bench(c: &mut Criterion) {
             store.release(Held::Job, "rn_new", "key7").unwrap();
             held
         })
+    });
+    g.bench_function("bytes a key with its share holds", |b| {
+        b.iter(|| store.held_bytes("key7").unwrap())
+    });
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                store.list_jobs(&filter(Some("key3"))).unwrap();
+            }
+        });
+        g.bench_function(
+            "list a page, key with its share, another key listing",
+            |b| b.iter(|| store.list_jobs(&filter(Some("key7"))).unwrap()),
+        );
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
     });
     let mut n = rows;
     g.bench_function("insert a job", |b| {

@@ -3,9 +3,12 @@
 //! under a bake flood, the server's resident memory around hostile JSON bodies; then one
 //! client against another (the attacker connects from 127.0.0.2, so a keyless loopback server
 //! sees two clients): slow uploads, a flood of event streams, heavy scenes for the cache.
+//! `--only lanes --keys ATTACKER,VICTIM` (two user keys of a server started with them): one
+//! key's long photon renders against another key's GPU renders and bake.
 //!
 //! cargo run --release --example hostile -- --url http://127.0.0.1:8080 [--pid PID]
-//!     [--slow 200] [--idle 2000] [--bakes 64] [--renders 50] [--only clients]
+//!     [--slow 200] [--idle 2000] [--bakes 64] [--renders 50] [--only clients|lanes]
+//!     [--keys ATTACKER,VICTIM]
 //! `--pid` (the server's process id, same machine) adds its resident memory (VmRSS, VmHWM).
 //! Bounded: every phase stops after its requests; nothing here waits on a timer to
 //! synchronise (the pauses pace the attack).
@@ -66,6 +69,14 @@ async fn main() {
     }
     if arg("--only", "") == "clients" {
         one_client_against_another(&base, &pid).await;
+        return;
+    }
+    if arg("--only", "") == "lanes" {
+        let keys = arg("--keys", "");
+        let (a, v) = keys
+            .split_once(',')
+            .expect("--keys ATTACKER,VICTIM: two user keys of the server");
+        one_key_against_another(&base, a, v).await;
         return;
     }
 
@@ -372,4 +383,162 @@ async fn one_client_against_another(base: &str, pid: &str) {
             memory(pid)
         }
     );
+}
+
+/// A render or bake of `key` posted with `wait: false`: its location, or the status refused.
+async fn submit(
+    c: &reqwest::Client,
+    base: &str,
+    key: &str,
+    path: &str,
+    body: serde_json::Value,
+) -> Result<String, u16> {
+    let r = c
+        .post(format!("{base}{path}"))
+        .bearer_auth(key)
+        .json(&body)
+        .send()
+        .await
+        .map_err(|_| 0u16)?;
+    match r.headers().get("location") {
+        Some(l) if r.status().is_success() => Ok(l.to_str().unwrap().to_string()),
+        _ => Err(r.status().as_u16()),
+    }
+}
+
+/// The state of the job at `loc` once it is not `queued` (or `running`, with `end`), and how
+/// long that took.
+async fn until(
+    c: &reqwest::Client,
+    base: &str,
+    key: &str,
+    loc: &str,
+    end: bool,
+) -> (String, Duration) {
+    let t = Instant::now();
+    loop {
+        let v: serde_json::Value = c
+            .get(format!("{base}{loc}"))
+            .bearer_auth(key)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        let s = v["state"].as_str().unwrap_or("?").to_string();
+        if s != "queued" && !(end && s == "running") {
+            return (s, t.elapsed());
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// The victim's `n` GPU renders one after another (1025 × 1024 `direct`: past the small
+/// renders' 2^20 pixels): time from submission to the end, and the states they ended in.
+async fn victim_renders(
+    c: &reqwest::Client,
+    base: &str,
+    key: &str,
+    n: usize,
+) -> (Vec<Duration>, std::collections::BTreeMap<String, usize>) {
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["camera"]["width"] = 1025.into();
+    scene["camera"]["height"] = 1024.into();
+    let mut lat = Vec::new();
+    let mut states = std::collections::BTreeMap::new();
+    for seed in 0..n {
+        let body = serde_json::json!({"scene": scene, "method": "direct", "wait": false,
+            "exposure": seed as f64 * 1e-3});
+        let t = Instant::now();
+        let state = match submit(c, base, key, "/v1/renders", body).await {
+            Ok(loc) => until(c, base, key, &loc, true).await.0,
+            Err(s) => s.to_string(),
+        };
+        lat.push(t.elapsed());
+        *states.entry(state).or_insert(0) += 1;
+    }
+    (lat, states)
+}
+
+/// Attack 5 of the hostile-load issue: one key's long photon renders hold GPU workers (and
+/// its long reference renders the CPU's) while another key renders and bakes.
+async fn one_key_against_another(base: &str, attacker: &str, victim: &str) {
+    let c = reqwest::Client::builder()
+        .timeout(Duration::from_secs(120))
+        .build()
+        .unwrap();
+    let (lat, st) = victim_renders(&c, base, victim, 5).await;
+    println!(
+        "victim's GPU renders, baseline: {} {st:?}",
+        percentiles(lat)
+    );
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["camera"]["width"] = 2048.into();
+    scene["camera"]["height"] = 2048.into();
+    let mut held = Vec::new();
+    for seed in 0..2 {
+        let body = serde_json::json!({"scene": scene, "method": "photons",
+            "photons": 100_000_000u64, "seed": seed, "wait": false,
+            "progressive": {"error_target": 0.001}});
+        if let Ok(loc) = submit(&c, base, attacker, "/v1/renders", body).await {
+            held.push(loc);
+        }
+    }
+    let Some(first) = held.first() else {
+        println!("the attacker's renders were refused");
+        return;
+    };
+    until(&c, base, attacker, first, false).await;
+    let (lat, st) = victim_renders(&c, base, victim, 5).await;
+    let mut theirs = Vec::new();
+    for loc in &held {
+        theirs.push(until(&c, base, attacker, loc, false).await.0.clone());
+    }
+    println!(
+        "victim's GPU renders under 2 photon renders of the attacker (1e8 photons, 2048², \
+         error target 0.001; their states meanwhile: {theirs:?}): {} {st:?}",
+        percentiles(lat)
+    );
+    for loc in held.drain(..) {
+        let _ = c
+            .delete(format!("{base}{loc}"))
+            .bearer_auth(attacker)
+            .send()
+            .await;
+    }
+    // Two long reference renders of the attacker, then a small bake of the victim.
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["camera"]["width"] = 256.into();
+    scene["camera"]["height"] = 256.into();
+    for seed in 0..2 {
+        let body = serde_json::json!({"scene": scene, "method": "reference",
+            "photons": 100_000_000u64, "seed": seed, "wait": false});
+        if let Ok(loc) = submit(&c, base, attacker, "/v1/renders", body).await {
+            until(&c, base, attacker, &loc, false).await;
+            held.push(loc);
+        }
+    }
+    let mut small: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    small["camera"]["width"] = 8.into();
+    small["camera"]["height"] = 8.into();
+    let bake = serde_json::json!({"scene": small, "object": "glass", "method": "reference",
+        "params": {"photons": 1000, "spp": 1, "width": 8, "height": 8, "seed": 7}});
+    let t = Instant::now();
+    let state = match submit(&c, base, victim, "/v1/bakes", bake).await {
+        Ok(loc) => until(&c, base, victim, &loc, true).await.0,
+        Err(s) => s.to_string(),
+    };
+    println!(
+        "victim's small bake under 2 reference renders of the attacker (1e8 photons, 256²): \
+         {state} after {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    for loc in held {
+        let _ = c
+            .delete(format!("{base}{loc}"))
+            .bearer_auth(attacker)
+            .send()
+            .await;
+    }
 }
