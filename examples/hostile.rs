@@ -490,10 +490,19 @@ async fn one_key_against_another(base: &str, attacker: &str, victim: &str) {
         return;
     };
     until(&c, base, attacker, first, false).await;
-    let (lat, st) = victim_renders(&c, base, victim, 5).await;
+    let (lat, st) = victim_renders(&c, base, victim, 3).await;
     let mut theirs = Vec::new();
     for loc in &held {
-        theirs.push(until(&c, base, attacker, loc, false).await.0.clone());
+        let v: serde_json::Value = c
+            .get(format!("{base}{loc}"))
+            .bearer_auth(attacker)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        theirs.push(v["state"].as_str().unwrap_or("?").to_string());
     }
     println!(
         "victim's GPU renders under 2 photon renders of the attacker (1e8 photons, 2048², \

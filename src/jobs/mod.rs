@@ -337,9 +337,16 @@ impl JobSystem {
                     .expect("spawn lease keeper"),
             );
         }
-        let (cpu_lane, gpu_lane) = sys.cfg.lanes;
+        sys.spawn_workers(&mut threads);
+        *sys.threads.lock().unwrap_or_else(|e| e.into_inner()) = threads;
+        Ok(sys)
+    }
+
+    /// Starts the workers of this process's lanes (their roles below) and the janitor.
+    fn spawn_workers(self: &Arc<Self>, threads: &mut Vec<std::thread::JoinHandle<()>>) {
+        let (cpu_lane, gpu_lane) = self.cfg.lanes;
         let n = if cpu_lane {
-            sys.cfg.cpu_workers.max(1)
+            self.cfg.cpu_workers.max(1)
         } else {
             0
         };
@@ -349,7 +356,7 @@ impl JobSystem {
         // waits behind big renders (it shares the cores for its short run). The others take
         // a bake that waited past `bake_after` before renders.
         let cpu = |up_to| Take {
-            bake_after: (up_to == Priority::Bake).then_some(sys.cfg.bake_after),
+            bake_after: (up_to == Priority::Bake).then_some(self.cfg.bake_after),
             ..Take::by_priority(Lane::Cpu, up_to)
         };
         let roles = (0..n)
@@ -370,7 +377,7 @@ impl JobSystem {
                 ("caustica-cpu-bake".to_string(), bakes)
             }));
         for (name, take) in roles {
-            let s = sys.clone();
+            let s = self.clone();
             threads.push(
                 std::thread::Builder::new()
                     .name(name)
@@ -381,7 +388,7 @@ impl JobSystem {
                     .expect("spawn worker"),
             );
         }
-        let s = sys.clone();
+        let s = self.clone();
         threads.push(
             std::thread::Builder::new()
                 .name("caustica-janitor".into())
@@ -394,15 +401,15 @@ impl JobSystem {
             // leaves the other workers to the other keys (the GPU interleaves their work). One
             // more takes only small renders.
             let gpu = |up_to| Take {
-                per_key: Some(sys.cfg.gpu_jobs_per_key),
-                bake_after: (up_to == Priority::Bake).then_some(sys.cfg.bake_after),
+                per_key: Some(self.cfg.gpu_jobs_per_key),
+                bake_after: (up_to == Priority::Bake).then_some(self.cfg.bake_after),
                 ..Take::by_priority(Lane::Gpu, up_to)
             };
-            let roles = (0..sys.cfg.gpu_workers.max(1))
+            let roles = (0..self.cfg.gpu_workers.max(1))
                 .map(|i| (format!("caustica-gpu-{i}"), gpu(Priority::Bake)))
                 .chain([("caustica-gpu-small".to_string(), gpu(Priority::Small))]);
             for (i, (name, take)) in roles.enumerate() {
-                let s = sys.clone();
+                let s = self.clone();
                 threads.push(
                     std::thread::Builder::new()
                         .name(name)
@@ -420,10 +427,8 @@ impl JobSystem {
                 );
             }
         } else {
-            *sys.readiness.lock().unwrap_or_else(|e| e.into_inner()) = Readiness::NoGpuLane;
+            *self.readiness.lock().unwrap_or_else(|e| e.into_inner()) = Readiness::NoGpuLane;
         }
-        *sys.threads.lock().unwrap_or_else(|e| e.into_inner()) = threads;
-        Ok(sys)
     }
 
     pub fn config(&self) -> &JobConfig {
