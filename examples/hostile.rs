@@ -4,7 +4,8 @@
 //! client against another (the attacker connects from 127.0.0.2, so a keyless loopback server
 //! sees two clients): slow uploads, a flood of event streams, heavy scenes for the cache.
 //! `--only lanes --keys ATTACKER,VICTIM` (two user keys of a server started with them): one
-//! key's long photon renders against another key's GPU renders and bake.
+//! key's long photon renders against another key's GPU renders and bake, 300 renders of one
+//! key at once, 16 clients reading one byte of a large EXR in a loop.
 //!
 //! cargo run --release --example hostile -- --url http://127.0.0.1:8080 [--pid PID]
 //!     [--slow 200] [--idle 2000] [--bakes 64] [--renders 50] [--only clients|lanes]
@@ -493,15 +494,7 @@ async fn one_key_against_another(base: &str, attacker: &str, victim: &str) {
     let (lat, st) = victim_renders(&c, base, victim, 3).await;
     let mut theirs = Vec::new();
     for loc in &held {
-        let v: serde_json::Value = c
-            .get(format!("{base}{loc}"))
-            .bearer_auth(attacker)
-            .send()
-            .await
-            .unwrap()
-            .json()
-            .await
-            .unwrap();
+        let v = state_now(&c, base, attacker, loc).await;
         theirs.push(v["state"].as_str().unwrap_or("?").to_string());
     }
     println!(
@@ -550,4 +543,173 @@ async fn one_key_against_another(base: &str, attacker: &str, victim: &str) {
             .send()
             .await;
     }
+    quota_and_range_reads(&c, base, attacker, victim).await;
+}
+
+/// The record of the job at `loc` as `key` sees it, read once.
+async fn state_now(c: &reqwest::Client, base: &str, key: &str, loc: &str) -> serde_json::Value {
+    c.get(format!("{base}{loc}"))
+        .bearer_auth(key)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap()
+}
+
+/// `/healthz` and the victim's GETs (its job list) for `span`, one of each every 50 ms.
+async fn probes(
+    c: &reqwest::Client,
+    base: &str,
+    victim: &str,
+    span: Duration,
+) -> (
+    Vec<Duration>,
+    Vec<Duration>,
+    std::collections::BTreeMap<u16, usize>,
+) {
+    let (mut health, mut gets) = (Vec::new(), Vec::new());
+    let mut statuses = std::collections::BTreeMap::new();
+    let t = Instant::now();
+    while t.elapsed() < span {
+        let h = Instant::now();
+        let _ = c.get(format!("{base}/healthz")).send().await;
+        health.push(h.elapsed());
+        let h = Instant::now();
+        let r = c
+            .get(format!("{base}/v1/renders"))
+            .bearer_auth(victim)
+            .send()
+            .await;
+        gets.push(h.elapsed());
+        *statuses
+            .entry(r.map(|r| r.status().as_u16()).unwrap_or(0))
+            .or_insert(0) += 1;
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    (health, gets, statuses)
+}
+
+/// Attacks 9 and 7 of the hostile-load issue: 300 renders of one key sent at once (its job
+/// quota, 32), then 16 clients of that key reading one byte of its 2048² EXR in a loop; the
+/// victim's GETs and `/healthz` meanwhile.
+async fn quota_and_range_reads(c: &reqwest::Client, base: &str, attacker: &str, victim: &str) {
+    let span = Duration::from_secs(10);
+    let (h, g, st) = probes(c, base, victim, span).await;
+    println!(
+        "baseline: /healthz {}; victim's GETs {} {st:?}",
+        percentiles(h),
+        percentiles(g)
+    );
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["camera"]["width"] = 64.into();
+    scene["camera"]["height"] = 64.into();
+    let burst = async {
+        let mut tasks = tokio::task::JoinSet::new();
+        for seed in 0..300u64 {
+            let (c, base, key) = (c.clone(), base.to_string(), attacker.to_string());
+            let body = serde_json::json!({"scene": scene, "method": "reference",
+                "photons": 100_000_000u64, "seed": seed, "wait": false});
+            tasks.spawn(async move { submit(&c, &base, &key, "/v1/renders", body).await });
+        }
+        let mut by = std::collections::BTreeMap::<u16, usize>::new();
+        let mut accepted = Vec::new();
+        while let Some(r) = tasks.join_next().await {
+            match r.unwrap() {
+                Ok(loc) => {
+                    *by.entry(202).or_insert(0) += 1;
+                    accepted.push(loc);
+                }
+                Err(s) => *by.entry(s).or_insert(0) += 1,
+            }
+        }
+        (by, accepted)
+    };
+    let ((by, accepted), (h, g, st)) = tokio::join!(burst, probes(c, base, victim, span));
+    let mut active = 0;
+    for loc in &accepted {
+        let v = state_now(c, base, attacker, loc).await;
+        active += usize::from(v["state"] == "queued" || v["state"] == "running");
+    }
+    println!(
+        "300 renders of the attacker at once: {by:?}, {active} queued or running; meanwhile \
+         /healthz {}; victim's GETs {} {st:?}",
+        percentiles(h),
+        percentiles(g)
+    );
+    for loc in accepted {
+        let _ = c
+            .delete(format!("{base}{loc}"))
+            .bearer_auth(attacker)
+            .send()
+            .await;
+    }
+    // A 2048² layered EXR of the attacker's, then 16 clients reading its first byte in a loop.
+    let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
+    scene["camera"]["width"] = 2048.into();
+    scene["camera"]["height"] = 2048.into();
+    let body = serde_json::json!({"scene": scene, "method": "direct", "format": "exr",
+        "layers": true, "wait": false});
+    let Ok(loc) = submit(c, base, attacker, "/v1/renders", body).await else {
+        println!("the attacker's EXR render was refused");
+        return;
+    };
+    until(c, base, attacker, &loc, true).await;
+    let v = state_now(c, base, attacker, &loc).await;
+    let Some(art) = v["artifact"].as_str().map(str::to_string) else {
+        println!("the attacker's EXR render has no artifact: {v}");
+        return;
+    };
+    let url = format!("{base}{art}");
+    let size = c
+        .get(&url)
+        .bearer_auth(attacker)
+        .send()
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap()
+        .len();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let mut readers = tokio::task::JoinSet::new();
+    for _ in 0..16 {
+        let (c, url, key, stop) = (c.clone(), url.clone(), attacker.to_string(), stop.clone());
+        readers.spawn(async move {
+            let mut n = 0u64;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                let r = c
+                    .get(&url)
+                    .bearer_auth(&key)
+                    .header("range", "bytes=0-0")
+                    .send()
+                    .await;
+                if let Ok(r) = r {
+                    let _ = r.bytes().await;
+                    n += 1;
+                }
+            }
+            n
+        });
+    }
+    let (h, g, st) = probes(c, base, victim, span).await;
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let mut reads = 0;
+    while let Some(n) = readers.join_next().await {
+        reads += n.unwrap();
+    }
+    println!(
+        "16 clients reading byte 0 of a {:.1} MB EXR ({reads} reads in {} s): /healthz {}; \
+         victim's GETs {} {st:?}",
+        size as f64 / 1e6,
+        span.as_secs(),
+        percentiles(h),
+        percentiles(g)
+    );
+    let _ = c
+        .delete(format!("{base}{loc}"))
+        .bearer_auth(attacker)
+        .send()
+        .await;
 }
