@@ -592,7 +592,7 @@ async fn probes(
 }
 
 /// Attacks 9 and 7 of the hostile-load issue: 300 renders of one key sent at once (its job
-/// quota, 32), then 16 clients of that key reading one byte of its 2048² EXR in a loop; the
+/// quota, 32), then 16 clients of that key reading one byte of its 4096² EXR in a loop; the
 /// victim's GETs and `/healthz` meanwhile.
 async fn quota_and_range_reads(c: &reqwest::Client, base: &str, attacker: &str, victim: &str) {
     let span = Duration::from_secs(10);
@@ -609,8 +609,9 @@ async fn quota_and_range_reads(c: &reqwest::Client, base: &str, attacker: &str, 
         let mut tasks = tokio::task::JoinSet::new();
         for seed in 0..300u64 {
             let (c, base, key) = (c.clone(), base.to_string(), attacker.to_string());
+            // 5 M photons: not small, and ~0.2 GB of the job memory budget each.
             let body = serde_json::json!({"scene": scene, "method": "reference",
-                "photons": 100_000_000u64, "seed": seed, "wait": false});
+                "photons": 5_000_000u64, "seed": seed, "wait": false});
             tasks.spawn(async move { submit(&c, &base, &key, "/v1/renders", body).await });
         }
         let mut by = std::collections::BTreeMap::<u16, usize>::new();
@@ -645,10 +646,10 @@ async fn quota_and_range_reads(c: &reqwest::Client, base: &str, attacker: &str, 
             .send()
             .await;
     }
-    // A 2048² layered EXR of the attacker's, then 16 clients reading its first byte in a loop.
+    // A 4096² layered EXR of the attacker's, then 16 clients reading its first byte in a loop.
     let mut scene: serde_json::Value = serde_json::from_str(SCENE).unwrap();
-    scene["camera"]["width"] = 2048.into();
-    scene["camera"]["height"] = 2048.into();
+    scene["camera"]["width"] = 4096.into();
+    scene["camera"]["height"] = 4096.into();
     let body = serde_json::json!({"scene": scene, "method": "direct", "format": "exr",
         "layers": true, "wait": false});
     let Ok(loc) = submit(c, base, attacker, "/v1/renders", body).await else {
