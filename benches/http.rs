@@ -20,7 +20,12 @@ fn bench(c: &mut Criterion) {
     let dir = std::env::temp_dir().join(format!("caustica-bench-http-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let (base, id) = rt.block_on(async {
-        let state = AppState::start(JobConfig::new(&dir), HttpConfig::default()).unwrap();
+        // Unpaced: the loop below is one client asking as fast as it can.
+        let http = HttpConfig {
+            requests_per_client: 0,
+            ..HttpConfig::default()
+        };
+        let state = AppState::start(JobConfig::new(&dir), http).unwrap();
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let base = format!("http://{}", listener.local_addr().unwrap());
         tokio::spawn(caustica::http::serve(

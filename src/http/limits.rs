@@ -9,6 +9,10 @@
 //! refusal is a `429 too-many` with `Retry-After`, naming the limit and its setting — the
 //! shape of nginx's `limit_conn`, keyed as nginx keys it.
 //!
+//! Requests of one client are paced ([`Pace`], nginx's `limit_req` with a burst, a token bucket
+//! of the `governor` crate): past its rate a request waits for its turn, up to a second, so a
+//! client that sends requests one after another is slowed to the rate; past that second, `429`.
+//!
 //! [`HttpConfig::max_connections_per_client`]: super::HttpConfig::max_connections_per_client
 //! [`HttpConfig::max_uploads_per_client`]: super::HttpConfig::max_uploads_per_client
 //! [`HttpConfig::max_streams_per_client`]: super::HttpConfig::max_streams_per_client
@@ -219,6 +223,80 @@ impl http_body::Body for ChargedBody {
     fn size_hint(&self) -> SizeHint {
         self.inner.size_hint()
     }
+}
+
+/// Requests a second of each client ([`super::HttpConfig::requests_per_client`]), a second's
+/// worth of them at once: a request past them waits for its turn, up to [`Pace::MAX_WAIT`],
+/// then gets `429 too-many`. `/healthz`, `/readyz` and `/metrics` are not paced.
+pub struct Pace {
+    limiter: governor::DefaultKeyedRateLimiter<String>,
+    /// Requests paced, for forgetting idle clients now and then.
+    seen: std::sync::atomic::AtomicU64,
+}
+
+impl Pace {
+    /// The longest a request waits for its turn.
+    pub const MAX_WAIT: std::time::Duration = std::time::Duration::from_secs(1);
+
+    /// `per_second` requests a second a client (None for 0: no pacing).
+    pub fn new(per_second: u32) -> Option<Pace> {
+        let rate = std::num::NonZeroU32::new(per_second)?;
+        Some(Pace {
+            limiter: governor::RateLimiter::keyed(governor::Quota::per_second(rate)),
+            seen: Default::default(),
+        })
+    }
+
+    /// Waits for `client`'s turn; `Err` (how long it would have waited) past [`Self::MAX_WAIT`].
+    pub async fn turn(&self, client: &str) -> Result<(), std::time::Duration> {
+        use governor::clock::{Clock, DefaultClock};
+        if self.seen.fetch_add(1, Ordering::Relaxed) % 4096 == 4095 {
+            // Clients whose bucket is full again are forgotten.
+            self.limiter.retain_recent();
+            self.limiter.shrink_to_fit();
+        }
+        let key = client.to_string();
+        let start = std::time::Instant::now();
+        loop {
+            let Err(not_until) = self.limiter.check_key(&key) else {
+                return Ok(());
+            };
+            let wait = not_until.wait_time_from(DefaultClock::default().now());
+            if start.elapsed() + wait > Self::MAX_WAIT {
+                return Err(start.elapsed() + wait);
+            }
+            // Pacing, not synchronisation: the client's next token is due then.
+            tokio::time::sleep(wait).await;
+        }
+    }
+}
+
+/// Middleware: paces each client's requests ([`Pace`]).
+pub async fn pace(
+    axum::extract::State(st): axum::extract::State<super::AppState>,
+    req: Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    let exempt = matches!(req.uri().path(), "/healthz" | "/readyz" | "/metrics");
+    if let (Some(p), false) = (st.limits.pace.as_ref(), exempt)
+        && let Err(wait) = p.turn(&client_of(&req)).await
+    {
+        let rate = st.cfg.requests_per_client;
+        return AppError::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "too-many",
+            "Too many at once",
+            format!(
+                "this client sends more than {rate} requests a second, the most one client may \
+                 (CAUSTICA_REQUESTS_PER_CLIENT); its next turn is in {:.1} s",
+                wait.as_secs_f64()
+            ),
+        )
+        .retry_after(wait.as_secs().max(1))
+        .into_response();
+    }
+    next.run(req).await
 }
 
 #[cfg(test)]

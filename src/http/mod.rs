@@ -108,6 +108,10 @@ pub struct HttpConfig {
     /// Most bytes of scenes and results one user key may hold (0: no quota); past it a new
     /// scene or job is refused `429`.
     pub max_bytes_per_key: u64,
+    /// Requests a second one client may send (`/healthz`, `/readyz`, `/metrics` aside), a
+    /// second's worth at once; past it a request waits its turn up to a second, then `429`
+    /// (0: no pacing).
+    pub requests_per_client: u32,
     /// Origins whose web pages may call the API (CORS; `*`: any); empty, the default: no CORS
     /// headers, so browsers refuse cross-origin calls.
     pub cors_origins: Vec<String>,
@@ -157,6 +161,7 @@ impl Default for HttpConfig {
             keys: auth::Keys::default(),
             max_jobs_per_key: 32,
             max_bytes_per_key: 4 << 30,
+            requests_per_client: 500,
             cors_origins: Vec::new(),
             observe: None,
         }
@@ -169,7 +174,7 @@ impl HttpConfig {
     /// `CAUSTICA_MAX_CONNECTIONS_PER_CLIENT`, `CAUSTICA_MAX_UPLOADS_PER_CLIENT`,
     /// `CAUSTICA_MAX_STREAMS_PER_CLIENT`, `CAUSTICA_STREAM_LIFETIME_S`,
     /// `CAUSTICA_MAX_BODY_BYTES_IN_FLIGHT`, `CAUSTICA_MAX_JOBS_PER_KEY`,
-    /// `CAUSTICA_MAX_BYTES_PER_KEY`,
+    /// `CAUSTICA_MAX_BYTES_PER_KEY`, `CAUSTICA_REQUESTS_PER_CLIENT`,
     /// `CAUSTICA_RENDER_WAIT_S`, `CAUSTICA_SHUTDOWN_GRACE_S`, `CAUSTICA_CORS_ORIGINS` (a
     /// comma-separated list of origins, `https://host[:port]`, or `*`). An unparsable or
     /// out-of-range value is an error naming it.
@@ -217,6 +222,9 @@ impl HttpConfig {
         }
         if let Some(v) = env_num(get, "CAUSTICA_MAX_BYTES_PER_KEY", 0.0, 1e15, true)? {
             self.max_bytes_per_key = v as u64;
+        }
+        if let Some(v) = env_num(get, "CAUSTICA_REQUESTS_PER_CLIENT", 0.0, 1e6, true)? {
+            self.requests_per_client = v as u32;
         }
         if let Some(v) = env_num(get, "CAUSTICA_RENDER_WAIT_S", 0.0, 86400.0, false)? {
             self.render_wait = Duration::from_secs_f64(v);
@@ -365,6 +373,10 @@ pub struct Limits {
     pub uploads: Arc<limits::PerClient>,
     /// Event streams open.
     pub streams: Arc<limits::PerClient>,
+    /// Each client's requests a second ([`HttpConfig::requests_per_client`]; none: 0).
+    pub pace: Option<limits::Pace>,
+    /// Bytes each key held when last counted, and when ([`auth::within_storage`]).
+    pub held: std::sync::Mutex<std::collections::HashMap<String, (u64, std::time::Instant)>>,
 }
 
 impl AppState {
@@ -377,7 +389,10 @@ impl AppState {
             shutdown_tx: Arc::new(tx),
             conns: Arc::default(),
             bodies: Arc::new(server::BodyBudget::new(cfg.max_body_bytes_in_flight)),
-            limits: Arc::default(),
+            limits: Arc::new(Limits {
+                pace: limits::Pace::new(cfg.requests_per_client),
+                ..Default::default()
+            }),
             cfg: Arc::new(cfg),
         }
     }
@@ -528,6 +543,10 @@ pub fn app(state: AppState) -> Router {
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             server::admit_body,
+        ))
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            limits::pace,
         ))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),

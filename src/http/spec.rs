@@ -280,19 +280,23 @@ pub fn document() -> Value {
     comps.insert("schemas".into(), Value::Object(schemas));
     // What any request may get, whatever its route: a malformed request line or header (400),
     // a URI or head past the limits (414, 431), an internal error (500), a server holding as
-    // many connections as it accepts (503).
-    for item in doc["paths"].as_object_mut().expect("paths").values_mut() {
+    // many connections as it accepts (503); and but for the operations' endpoints, a client
+    // past its pace (429).
+    for (path, item) in doc["paths"].as_object_mut().expect("paths").iter_mut() {
+        let paced = !matches!(path.as_str(), "/healthz" | "/readyz" | "/metrics");
         for op in item.as_object_mut().expect("a path item").values_mut() {
             let Some(responses) = op.get_mut("responses").and_then(Value::as_object_mut) else {
                 continue;
             };
-            for (code, r) in [
+            let codes = [
                 ("400", "Problem"),
                 ("414", "Problem"),
                 ("431", "Problem"),
                 ("500", "Problem"),
                 ("503", "Busy"),
-            ] {
+            ];
+            let pace = paced.then_some(("429", "Busy"));
+            for (code, r) in codes.into_iter().chain(pace) {
                 responses.entry(code).or_insert_with(
                     || serde_json::json!({ "$ref": format!("#/components/responses/{r}") }),
                 );

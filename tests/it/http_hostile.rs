@@ -1,9 +1,10 @@
 //! The service under hostile load (issue: hostile load): one client cannot shut out another.
 //! Slow uploads hold only the bytes they sent and are capped per key; event streams are capped
 //! per key and end after their lifetime with a `retry:`; submissions at once cannot pass a
-//! key's job quota; a key's scenes are capped by bytes; one key's long GPU render leaves the
-//! other GPU workers to other keys; a database outage answers fast 503s while `/healthz`
-//! answers and `/readyz` says not ready, and the service comes back with the database.
+//! key's job quota; a client's requests are paced; a key's scenes are capped by bytes; one
+//! key's long GPU render leaves the other GPU workers to other keys; a database outage answers
+//! fast 503s while `/healthz` answers and `/readyz` says not ready, and the service comes back
+//! with the database.
 
 use crate::support::pg::PgCluster;
 use crate::support::scenes::{long_bake, scene_sized};
@@ -280,6 +281,60 @@ async fn the_job_quota_holds_under_parallel_submissions() {
             .unwrap();
         assert_eq!(r.status(), 200);
     }
+    srv.stop().await;
+}
+
+/// Alice sends 200 requests at once against a pace of 10 a second: the first wait their turn
+/// (all answered), those whose turn is over a second away get 429 naming the setting; bob's
+/// request is not paced behind hers, and `/healthz` is not paced at all.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn requests_are_paced_per_client() {
+    let srv = Server::start("hostile-pace", |_, h| {
+        h.keys = keys();
+        h.requests_per_client = 10;
+    })
+    .await;
+    let get = |key: &'static str| {
+        srv.client
+            .get(srv.url("/v1/renders"))
+            .bearer_auth(key)
+            .send()
+    };
+    let mut hers = tokio::task::JoinSet::new();
+    for _ in 0..200 {
+        let (c, url) = (client(), srv.url("/v1/renders"));
+        hers.spawn(async move {
+            let r = c.get(url).bearer_auth(ALICE).send().await.unwrap();
+            let status = r.status().as_u16();
+            (status, r.text().await.unwrap())
+        });
+    }
+    assert_eq!(
+        get(BOB).await.unwrap().status(),
+        200,
+        "bob has his own pace"
+    );
+    for _ in 0..30 {
+        let r = srv.client.get(srv.url("/healthz")).send().await.unwrap();
+        assert_eq!(r.status(), 200);
+    }
+    let (mut ok, mut paced) = (0, 0);
+    while let Some(r) = hers.join_next().await {
+        match r.unwrap() {
+            (200, _) => ok += 1,
+            (429, body) => {
+                assert!(body.contains("CAUSTICA_REQUESTS_PER_CLIENT"), "{body}");
+                assert!(body.contains("/problems/too-many"), "{body}");
+                paced += 1;
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(
+        ok >= 10,
+        "a second's worth at once, then the waiting ones: {ok}"
+    );
+    assert!(paced > 0, "past a second's wait: 429 ({ok} answered)");
     srv.stop().await;
 }
 

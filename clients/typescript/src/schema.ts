@@ -1566,7 +1566,7 @@ export interface components {
         };
     };
     responses: {
-        /** @description Queue full, quota reached or too many at once for this client (429), or shutting down / no GPU / busy / job store unavailable (503), or storage full (507); retry after the given seconds. */
+        /** @description Queue full, quota reached, too many at once or too many a second for this client (429), or shutting down / no GPU / busy / job store unavailable (503), or storage full (507); retry after the given seconds. */
         Busy: {
             headers: {
                 "Retry-After"?: number;
@@ -1630,6 +1630,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -1655,6 +1656,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -1735,6 +1737,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -1760,6 +1763,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -1788,6 +1792,7 @@ export interface operations {
             400: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -1864,6 +1869,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
             422: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2013,6 +2019,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2042,6 +2049,7 @@ export interface operations {
             404: components["responses"]["Problem"];
             409: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2116,6 +2124,7 @@ export interface operations {
                     "application/problem+json": components["schemas"]["Problem"];
                 };
             };
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             /** @description The stored result failed its check (missing, a link, truncated, altered: problem type `artifact-lost`); the job is queued again (`Retry-After`) and its record shows it running. */
             500: {
@@ -2242,6 +2251,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
             422: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2411,6 +2421,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2447,6 +2458,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2553,6 +2565,7 @@ export interface operations {
                     "application/problem+json": components["schemas"]["Problem"];
                 };
             };
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             /** @description The stored result failed its check (missing, a link, truncated, altered: problem type `artifact-lost`); the job is queued again (`Retry-After`) and its record shows it running. */
             500: {
@@ -2595,6 +2608,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
             422: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2753,6 +2767,7 @@ export interface operations {
             401: components["responses"]["Problem"];
             404: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2781,6 +2796,7 @@ export interface operations {
             404: components["responses"]["Problem"];
             409: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2806,6 +2822,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2831,6 +2848,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2856,6 +2874,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2881,6 +2900,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
@@ -2906,6 +2926,7 @@ export interface operations {
             };
             400: components["responses"]["Problem"];
             414: components["responses"]["Problem"];
+            429: components["responses"]["Busy"];
             431: components["responses"]["Problem"];
             500: components["responses"]["Problem"];
             503: components["responses"]["Busy"];
