@@ -4,8 +4,8 @@
 //! through [`ArtifactStore::find_or_bake`]; the CLI keeps its store in `$CAUSTICA_CACHE` (or a
 //! folder under the system's temporary directory), the service under its data directory.
 //!
-//! What a store decodes it also keeps in memory ([`DECODED_BUDGET`] of artifact bytes, the least
-//! recently used dropped past it), so that a render on a bake it has seen does not read and
+//! What a store decodes it also keeps in memory ([`DECODED_BUDGET`] bytes of decoded artifacts,
+//! by each one's own count of its heap; the least recently used dropped past it), so that a render on a bake it has seen does not read and
 //! check the file again: artifacts are named by the hash of their inputs, so a kept one is never
 //! stale. Clones of a store share what it keeps.
 
@@ -14,9 +14,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-/// Artifact bytes (their encoded size) a store keeps decoded in memory. A dynamic CSL bake
-/// is deflated: decoded it takes a few times its bytes.
-pub const DECODED_BUDGET: usize = 256 << 20;
+/// Bytes of decoded artifacts (their heap, as each counts it) a store keeps in memory.
+pub const DECODED_BUDGET: usize = 512 << 20;
 
 /// What an artifact is: its file name prefix and extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -57,7 +56,7 @@ pub struct ArtifactStore {
     remote: Option<Arc<dyn Remote>>,
 }
 
-/// A decoded artifact, its artifact's bytes and when it was last used.
+/// A decoded artifact, its decoded bytes and when it was last used.
 type Kept = (Arc<dyn Any + Send + Sync>, usize, u64);
 
 /// Decoded artifacts by (kind, hash); the least recently used go past the budget.
@@ -230,8 +229,9 @@ impl ArtifactStore {
         kind: ArtifactKind,
         hash: u64,
         decode: impl FnOnce(&[u8]) -> Option<T>,
+        size: impl Fn(&T) -> usize,
     ) -> Option<Arc<T>> {
-        self.find_or_bake(kind, hash, decode, || Err(()), |_| Vec::new())
+        self.find_or_bake(kind, hash, decode, || Err(()), |_| Vec::new(), size)
             .ok()
             .map(|(t, _)| t)
     }
@@ -240,7 +240,8 @@ impl ArtifactStore {
     /// returns None for a damaged file or one of another hash, which is then baked over), else
     /// made by `bake`, kept (as `encode` writes it) and returned. The flag says whether it came
     /// from the store. What is decoded or baked is also kept in memory, where the next call
-    /// finds it without reading the file (a store of nothing keeps nothing there either).
+    /// finds it without reading the file (a store of nothing keeps nothing there either),
+    /// counted by `size` (its bytes in memory) against the store's budget.
     pub fn find_or_bake<T: Any + Send + Sync, E>(
         &self,
         kind: ArtifactKind,
@@ -248,6 +249,7 @@ impl ArtifactStore {
         decode: impl FnOnce(&[u8]) -> Option<T>,
         bake: impl FnOnce() -> Result<T, E>,
         encode: impl FnOnce(&T) -> Vec<u8>,
+        size: impl Fn(&T) -> usize,
     ) -> Result<(Arc<T>, bool), E> {
         let key = (kind, hash);
         let decoded = || self.decoded.lock().unwrap_or_else(|e| e.into_inner());
@@ -258,14 +260,14 @@ impl ArtifactStore {
             && let Some(t) = decode(&b)
         {
             let t = Arc::new(t);
-            decoded().put(key, t.clone(), b.len());
+            decoded().put(key, t.clone(), size(&t));
             return Ok((t, true));
         }
         let t = Arc::new(bake()?);
         if self.dir.is_some() {
             let bytes = encode(&t);
             self.save(kind, hash, &bytes);
-            decoded().put(key, t.clone(), bytes.len());
+            decoded().put(key, t.clone(), size(&t));
         }
         Ok((t, false))
     }
@@ -306,6 +308,7 @@ mod tests {
                 |b| Some(b.to_vec()),
                 || Ok::<_, ()>(b"set".to_vec()),
                 |t| t.clone(),
+                Vec::len,
             )
             .unwrap();
         assert!(!cached);
@@ -317,6 +320,7 @@ mod tests {
                 |b| Some(b.to_vec()),
                 || Err(()),
                 |t: &Vec<u8>| t.clone(),
+                Vec::len,
             )
             .unwrap();
         assert!(cached, "found in the remote, not baked");
@@ -336,41 +340,56 @@ mod tests {
         let k = ArtifactKind::Transport;
         let got = |r: Result<(Arc<Vec<u8>>, bool), ()>| r.map(|(t, c)| ((*t).clone(), c));
         assert_eq!(
-            got(store.find_or_bake(k, 9, decode, bake(7), enc)),
+            got(store.find_or_bake(k, 9, decode, bake(7), enc, Vec::len)),
             Ok((vec![7, 1, 2], false))
         );
         // Found in memory: the file is not read (nor decoded) again.
         let unread = |_: &[u8]| -> Option<Vec<u8>> { panic!("decoded again") };
         assert_eq!(
-            got(store.find_or_bake(k, 9, unread, bake(8), enc)),
+            got(store.find_or_bake(k, 9, unread, bake(8), enc, Vec::len)),
             Ok((vec![7, 1, 2], true))
         );
         // A second store of the folder finds it on disk.
         let store = ArtifactStore::new(&dir);
         assert_eq!(
-            got(store.find_or_bake(k, 9, decode, bake(8), enc)),
+            got(store.find_or_bake(k, 9, decode, bake(8), enc, Vec::len)),
             Ok((vec![7, 1, 2], true))
         );
         // Another kind or hash is another file.
         assert!(
             !store
-                .find_or_bake(ArtifactKind::Csl, 9, decode, bake(7), enc)
+                .find_or_bake(ArtifactKind::Csl, 9, decode, bake(7), enc, Vec::len)
                 .unwrap()
                 .1
         );
-        assert!(!store.find_or_bake(k, 10, decode, bake(7), enc).unwrap().1);
+        assert!(
+            !store
+                .find_or_bake(k, 10, decode, bake(7), enc, Vec::len)
+                .unwrap()
+                .1
+        );
         // A damaged file is baked over (by a store that has not decoded it).
         std::fs::write(store.path(k, 9).unwrap(), b"junk").unwrap();
         let store = ArtifactStore::new(&dir);
         assert_eq!(
-            got(store.find_or_bake(k, 9, decode, bake(7), enc)),
+            got(store.find_or_bake(k, 9, decode, bake(7), enc, Vec::len)),
             Ok((vec![7, 1, 2], false))
         );
-        assert!(store.find_or_bake(k, 9, decode, bake(7), enc).unwrap().1);
+        assert!(
+            store
+                .find_or_bake(k, 9, decode, bake(7), enc, Vec::len)
+                .unwrap()
+                .1
+        );
         // A store of nothing keeps nothing.
         let none = ArtifactStore::none();
         none.save(k, 9, b"x");
-        assert!(!none.find_or_bake(k, 9, decode, bake(7), enc).unwrap().1);
+        assert!(
+            !none
+                .find_or_bake(k, 9, decode, bake(7), enc, Vec::len)
+                .unwrap()
+                .1
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -386,20 +405,37 @@ mod tests {
         let decode = |b: &[u8]| Some(b.to_vec());
         let enc = |t: &Vec<u8>| t.clone();
         for h in [1, 2] {
-            store.find_or_bake(k, h, decode, bake(h), enc).unwrap();
+            store
+                .find_or_bake(k, h, decode, bake(h), enc, Vec::len)
+                .unwrap();
         }
         // 1 used last: 2 goes when 3 comes.
-        store.find_or_bake(k, 1, decode, bake(1), enc).unwrap();
-        store.find_or_bake(k, 3, decode, bake(3), enc).unwrap();
+        store
+            .find_or_bake(k, 1, decode, bake(1), enc, Vec::len)
+            .unwrap();
+        store
+            .find_or_bake(k, 3, decode, bake(3), enc, Vec::len)
+            .unwrap();
         let kept = |h: u64| store.decoded.lock().unwrap().map.contains_key(&(k, h));
         assert!(kept(1) && !kept(2) && kept(3));
         assert_eq!(store.decoded.lock().unwrap().used, 200);
         // Past the budget alone: not kept, still served from the file.
         let big = || Ok::<_, ()>(vec![9u8; 300]);
-        store.find_or_bake(k, 4, decode, big, enc).unwrap();
+        store
+            .find_or_bake(k, 4, decode, big, enc, Vec::len)
+            .unwrap();
         assert!(!kept(4));
-        let (t, cached) = store.find_or_bake(k, 4, decode, big, enc).unwrap();
+        let (t, cached) = store
+            .find_or_bake(k, 4, decode, big, enc, Vec::len)
+            .unwrap();
         assert!(cached && t.len() == 300);
+        // Counted by what it holds decoded, not by its file: 100 bytes that decode to ten
+        // times as many are past the budget.
+        let tenfold = |t: &Vec<u8>| t.len() * 10;
+        store
+            .find_or_bake(k, 5, decode, bake(5), enc, tenfold)
+            .unwrap();
+        assert!(!kept(5));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -269,9 +269,12 @@ pub fn sets_for_render(
             let cp = params.csl_params();
             let key = csl_source_hash(world, &o.name, dir, &cp)?;
             store
-                .find(ArtifactKind::Csl, key, |b| {
-                    CslSet::from_bytes(b).ok().filter(|s| s.source_hash == key)
-                })
+                .find(
+                    ArtifactKind::Csl,
+                    key,
+                    |b| CslSet::from_bytes(b).ok().filter(|s| s.source_hash == key),
+                    CslSet::heap_bytes,
+                )
                 .map(|s| (s, store.path(ArtifactKind::Csl, key)))
         } else {
             None
@@ -294,6 +297,7 @@ pub fn sets_for_render(
                 },
                 || bake_dynamic(world, &o.name, &dp, &|p: DynamicProgress| part(p.fraction)),
                 DynamicSet::to_bytes,
+                DynamicSet::heap_bytes,
             )?;
             (Arc::new(d.interpolate(dir)), cached, store.path(kind, key))
         } else {
@@ -306,6 +310,7 @@ pub fn sets_for_render(
                 |b| CslSet::from_bytes(b).ok().filter(|s| s.source_hash == key),
                 || bake_csl(world, &o.name, dir, &cp, &|p: Progress| part(p.fraction)),
                 CslSet::to_bytes,
+                CslSet::heap_bytes,
             )?;
             (set, cached, store.path(kind, key))
         };

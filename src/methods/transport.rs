@@ -210,6 +210,7 @@ pub fn tables_for_render(
                 })
             },
             TransportTable::to_bytes,
+            TransportTable::heap_bytes,
         )?;
         out.push(ObjectTable {
             object: oi,

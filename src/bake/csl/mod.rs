@@ -244,6 +244,11 @@ pub struct Csl {
 }
 
 impl Csl {
+    /// Bytes it holds in memory.
+    pub fn heap_bytes(&self) -> usize {
+        std::mem::size_of::<Csl>() + self.texels.len() * std::mem::size_of::<[u16; 3]>()
+    }
+
     /// Dequantised, bilinearly interpolated image value at light-plane coordinates (x, y);
     /// None outside the image.
     pub fn intensity(&self, x: f32, y: f32) -> Option<Vec3> {
@@ -357,6 +362,13 @@ pub struct CslSet {
     pub spacing: f32,
     pub csls: Vec<Csl>,
     pub stats: BakeStats,
+}
+
+impl CslSet {
+    /// Bytes it holds in memory.
+    pub fn heap_bytes(&self) -> usize {
+        std::mem::size_of::<CslSet>() + self.csls.iter().map(Csl::heap_bytes).sum::<usize>()
+    }
 }
 
 impl CslSet {

@@ -103,6 +103,13 @@ pub struct TransportTable {
     pub fit: Option<Fit>,
 }
 
+impl TransportTable {
+    /// Bytes it holds in memory (its records; the rest is a few hundred bytes).
+    pub fn heap_bytes(&self) -> usize {
+        std::mem::size_of::<TransportTable>() + self.records.len() * std::mem::size_of::<Record>()
+    }
+}
+
 /// A table's fit against photons traced through the object (`bake::transport::verify`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fit {

@@ -161,6 +161,21 @@ pub struct DynamicSet {
     pub stats: DynamicStats,
 }
 
+impl DynamicSet {
+    /// Bytes it holds in memory: its static sets, black CSLs and triples.
+    pub fn heap_bytes(&self) -> usize {
+        let csls = |v: &Vec<Csl>| v.iter().map(Csl::heap_bytes).sum::<usize>();
+        std::mem::size_of::<DynamicSet>()
+            + self.sets.iter().map(CslSet::heap_bytes).sum::<usize>()
+            + self.blacks.iter().map(csls).sum::<usize>()
+            + self
+                .triples
+                .iter()
+                .map(|t| t.len() * std::mem::size_of::<Triple>())
+                .sum::<usize>()
+    }
+}
+
 /// Progress of a dynamic bake.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DynamicProgress {
