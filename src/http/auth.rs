@@ -102,7 +102,8 @@ pub fn within_storage(st: &AppState, p: &Principal, adding: u64) -> Result<(), A
         "quota",
         "Quota reached",
         format!(
-            "key '{}' holds {} of scenes and results{}, and may hold {}              (CAUSTICA_MAX_BYTES_PER_KEY); delete renders, bakes or scenes it no longer needs",
+            "key '{}' holds {} of scenes and results{}, and may hold {} \
+             (CAUSTICA_MAX_BYTES_PER_KEY); delete renders, bakes or scenes it no longer needs",
             p.owner,
             mib(held),
             if adding > 0 {
