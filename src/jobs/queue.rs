@@ -10,10 +10,10 @@
 //! key queues one; a key alone is served oldest first as before.
 //!
 //! A worker takes by a [`Take`]: a range of priorities (the small workers only small renders,
-//! the bake worker only bakes), a
-//! cap on the jobs one key runs at once in the lane (the GPU lane: one, so that one key's long
-//! render leaves the other GPU workers to the other keys), and an age past which a waiting bake
-//! goes ahead of renders (so bakes are not starved by a steady flow of renders).
+//! the bake worker only bakes), a cap on the jobs one key runs at once in the lane (the GPU
+//! lane: one, so that one key's long render leaves the other GPU workers to the other keys),
+//! and an age past which a waiting bake goes ahead of renders (so bakes are not starved by a
+//! steady flow of renders).
 //! The [`super::JobSystem`] holds them behind a mutex and wakes workers with a condvar.
 
 use super::JobHandle;
