@@ -11,6 +11,10 @@
 //!   [`scenes`]: content-addressed scenes and the cache of resolved worlds; [`metrics`].
 //!
 //! Nothing here knows HTTP; errors are domain enums and `http` picks the status codes.
+//!
+//! This file (~1,150 lines) is [`JobSystem`] alone — submission, memory holds, cancellation,
+//! the lease keeper, the janitor and the workers' roles — all over one set of fields; the
+//! queue, the workers' loop and the job types live in their own modules.
 
 pub mod bake;
 pub mod config;

@@ -1,8 +1,11 @@
 //! The SQLite back-end of [`JobDb`]: one file under the data directory (bundled SQLite, WAL),
 //! one writing connection behind a mutex (every statement is short, and SQLite serialises
 //! writers anyway) and four read-only ones for the API's lookups and lists, which WAL lets
-//! read beside the writer. Leases and claims work as on PostgreSQL, so the same suite passes; only one
-//! process uses the file.
+//! read beside the writer. Leases and claims work as on PostgreSQL, so the same suite passes;
+//! only one process uses the file.
+//!
+//! One file of ~1,040 lines: it is one implementation of [`JobDb`], each method a statement or
+//! two beside its siblings (as `postgres.rs`); the migrations at its top are its schema.
 
 use super::{
     Held, JobDb, JobFilter, JobRecord, MAX_ATTEMPTS, Reaped, StoreError, StoreEvent,
