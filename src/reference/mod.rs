@@ -31,6 +31,7 @@
 
 pub mod compare;
 pub mod probe;
+pub mod sweep;
 
 use crate::frame::Frame;
 use crate::sampling::*;
