@@ -24,6 +24,7 @@ pub mod dynamic;
 pub mod fit;
 pub mod image;
 pub mod optimize;
+pub mod rings;
 pub mod trace;
 
 use super::{BakeError, Fnv64, Progress};
@@ -37,7 +38,7 @@ pub use artifact::ArtifactError;
 /// Revision of the bake algorithm, part of every set's content hash: bump it whenever the bake
 /// gives other CSLs for the same inputs, so that caches (CLI, service) never hand out a set an
 /// older algorithm made.
-pub const ALGORITHM: u32 = 11;
+pub const ALGORITHM: u32 = 12;
 
 /// The texel of an intensity image is about this many grid-ray spacings wide (about 256
 /// rays' cross-sections a texel where the rays keep their spacing), which sets each image's
@@ -661,45 +662,71 @@ pub(crate) fn bake_csl_with(
             stats.rejected_bundles += 1;
             continue;
         }
+        // One law per ring of light-plane radius where one law for the bundle misses its rays.
         let t0 = Instant::now();
-        let x_axis = f.axis.any_orthonormal_vector();
-        let y_axis = f.axis.cross(x_axis);
-        let img = image::splat(
+        let room = (params.max_csls as usize).saturating_sub(csls.len()).max(1);
+        let pieces = rings::split(
             &rays,
-            &f.kept,
-            f.origin,
-            f.axis,
-            x_axis,
-            y_axis,
-            params.splat_scale * spacing,
-            spacing * spacing,
-            TEXEL_SPACINGS * spacing,
-            params.image_size,
+            f,
+            (
+                radius as f64,
+                far,
+                (params.fit_threshold_deg as f64).to_radians(),
+                params.fit_samples as usize,
+            ),
+            room.min(rings::MAX_PIECES),
+            rings::WORTH * total,
+            spare_cores,
         );
-        let (scale, texels) = image::quantise(&img.texels);
-        stats.time_image += t0.elapsed();
-        image_bytes += texels.len() as u64 * 8;
-        remaining -= kept_energy;
-        stats.energy_covered += kept_energy;
+        stats.time_fit += t0.elapsed();
+        if pieces.len() > 1 {
+            stats.dismissed_rays += pieces.iter().map(|p| p.dismissed as u64).sum::<u64>();
+        }
+        let mut kept_all = Vec::new();
+        for f in pieces {
+            let t0 = Instant::now();
+            let kept_energy = bundle::det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
+            let x_axis = f.axis.any_orthonormal_vector();
+            let y_axis = f.axis.cross(x_axis);
+            let img = image::splat(
+                &rays,
+                &f.kept,
+                f.origin,
+                f.axis,
+                x_axis,
+                y_axis,
+                params.splat_scale * spacing,
+                spacing * spacing,
+                TEXEL_SPACINGS * spacing,
+                params.image_size,
+            );
+            let (scale, texels) = image::quantise(&img.texels);
+            stats.time_image += t0.elapsed();
+            image_bytes += texels.len() as u64 * 8;
+            remaining -= kept_energy;
+            stats.energy_covered += kept_energy;
+            kept_all.extend_from_slice(&f.kept);
+            csls.push(Csl {
+                origin: f.origin,
+                axis: f.axis,
+                x_axis,
+                kappa: f.kappa as f32,
+                gamma: f.gamma as f32,
+                half_extent: img.half,
+                size: img.size,
+                scale,
+                flux: img.flux as f32,
+                grain: if scale > 0.0 {
+                    (img.grain / scale as f64) as f32
+                } else {
+                    0.0
+                },
+                texels,
+            });
+        }
         stats.iterations += b.iterations;
-        taken = Some(f.kept);
-        csls.push(Csl {
-            origin: f.origin,
-            axis: f.axis,
-            x_axis,
-            kappa: f.kappa as f32,
-            gamma: f.gamma as f32,
-            half_extent: img.half,
-            size: img.size,
-            scale,
-            flux: img.flux as f32,
-            grain: if scale > 0.0 {
-                (img.grain / scale as f64) as f32
-            } else {
-                0.0
-            },
-            texels,
-        });
+        kept_all.sort_unstable();
+        taken = Some(kept_all);
     }
     stats.csls = csls.len() as u32;
     stats.time_total = t_start.elapsed();
