@@ -16,6 +16,7 @@ mod csl_quality;
 mod deploy;
 mod env_shadows;
 mod fuzz_fidelity;
+mod glass_accuracy;
 mod gltf_import;
 mod gpu_direct;
 mod gpu_vs_reference;
