@@ -76,16 +76,30 @@ fn glass_sphere_focuses_at_the_paraxial_focus() {
         "{:?}",
         strongest.axis
     );
-    // The refracted bundle carries most of the light: (1 - R)^2 with mean Fresnel R ≈ 0.09.
-    assert!(
-        strongest.flux as f64 > 0.7 * covered,
-        "{} of {covered}",
-        strongest.flux
-    );
-    let apex = strongest.origin + strongest.axis * strongest.focus(0.0);
+    // The refracted bundle (its rings: CSLs on the strongest's axis line, `bake::csl::rings`)
+    // carries most of the light: (1 - R)^2 with mean Fresnel R ≈ 0.09.
+    let refracted: Vec<_> = set
+        .csls
+        .iter()
+        .filter(|c| {
+            let off = c.origin - strongest.origin;
+            c.axis.dot(strongest.axis) > 0.99999
+                && (off - strongest.axis * off.dot(strongest.axis)).length() < 1e-3
+        })
+        .collect();
+    let flux: f64 = refracted.iter().map(|c| c.flux as f64).sum();
+    assert!(flux > 0.7 * covered, "{flux} of {covered}");
+    // Its innermost ring focuses the paraxial rays at the paraxial focus f = nR / 2(n − 1).
     let focus = set.centre + Vec3::NEG_Y * 0.75;
-    eprintln!("apex {apex:?} paraxial focus {focus:?}");
-    assert!((apex - focus).length() < 0.05, "apex {apex:?} vs {focus:?}");
+    let apices: Vec<Vec3> = refracted
+        .iter()
+        .map(|c| c.origin + c.axis * c.focus(0.0))
+        .collect();
+    eprintln!("apices {apices:?} paraxial focus {focus:?}");
+    assert!(
+        apices.iter().any(|a| (*a - focus).length() < 0.05),
+        "apices {apices:?} vs {focus:?}"
+    );
 }
 
 /// Eq. 2–4 conserve energy: the irradiance of one CSL integrated over a plane across its axis
