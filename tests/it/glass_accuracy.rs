@@ -44,6 +44,25 @@ fn cases() -> Vec<(sweep::SweepCase, World, Frame, Vec<bool>)> {
         .collect()
 }
 
+/// A static CSL bake of `object` for `world`'s directional light, and its caustics evaluated on
+/// the CPU (3×3 samples a pixel) with the other objects' shadows: the frame and the CSL count.
+fn static_csl(world: &World, object: &str, params: &CslParams) -> (Frame, usize) {
+    let oi = scenes::object_index(world, object);
+    let (dir, irradiance) = scenes::directional_light(world);
+    let local = world.objects[oi].to_rigid_frame(dir);
+    let set = bake_csl(world, object, local, params, &|_| true).expect("bakes");
+    let csls = set.to_world(world.objects[oi].rigid_transform());
+    let img = eval::render_caustics(
+        world,
+        &Accel::build(world),
+        &scenes::blockers(world, oi),
+        &csls,
+        irradiance,
+        3,
+    );
+    (img, set.csls.len())
+}
+
 fn line(i: usize, case: &sweep::SweepCase, what: &str, c: &Comparison) -> String {
     format!(
         "{i:2} elevation {:5.1}° azimuth {:6.1}°: {what} {:.3} / {:.3} ({} px)",
@@ -66,27 +85,9 @@ fn a_static_csl_bake_matches_the_reference_at_every_direction_of_the_sweep() {
     let mut failures = Vec::new();
     let mut below = Vec::new();
     for (i, (case, world, reference, mask)) in cases().into_iter().enumerate() {
-        let oi = scenes::object_index(&world, "glass");
-        let (dir, irradiance) = scenes::directional_light(&world);
-        let local = world.objects[oi].to_rigid_frame(dir);
-        let set = bake_csl(&world, "glass", local, &params, &|_| true).expect("bakes");
-        let csls = set.to_world(world.objects[oi].rigid_transform());
-        let accel = Accel::build(&world);
-        let img = eval::render_caustics(
-            &world,
-            &accel,
-            &scenes::blockers(&world, oi),
-            &csls,
-            irradiance,
-            3,
-        );
+        let (img, count) = static_csl(&world, "glass", &params);
         let c = compare::compare(&img, &reference, &mask);
-        let l = line(
-            i,
-            &case,
-            &format!("static csl ({} CSLs)", set.csls.len()),
-            &c,
-        );
+        let l = line(i, &case, &format!("static csl ({count} CSLs)"), &c);
         eprintln!("{l}");
         let bound = if case.elevation_deg > 80.0 {
             0.25
@@ -174,32 +175,16 @@ fn transport_renders_a_non_convex_glass_lump_within_a_fifth() {
 #[test]
 fn csl_on_a_non_convex_glass_lump_is_flagged_by_its_self_check() {
     let (world, reference, mask) = spiky();
-    let oi = scenes::object_index(&world, "spiky");
-    let (dir, irradiance) = scenes::directional_light(&world);
     let params = CslParams {
         grid: 512,
         ..CslParams::paper()
     };
-    let local = world.objects[oi].to_rigid_frame(dir);
-    let set = bake_csl(&world, "spiky", local, &params, &|_| true).expect("bakes");
-    let csls = set.to_world(world.objects[oi].rigid_transform());
-    let accel = Accel::build(&world);
-    let img = eval::render_caustics(
-        &world,
-        &accel,
-        &scenes::blockers(&world, oi),
-        &csls,
-        irradiance,
-        3,
-    );
+    let (img, count) = static_csl(&world, "spiky", &params);
     let measured = compare::compare(&img, &reference, &mask);
     let check = check_caustics(&world, &img, None, &CheckParams::default(), &|| true)
         .expect("checks")
         .expect("caustic light on the receivers");
-    eprintln!(
-        "spiky lump, csl ({} CSLs): measured {measured:?}, self-check {check:?}",
-        set.csls.len()
-    );
+    eprintln!("spiky lump, csl ({count} CSLs): measured {measured:?}, self-check {check:?}");
     assert!(measured.rel_l1 > 0.2, "csl fits the lump now: {measured:?}");
     assert!(check.error > 0.10, "{check:?}");
     assert!(
