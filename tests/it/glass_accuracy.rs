@@ -16,6 +16,7 @@ use caustica::frame::Frame;
 use caustica::methods::check::{CheckParams, check_caustics};
 use caustica::reference::compare::{self, Comparison};
 use caustica::reference::sweep;
+use caustica::render::Renderer;
 use caustica::render::csl::eval;
 use caustica::render::photons::{PhotonsLayer, PhotonsParams};
 use caustica::render::transport::{TransportLayer, volumes};
@@ -61,6 +62,20 @@ fn static_csl(world: &World, object: &str, params: &CslParams) -> (Frame, usize)
         3,
     );
     (img, set.csls.len())
+}
+
+/// `photons`' caustics of `world`: 2 frames of 262,144 photons.
+fn photons(renderer: &mut Renderer, world: &World) -> Frame {
+    let params = PhotonsParams {
+        photons: 1 << 18,
+        frames: 2,
+        ..Default::default()
+    };
+    let layer = PhotonsLayer::build(world, &params);
+    let out = renderer
+        .render_photons(world, &Default::default(), &layer)
+        .expect("renders");
+    out.caustics.expect("caustics")
 }
 
 fn line(i: usize, case: &sweep::SweepCase, what: &str, c: &Comparison) -> String {
@@ -112,18 +127,7 @@ fn photons_match_the_reference_at_every_fourth_direction_of_the_sweep() {
     let mut renderer = gpu::renderer();
     let mut failures = Vec::new();
     for (i, (case, world, reference, mask)) in cases().into_iter().enumerate().step_by(4) {
-        let layer = PhotonsLayer::build(
-            &world,
-            &PhotonsParams {
-                photons: 1 << 18,
-                frames: 2,
-                ..Default::default()
-            },
-        );
-        let out = renderer
-            .render_photons(&world, &Default::default(), &layer)
-            .expect("renders");
-        let c = compare::compare(&out.caustics.expect("caustics"), &reference, &mask);
+        let c = compare::compare(&photons(&mut renderer, &world), &reference, &mask);
         let l = line(i, &case, "photons", &c);
         eprintln!("{l}");
         if c.rel_l1 > 0.10 || (c.flux_ratio - 1.0).abs() > 0.03 {
@@ -205,18 +209,7 @@ fn photons_render_a_dense_smooth_glass_mesh_within_a_tenth() {
     let (dir, _) = scenes::directional_light(&world);
     let mask = compare::shadow_mask(&world, &Accel::build(&world), "floor", "dense", dir);
     let reference = images::stored_reference("glass-dense.caustics.16M.exr");
-    let layer = PhotonsLayer::build(
-        &world,
-        &PhotonsParams {
-            photons: 1 << 18,
-            frames: 2,
-            ..Default::default()
-        },
-    );
-    let out = gpu::renderer()
-        .render_photons(&world, &Default::default(), &layer)
-        .expect("renders");
-    let c = compare::compare(&out.caustics.expect("caustics"), &reference, &mask);
+    let c = compare::compare(&photons(&mut gpu::renderer(), &world), &reference, &mask);
     eprintln!("dense mesh, photons: {c:?}");
     assert!(
         c.rel_l1 <= 0.10 && (c.flux_ratio - 1.0).abs() <= 0.03,
