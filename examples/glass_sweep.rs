@@ -14,9 +14,10 @@
 //! `--references DIR` writes each reference's caustics as
 //! `DIR/glass-sphere-sweep-II.caustics.NM.exr` (the sweep test's stored images: `--directions 20
 //! --size 128 --photons 8000000 --no-csl`); `--truth DIR` reads each from there where a
-//! previous run wrote it (the same size and scene) instead of rendering it again. `--write DIR`: every image as PNG and EXR, and the
-//! shadow mask. `--verbose`: each static CSL's figures. `--fit-samples`, `--fit-threshold`,
-//! `--splat-scale`: the bake's parameters of those names.
+//! previous run wrote it (the same size and scene) instead of rendering it again. `--write
+//! DIR`: every image as PNG and EXR, and the shadow mask. `--verbose`: each static CSL's
+//! figures. `--fit-samples`, `--fit-threshold`, `--splat-scale`: the bake's parameters of
+//! those names.
 //!
 //! `--scene FILE --object NAME`: another glass object on a floor at y = 0 (the scene's first
 //! light directional). `--no-csl` skips the static bakes.
@@ -83,6 +84,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ))?),
         false => None,
     };
+    let paper = CslParams::paper();
+    let params = CslParams {
+        grid,
+        fit_samples: arg(&args, "--fit-samples").unwrap_or(paper.fit_samples),
+        fit_threshold_deg: arg(&args, "--fit-threshold").unwrap_or(paper.fit_threshold_deg),
+        splat_scale: arg(&args, "--splat-scale").unwrap_or(paper.splat_scale),
+        ..paper
+    };
     let mut worst: Vec<(f32, f32, usize)> = Vec::new();
     let mut cases = sweep::directions(n, seed);
     if args.iter().any(|a| a == "--scene-light") {
@@ -116,12 +125,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let blockers = Accel::build_with(&world, |k| k != oi, obvhs::BvhBuildParams::fast_build());
         let mask = compare::shadow_mask(&world, &accel, "floor", &object, direction);
         let t = std::time::Instant::now();
-        let stored = truth_dir.as_ref().map(|d| {
-            format!(
-                "{d}/glass-sphere-sweep-{i:02}.caustics.{}M.exr",
-                photons / 1_000_000
-            )
-        });
+        let file = format!(
+            "glass-sphere-sweep-{i:02}.caustics.{}M.exr",
+            photons / 1_000_000
+        );
+        let stored = truth_dir.as_ref().map(|d| format!("{d}/{file}"));
         let truth = match stored.as_ref().map(std::fs::read) {
             Some(Ok(bytes)) => caustica::encode::decode_frame(&bytes)?,
             _ => {
@@ -144,10 +152,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if let Some(dir) = &references {
             // The stored references of the sweep test (tests/data/reference/README.md).
             std::fs::write(
-                format!(
-                    "{dir}/glass-sphere-sweep-{i:02}.caustics.{}M.exr",
-                    photons / 1_000_000
-                ),
+                format!("{dir}/{file}"),
                 caustica::encode::encode_exr(&truth)?,
             )?;
         }
@@ -169,14 +174,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mask.iter().filter(|&&m| m).count()
         );
         let mut cols = Vec::new();
-        let paper = CslParams::paper();
-        let params = CslParams {
-            grid,
-            fit_samples: arg(&args, "--fit-samples").unwrap_or(paper.fit_samples),
-            fit_threshold_deg: arg(&args, "--fit-threshold").unwrap_or(paper.fit_threshold_deg),
-            splat_scale: arg(&args, "--splat-scale").unwrap_or(paper.splat_scale),
-            ..paper
-        };
         if !no_csl {
             let set = bake_csl(&world, &object, local, &params, &|_| true)?;
             let drawn = draw(&set);

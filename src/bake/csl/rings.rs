@@ -125,12 +125,18 @@ pub fn split(
         }
         open.extend(fits);
     }
-    // Brightest first, as the bake makes its CSLs.
-    done.sort_by(|x, y| {
-        let e = |f: &Fit| det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
-        e(y).total_cmp(&e(x))
-    });
-    done
+    // Brightest first, as the bake makes its CSLs (each piece's energy summed once).
+    let mut lit: Vec<(f64, Fit)> = done
+        .into_iter()
+        .map(|f| {
+            (
+                det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64),
+                f,
+            )
+        })
+        .collect();
+    lit.sort_by(|x, y| y.0.total_cmp(&x.0));
+    lit.into_iter().map(|(_, f)| f).collect()
 }
 
 /// `fit`'s kept rays in [`RINGS`] rings of about equal energy by light-plane radius, each in
