@@ -54,10 +54,15 @@ fn residuals(rays: &[CausticRay], fit: &Fit) -> Vec<(f64, f64, f64)> {
 /// radius (a law that misses one ring of rays, the marginal rays of a lens say, moves that
 /// ring's light however well it fits the rest).
 pub fn worst_error(rays: &[CausticRay], fit: &Fit) -> f64 {
+    worst_and_reach(rays, fit).0
+}
+
+/// [`worst_error`], and the largest light-plane radius of `fit`'s kept rays.
+fn worst_and_reach(rays: &[CausticRay], fit: &Fit) -> (f64, f64) {
     let mut res = residuals(rays, fit);
     res.sort_by(|x, y| x.0.total_cmp(&y.0));
     let n = res.len();
-    (0..10)
+    let worst = (0..10)
         .map(|q| {
             let part = &res[q * n / 10..(q + 1) * n / 10];
             let (e2, w) = part
@@ -65,24 +70,28 @@ pub fn worst_error(rays: &[CausticRay], fit: &Fit) -> f64 {
                 .fold((0.0, 0.0), |(e, s), &(_, d2, w)| (e + d2 * w, s + w));
             if w > 0.0 { (e2 / w).sqrt() } else { 0.0 }
         })
-        .fold(0.0, f64::max)
+        .fold(0.0, f64::max);
+    (worst, res.last().map_or(0.0, |r| r.0))
 }
 
 /// `fit` as one or more CSL fits: while a piece's worst tenth of rays misses its law by more
-/// than [`SPLIT_RMS`] and it has rays enough, it is cut into [`RINGS`] rings of equal energy by
+/// than [`SPLIT_RMS`], or its rays reach farther than twice `fine` from the axis (its image
+/// would be coarser than they need: a lens's steep marginal rays spread over metres of light
+/// plane), and it has rays enough, it is cut into [`RINGS`] rings of equal energy by
 /// light-plane radius and each ring is fitted again on the same axis (`args`: the bake's
 /// length, plane weight, angle threshold and fit samples, as [`fit::fit_bundle`] takes them);
 /// a ring's dismissed rays return to the pool as the fit's do. At most `most` pieces; a piece
 /// that carries less energy than `worth` is not split (a faint reflection spread over the floor
 /// gains little and would cost every frame CSLs); a split is taken only when its rings keep 98 %
-/// of the piece's energy and their worst error is at most 0.8 of the piece's. Deterministic:
-/// the same pieces for the same rays.
+/// of the piece's energy and lower its worst error by a fifth (or, for a split made for its
+/// reach, keep it within [`SPLIT_RMS`] or the piece's). Deterministic: the same pieces for the
+/// same rays.
 pub fn split(
     rays: &[CausticRay],
     fit: Fit,
     args: (f64, f64, f64, usize),
-    most: usize,
-    worth: f64,
+    (most, worth): (usize, f64),
+    fine: f64,
     beside: bool,
 ) -> Vec<Fit> {
     let mut done = Vec::new();
@@ -94,8 +103,12 @@ pub fn split(
             done.push(f);
             continue;
         }
-        let error = worst_error(rays, &f);
-        if error <= SPLIT_RMS || f.kept.len() < RINGS * MIN_RING_RAYS || pieces + RINGS - 1 > most {
+        let (error, reach) = worst_and_reach(rays, &f);
+        let wide = reach > 2.0 * fine;
+        if (error <= SPLIT_RMS && !wide)
+            || f.kept.len() < RINGS * MIN_RING_RAYS
+            || pieces + RINGS - 1 > most
+        {
             done.push(f);
             continue;
         }
@@ -112,14 +125,16 @@ pub fn split(
                 fit::fit_bundle(rays, &bundle, args.0, args.1, args.2, args.3, beside)
             })
             .collect();
-        // Taken only when the rings together fit better and keep (nearly) the light.
+        // Taken only when the rings together fit better (or, cut for their reach, no worse)
+        // and keep (nearly) the light.
         let before = kept(&f);
         let after: f64 = fits.iter().map(kept).sum();
         let worst = fits
             .iter()
             .map(|g| worst_error(rays, g))
             .fold(0.0, f64::max);
-        if fits.iter().any(|g| g.kept.is_empty()) || after < 0.98 * before || worst >= 0.8 * error {
+        let better = worst < 0.8 * error || (wide && worst <= error.max(SPLIT_RMS));
+        if fits.iter().any(|g| g.kept.is_empty()) || after < 0.98 * before || !better {
             done.push(f);
             continue;
         }
@@ -200,7 +215,14 @@ mod tests {
         let args = (0.5, 4.0, 3f64.to_radians(), 4096);
         let whole = fit::fit_bundle(&rays, &bundle, args.0, args.1, args.2, args.3, false);
         let one = worst_error(&rays, &whole);
-        let pieces = split(&rays, whole.clone(), args, MAX_PIECES, 0.0, false);
+        let pieces = split(
+            &rays,
+            whole.clone(),
+            args,
+            (MAX_PIECES, 0.0),
+            f64::INFINITY,
+            false,
+        );
         assert!(pieces.len() > 1, "one law fits this bundle to {one}");
         assert!(pieces.len() <= MAX_PIECES);
         let w = |f: &Fit| f.kept.len() as f64;
@@ -220,7 +242,7 @@ mod tests {
         assert_eq!(all.len(), n);
         assert!(n as f64 >= 0.98 * whole.kept.len() as f64);
         // The same pieces again.
-        let again = split(&rays, whole, args, MAX_PIECES, 0.0, true);
+        let again = split(&rays, whole, args, (MAX_PIECES, 0.0), f64::INFINITY, true);
         assert_eq!(
             again.iter().map(|p| p.kept.clone()).collect::<Vec<_>>(),
             pieces.iter().map(|p| p.kept.clone()).collect::<Vec<_>>()
