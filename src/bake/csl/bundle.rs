@@ -851,16 +851,16 @@ impl<'a> Extractor<'a> {
             .sum()
     }
 
-    /// Grow a bundle from the rays through `cell`: seed axis from their energy-weighted means,
-    /// then assignment and least-squares optimisation until the axis converges, on the search
-    /// sample ([`search_stride`]; the seed from all rays through the cell where the sample has
-    /// none); the bundle is every ray of the pool within the thresholds of that axis.
     /// The live rays of the whole pool within `distance` and `cos` of the axis line (b, a),
     /// ascending.
     pub fn around(&self, b: Vec3, a: Vec3, distance: f32, cos: f32) -> Vec<u32> {
         self.live(self.pool.indices(&self.pool.scan(b, a, distance, cos)))
     }
 
+    /// Grow a bundle from the rays through `cell`: seed axis from their energy-weighted means,
+    /// then assignment and least-squares optimisation until the axis converges, on the search
+    /// sample ([`search_stride`]; the seed from all rays through the cell where the sample has
+    /// none); the bundle is every ray of the pool within the thresholds of that axis.
     pub fn extract(&self, cell: usize, th: &Thresholds, scale: f32) -> Option<Bundle> {
         let (lo, hi) = self.volume.cell_bounds(cell);
         let through = |c: &Columns| self.live(c.indices(&c.meeting_box(lo, hi)));

@@ -14,7 +14,7 @@
 //! worth it ([`rings::WORTH`]) is made CSLs, the rays left within the distance threshold of its
 //! axis line at up to [`FAN_ANGLE_DEG`] from it are fitted as a bundle of their own on the same
 //! axis (the fit finds their light plane and law, [`rings`] their rings): that direction
-//! measures 0.08.
+//! measures 0.073 with as many CSLs (16), and every direction of the sweep is closer.
 
 use super::bundle::{Bundle, Extractor, det_sum};
 use super::trace::CausticRay;
@@ -153,7 +153,7 @@ impl Maker<'_> {
 /// None when there are none.
 pub fn fan(ex: &Extractor, b: &Bundle, distance: f32) -> Option<Bundle> {
     let members = ex.around(b.origin, b.axis, distance, FAN_ANGLE_DEG.to_radians().cos());
-    (!members.is_empty()).then(|| Bundle {
+    (!members.is_empty()).then_some(Bundle {
         origin: b.origin,
         axis: b.axis,
         members,
