@@ -11,9 +11,8 @@
 //!
 //! (defaults: direction 15, 87.1° above the horizon, and the paper's 1280² grid).
 
-use caustica::bake::csl::{CslParams, bake_csl, trace};
+use caustica::bake::csl::{CslParams, bake_accel, bake_csl, rigid_frame_world, trace};
 use caustica::reference::sweep;
-use caustica::trace::Accel;
 use glam::Vec3;
 
 /// Rings of this width (m), this many.
@@ -43,12 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let csls = set.to_world(place);
 
     // The bake's rays, traced again in the object's rigid frame as the bake traces them.
-    let mut alone = world.clone();
-    alone.objects = vec![object.clone()];
-    let (scale, _, _) = object.transform.to_scale_rotation_translation();
-    alone.objects[0].transform = glam::Mat4::from_scale(scale);
-    alone.lights.clear();
-    let accel = Accel::build_with(&alone, |_| true, obvhs::BvhBuildParams::fast_build());
+    let accel = bake_accel(&rigid_frame_world(&world, object));
     let (u, v) = local_light.any_orthonormal_pair();
     let ray_grid = trace::RayGrid {
         light: local_light,

@@ -27,6 +27,7 @@ pub mod make;
 pub mod optimize;
 pub mod rings;
 pub mod trace;
+pub mod volume;
 
 use super::{BakeError, Fnv64, Progress};
 use crate::scene::{Object, World};
@@ -390,7 +391,7 @@ impl CslSet {
 }
 
 /// The object alone, scaled, at the origin: the world the bake traces.
-pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
+pub fn rigid_frame_world(world: &World, object: &Object) -> World {
     let (scale, _, _) = object.transform.to_scale_rotation_translation();
     World {
         name: object.name.clone(),
@@ -411,7 +412,7 @@ pub(crate) fn rigid_frame_world(world: &World, object: &Object) -> World {
 
 /// The BVH a bake traces: over `local`, the object alone in its rigid frame
 /// ([`rigid_frame_world`]).
-pub(crate) fn bake_accel(local: &World) -> Accel {
+pub fn bake_accel(local: &World) -> Accel {
     Accel::build_with(local, |_| true, obvhs::BvhBuildParams::fast_build())
 }
 
@@ -768,7 +769,8 @@ mod tests {
             .map(|c| c.flux)
             .sum();
         assert!(leaning < 0.02 * flux, "{leaning} of {flux}");
-        // The fan's steep rays, more than 60° from the axis, are among them.
+        // The fan's steep rays are among them: its widest CSL's rays reach 85° from the axis
+        // (before the fan the on-axis CSLs reached 61°).
         let steep = set
             .csls
             .iter()
@@ -779,7 +781,7 @@ mod tests {
                 (r * (c.kappa + c.gamma * r)).atan().to_degrees()
             })
             .fold(0.0f32, f32::max);
-        assert!(steep > 60.0, "{steep}");
+        assert!(steep > 75.0, "{steep}");
     }
 
     #[test]

@@ -99,7 +99,8 @@ pub fn split(
     while let Some(f) = open.pop() {
         let pieces = done.len() + open.len() + 1;
         let kept = |f: &Fit| det_sum(&f.kept, 0.0, |&i| rays[i as usize].weight() as f64);
-        if kept(&f) < worth {
+        let before = kept(&f);
+        if before < worth {
             done.push(f);
             continue;
         }
@@ -127,7 +128,6 @@ pub fn split(
             .collect();
         // Taken only when the rings together fit better (or, cut for their reach, no worse)
         // and keep (nearly) the light.
-        let before = kept(&f);
         let after: f64 = fits.iter().map(kept).sum();
         let worst = fits
             .iter()
