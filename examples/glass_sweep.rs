@@ -19,6 +19,14 @@
 //! figures. `--fit-samples`, `--fit-threshold`, `--splat-scale`: the bake's parameters of
 //! those names.
 //!
+//! `--around I [--spread DEG]`: instead of the sweep, N directions within DEG degrees
+//! (elevation and azimuth, default 2) of the sweep's direction I, the first exactly it: how much
+//! bakes scatter between neighbouring directions (references rendered, never read).
+//!
+//! `--corners SUB`: also the static sets baked at the three directions of the dynamic bake's
+//! icosphere (SUB subdivisions, the paper's 2) around each light, each turned onto the light
+//! alone: what the dynamic bake interpolates from, without the interpolation.
+//!
 //! `--scene FILE --object NAME`: another glass object on a floor at y = 0 (the scene's first
 //! light directional). `--no-csl` skips the static bakes.
 //!
@@ -54,6 +62,32 @@ fn write_frame(
     Ok(())
 }
 
+/// How much bakes scatter between neighbouring directions: `n` directions within `spread`
+/// degrees (elevation and azimuth) of the sweep's direction `centre`, the first exactly it.
+fn around(n: usize, seed: u64, centre: usize, spread: f32) -> Vec<SweepCase> {
+    let c = sweep::directions(centre + 1, seed)[centre];
+    let mut rng = caustica::sampling::Pcg::new(seed, 57);
+    (0..n)
+        .map(|k| {
+            let mut jitter = || spread * (2.0 * rng.f32() - 1.0);
+            let (de, da) = if k == 0 {
+                (0.0, 0.0)
+            } else {
+                (jitter(), jitter())
+            };
+            let (e, a) = (
+                (c.elevation_deg + de).to_radians(),
+                (c.azimuth_deg + da).to_radians(),
+            );
+            SweepCase {
+                direction: glam::Vec3::new(-e.cos() * a.cos(), -e.sin(), -e.cos() * a.sin()),
+                elevation_deg: e.to_degrees(),
+                azimuth_deg: a.to_degrees(),
+            }
+        })
+        .collect()
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let n: usize = arg(&args, "--directions").unwrap_or(50);
@@ -78,6 +112,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let write: Option<String> = arg(&args, "--write");
     let scene_camera = args.iter().any(|a| a == "--scene-camera");
     let gpu = args.iter().any(|a| a == "--gpu");
+    let corners: Option<u32> = arg(&args, "--corners");
     let mut renderer = match gpu || gpu_photons.is_some() {
         true => Some(caustica::render::Renderer::new(std::sync::Arc::new(
             caustica::gpu::GpuContext::new(&Default::default())?,
@@ -94,6 +129,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut worst: Vec<(f32, f32, usize)> = Vec::new();
     let mut cases = sweep::directions(n, seed);
+    if let Some(centre) = arg::<usize>(&args, "--around") {
+        cases = around(n, seed, centre, arg(&args, "--spread").unwrap_or(2.0));
+    }
     if args.iter().any(|a| a == "--scene-light") {
         let (d, _) = caustica::bake::csl::scene_directional_light(&base).expect("directional");
         let d = d.normalize();
@@ -129,7 +167,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "glass-sphere-sweep-{i:02}.caustics.{}M.exr",
             photons / 1_000_000
         );
-        let stored = truth_dir.as_ref().map(|d| format!("{d}/{file}"));
+        let stored = truth_dir
+            .as_ref()
+            .filter(|_| !args.iter().any(|a| a == "--around"))
+            .map(|d| format!("{d}/{file}"));
         let truth = match stored.as_ref().map(std::fs::read) {
             Some(Ok(bytes)) => caustica::encode::decode_frame(&bytes)?,
             _ => {
@@ -212,6 +253,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let img = out.caustics.expect("a caustics layer");
                 let s = compare::compare(&img, &truth, &mask);
                 line += &format!(" | static on the GPU {:.3} / {:.3}", s.rel_l1, s.flux_ratio);
+                cols.push((s.rel_l1, s.flux_ratio));
+            }
+        }
+        if let Some(sub) = corners {
+            // Each corner set of the icosphere face around the light, turned onto it alone
+            // (what interpolation starts from; weights in brackets).
+            let ico = caustica::bake::csl::dynamic::Icosphere::new(sub);
+            let (f, w) = ico.locate(local);
+            for (k, &v) in ico.faces[f].iter().enumerate() {
+                let corner = ico.vertices[v as usize];
+                let set = bake_csl(&world, &object, corner, &params, &|_| true)?;
+                let q = glam::Mat3::from_quat(glam::Quat::from_rotation_arc(corner, local));
+                let turned = CslSet {
+                    csls: set
+                        .csls
+                        .iter()
+                        .map(|c| c.clone().turned(set.centre, q))
+                        .collect(),
+                    light_dir: local,
+                    ..set
+                };
+                let s = compare::compare(&draw(&turned), &truth, &mask);
+                line += &format!(
+                    " | corner {v} ({:.2}, {:.1}°) {:.3} / {:.3}",
+                    w[k],
+                    corner.angle_between(local).to_degrees(),
+                    s.rel_l1,
+                    s.flux_ratio
+                );
                 cols.push((s.rel_l1, s.flux_ratio));
             }
         }

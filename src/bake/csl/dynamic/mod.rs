@@ -501,7 +501,7 @@ impl DynamicSet {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use glam::{Quat, Vec3};
+    use glam::{Mat3, Quat, Vec3};
 
     /// A dynamic set whose images would pass the bound stops while its directions bake, with
     /// an error that says so, instead of writing an artifact no render can load.
@@ -596,12 +596,7 @@ pub(crate) mod tests {
                     spacing: 0.01,
                     csls: base
                         .iter()
-                        .map(|c| Csl {
-                            origin: centre + q * (c.origin - centre),
-                            axis: (q * c.axis).normalize(),
-                            x_axis: (q * c.x_axis).normalize(),
-                            ..c.clone()
-                        })
+                        .map(|c| c.clone().turned(centre, Mat3::from_quat(q)))
                         .collect(),
                     stats: Default::default(),
                 }
