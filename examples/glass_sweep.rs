@@ -88,6 +88,82 @@ fn around(n: usize, seed: u64, centre: usize, spread: f32) -> Vec<SweepCase> {
         .collect()
 }
 
+/// Each CSL of `set`, baked for the light `local`: `--verbose`.
+fn print_csls(set: &CslSet, local: glam::Vec3) {
+    for (k, c) in set.csls.iter().enumerate() {
+        let off = (set.centre - c.origin).cross(c.axis).length();
+        println!(
+            "  csl {k}: flux {:.4} axis {:.3}° from the light, line {:.2e} m from the \
+             centre, focus at r=0 {:.4} m, kappa {:.4} gamma {:.4}, half extent {:.4}, {}²",
+            c.flux,
+            c.axis.angle_between(local).to_degrees(),
+            off,
+            1.0 / c.kappa,
+            c.kappa,
+            c.gamma,
+            c.half_extent,
+            c.size
+        );
+    }
+}
+
+/// The reference's caustics of `world`: `photons`, `seed`.
+fn render_truth(
+    world: &caustica::scene::World,
+    accel: &Accel,
+    photons: u64,
+    seed: u64,
+) -> Result<caustica::frame::Frame, Box<dyn std::error::Error>> {
+    let params = ReferenceParams {
+        photons,
+        seed,
+        caustics_only: true,
+        ..Default::default()
+    };
+    Ok(reference::render(world, accel, &params, &|_| true)?
+        .0
+        .caustics)
+}
+
+/// A corner's index, its weight at the light, its angle to the light (degrees) and its set
+/// turned onto the light.
+type Corner = (u32, f32, f32, CslSet);
+
+/// The corner sets of the dynamic bake's icosphere face (`sub` subdivisions) around the light
+/// `local` (the object's rigid frame), each baked for its corner's direction and turned onto the
+/// light alone: what interpolation starts from. Each with its corner's index, its weight there
+/// and its angle to the light (degrees).
+fn corner_sets(
+    world: &caustica::scene::World,
+    object: &str,
+    local: glam::Vec3,
+    params: &CslParams,
+    sub: u32,
+) -> Result<Vec<Corner>, Box<dyn std::error::Error>> {
+    let ico = caustica::bake::csl::dynamic::Icosphere::new(sub);
+    let (f, w) = ico.locate(local);
+    let mut sets = Vec::new();
+    for (k, &v) in ico.faces[f].iter().enumerate() {
+        let corner = ico.vertices[v as usize];
+        let set = bake_csl(world, object, corner, params, &|_| true)?;
+        let q = glam::Mat3::from_quat(glam::Quat::from_rotation_arc(corner, local));
+        let angle = corner.angle_between(local).to_degrees();
+        let turned = CslSet {
+            csls: set
+                .csls
+                .iter()
+                .map(|c| c.clone().turned(set.centre, q))
+                .collect(),
+            light_dir: local,
+            ..set
+        };
+        sets.push((v, w[k], angle, turned));
+    }
+    Ok(sets)
+}
+
+// One loop over the directions whose body adds the table's columns in turn, each a few lines
+// over the helpers above: longer than 150 lines because the options are many, not the work.
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let n: usize = arg(&args, "--directions").unwrap_or(50);
@@ -173,21 +249,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|d| format!("{d}/{file}"));
         let truth = match stored.as_ref().map(std::fs::read) {
             Some(Ok(bytes)) => caustica::encode::decode_frame(&bytes)?,
-            _ => {
-                reference::render(
-                    &world,
-                    &accel,
-                    &ReferenceParams {
-                        photons,
-                        seed: 1000 + i as u64,
-                        caustics_only: true,
-                        ..Default::default()
-                    },
-                    &|_| true,
-                )?
-                .0
-                .caustics
-            }
+            _ => render_truth(&world, &accel, photons, 1000 + i as u64)?,
         };
         let t_ref = t.elapsed();
         if let Some(dir) = &references {
@@ -219,21 +281,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let set = bake_csl(&world, &object, local, &params, &|_| true)?;
             let drawn = draw(&set);
             if verbose {
-                for (k, c) in set.csls.iter().enumerate() {
-                    let off = (set.centre - c.origin).cross(c.axis).length();
-                    println!(
-                        "  csl {k}: flux {:.4} axis {:.3}° from the light, line {:.2e} m from the \
-                         centre, focus at r=0 {:.4} m, kappa {:.4} gamma {:.4}, half extent {:.4}, {}²",
-                        c.flux,
-                        c.axis.angle_between(local).to_degrees(),
-                        off,
-                        1.0 / c.kappa,
-                        c.kappa,
-                        c.gamma,
-                        c.half_extent,
-                        c.size
-                    );
-                }
+                print_csls(&set, local);
             }
             if let Some(dir) = &write {
                 write_frame(dir, i, "static", &drawn)?;
@@ -257,30 +305,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         if let Some(sub) = corners {
-            // Each corner set of the icosphere face around the light, turned onto it alone
-            // (what interpolation starts from; weights in brackets).
-            let ico = caustica::bake::csl::dynamic::Icosphere::new(sub);
-            let (f, w) = ico.locate(local);
-            for (k, &v) in ico.faces[f].iter().enumerate() {
-                let corner = ico.vertices[v as usize];
-                let set = bake_csl(&world, &object, corner, &params, &|_| true)?;
-                let q = glam::Mat3::from_quat(glam::Quat::from_rotation_arc(corner, local));
-                let turned = CslSet {
-                    csls: set
-                        .csls
-                        .iter()
-                        .map(|c| c.clone().turned(set.centre, q))
-                        .collect(),
-                    light_dir: local,
-                    ..set
-                };
-                let s = compare::compare(&draw(&turned), &truth, &mask);
+            for (v, weight, angle, set) in corner_sets(&world, &object, local, &params, sub)? {
+                let s = compare::compare(&draw(&set), &truth, &mask);
                 line += &format!(
-                    " | corner {v} ({:.2}, {:.1}°) {:.3} / {:.3}",
-                    w[k],
-                    corner.angle_between(local).to_degrees(),
-                    s.rel_l1,
-                    s.flux_ratio
+                    " | corner {v} ({weight:.2}, {angle:.1}°) {:.3} / {:.3}",
+                    s.rel_l1, s.flux_ratio
                 );
                 cols.push((s.rel_l1, s.flux_ratio));
             }

@@ -1,5 +1,6 @@
 //! Stages 3–4 for one bundle: its fit, its rings ([`rings`]) and their intensity images, made
-//! CSLs; and the *fan* of a bundle's axis.
+//! CSLs; the *fan* of a bundle's axis; and the loop of stages 2–5 that makes bundles CSLs until
+//! they cover the energy ([`Maker::cover`]).
 //!
 //! **The fan.** A lens's marginal rays leave it steeply, cross its axis close behind it and
 //! spread far (a glass sphere lit from above: the rays that enter farther out than 0.85 of its
@@ -16,9 +17,9 @@
 //! axis (the fit finds their light plane and law, [`rings`] their rings): that direction
 //! measures 0.073 with as many CSLs (16), and every direction of the sweep is closer.
 
-use super::bundle::{Bundle, Extractor, det_sum};
+use super::bundle::{Bundle, Extractor, Thresholds, det_sum};
 use super::trace::CausticRay;
-use super::{BakeStats, Csl, CslParams, TEXEL_SPACINGS, fit, image, rings};
+use super::{BakeError, BakeStats, Csl, CslParams, TEXEL_SPACINGS, fit, image, rings};
 use std::time::Instant;
 
 /// The steepest ray a fan takes, degrees from the axis. Steeper rays would stretch the fan's
@@ -43,6 +44,80 @@ pub struct Maker<'a> {
 }
 
 impl Maker<'_> {
+    /// Stages 2–5 (Liu et al. 2008 §3.1.1): bundles from `ex`'s pool made CSLs until they
+    /// cover the target share of the energy, within the bake's bounds on their count and
+    /// images' memory; `stats.stopped_by` says which ended it. `report` takes the fraction of
+    /// the whole bake done and says whether to go on.
+    pub fn cover(
+        &self,
+        ex: &mut Extractor,
+        thresholds: &Thresholds,
+        stats: &mut BakeStats,
+        report: &dyn Fn(f32) -> bool,
+    ) -> Result<Vec<Csl>, BakeError> {
+        let (params, total) = (self.params, self.total);
+        let mut remaining = total;
+        let mut csls = Vec::new();
+        let mut attempts = 0u32;
+        let mut taken: Option<Vec<u32>> = None;
+        stats.stopped_by = "coverage";
+        while remaining > (1.0 - params.coverage as f64) * total {
+            if csls.len() >= params.max_csls as usize || attempts >= 2 * params.max_csls {
+                stats.stopped_by = "count";
+                break;
+            }
+            let image_bytes: u64 = csls.iter().map(|c: &Csl| c.texels.len() as u64 * 8).sum();
+            if image_bytes >= params.max_image_bytes {
+                stats.stopped_by = "memory";
+                break;
+            }
+            attempts += 1;
+            if !report(0.5 + 0.5 * (1.0 - remaining / total.max(1e-30)) as f32) {
+                return Err(BakeError::Canceled);
+            }
+            // The last CSL's rays leave the pool only now, when another bundle is wanted.
+            if let Some(kept) = taken.take() {
+                let t0 = Instant::now();
+                ex.remove(&kept, !self.spare_cores);
+                stats.time_bundles += t0.elapsed();
+            }
+            let Some(cell) = ex.max_cell() else {
+                stats.stopped_by = "bundles";
+                break;
+            };
+            let t0 = Instant::now();
+            let found = ex.extract(cell, thresholds, self.radius);
+            stats.time_bundles += t0.elapsed();
+            let Some(b) = found else {
+                ex.block(cell);
+                stats.rejected_bundles += 1;
+                continue;
+            };
+            let Some(kept) = self.make(&b, stats, &mut csls) else {
+                ex.block(cell);
+                stats.rejected_bundles += 1;
+                continue;
+            };
+            stats.iterations += b.iterations;
+            let energy = self.energy(&kept);
+            remaining -= energy;
+            if energy < rings::WORTH * total {
+                taken = Some(kept);
+                continue;
+            }
+            // The fan of its axis (above), from the rays the bundle left.
+            let t0 = Instant::now();
+            ex.remove(&kept, !self.spare_cores);
+            let fan = fan(ex, &b, thresholds.distance);
+            stats.time_bundles += t0.elapsed();
+            if let Some(fan) = fan {
+                taken = self.make(&fan, stats, &mut csls);
+                remaining -= taken.as_deref().map_or(0.0, |k| self.energy(k));
+            }
+        }
+        Ok(csls)
+    }
+
     /// Energy of the rays `idx`.
     pub fn energy(&self, idx: &[u32]) -> f64 {
         det_sum(idx, 0.0, |&i| self.rays[i as usize].weight() as f64)

@@ -650,86 +650,22 @@ pub(crate) fn bake_csl_with(
         cos_angle: params.angle_threshold_deg.to_radians().cos(),
         max_iterations: params.max_iterations,
     };
-    let total = stats.energy_traced;
-    let mut remaining = total;
     let spacing = grid.spacing();
     let far = 4.0 * (hi - lo).length() as f64;
-    let mut csls = Vec::new();
-    let mut attempts = 0u32;
-    let mut taken: Option<Vec<u32>> = None;
     let maker = make::Maker {
         rays: &rays,
         params,
         radius,
         far,
         spacing,
-        total,
+        total: stats.energy_traced,
         spare_cores,
     };
-    // Until the CSLs cover the target (Liu et al. 2008 §3.1.1 step 5), within the bounds.
-    stats.stopped_by = "coverage";
-    while remaining > (1.0 - params.coverage as f64) * total {
-        if csls.len() >= params.max_csls as usize || attempts >= 2 * params.max_csls {
-            stats.stopped_by = "count";
-            break;
-        }
-        let image_bytes: u64 = csls.iter().map(|c: &Csl| c.texels.len() as u64 * 8).sum();
-        if image_bytes >= params.max_image_bytes {
-            stats.stopped_by = "memory";
-            break;
-        }
-        attempts += 1;
-        if !report(
-            "bundles",
-            0.5 + 0.5 * (1.0 - remaining / total.max(1e-30)) as f32,
-        ) {
-            return Err(BakeError::Canceled);
-        }
-        // The last CSL's rays leave the pool only now, when another bundle is wanted.
-        if let Some(kept) = taken.take() {
-            let t0 = Instant::now();
-            ex.remove(&kept, !spare_cores);
-            stats.time_bundles += t0.elapsed();
-        }
-        let Some(cell) = ex.max_cell() else {
-            stats.stopped_by = "bundles";
-            break;
-        };
-        let t0 = Instant::now();
-        let found = ex.extract(cell, &thresholds, radius);
-        stats.time_bundles += t0.elapsed();
-
-        let Some(b) = found else {
-            ex.block(cell);
-            stats.rejected_bundles += 1;
-            continue;
-        };
-        let Some(kept) = maker.make(&b, &mut stats, &mut csls) else {
-            ex.block(cell);
-            stats.rejected_bundles += 1;
-            continue;
-        };
-        stats.iterations += b.iterations;
-        let energy = maker.energy(&kept);
-        remaining -= energy;
-        if energy < rings::WORTH * total {
-            taken = Some(kept);
-            continue;
-        }
-        // The fan of its axis (`make`'s docs), from the rays the bundle left.
-        let t0 = Instant::now();
-        ex.remove(&kept, !spare_cores);
-        let fan = make::fan(&ex, &b, thresholds.distance);
-        stats.time_bundles += t0.elapsed();
-        if let Some(fan) = fan {
-            taken = maker.make(&fan, &mut stats, &mut csls);
-            remaining -= taken.as_deref().map_or(0.0, |k| maker.energy(k));
-        }
-    }
-    let csls = csls
+    let csls: Vec<Csl> = maker
+        .cover(&mut ex, &thresholds, &mut stats, &|f| report("bundles", f))?
         .into_iter()
         .map(|c| frame.give_back(c))
-        .collect::<Vec<_>>();
+        .collect();
     stats.csls = csls.len() as u32;
     stats.time_total = t_start.elapsed();
     report("done", 1.0);
