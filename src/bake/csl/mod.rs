@@ -408,7 +408,7 @@ struct LightFrame {
 }
 
 impl LightFrame {
-    fn new(centre: Vec3, light: Vec3, u: Vec3, v: Vec3) -> LightFrame {
+    fn new(centre: Vec3, u: Vec3, v: Vec3, light: Vec3) -> LightFrame {
         LightFrame {
             centre,
             rot: Mat3::from_cols(u, v, light).transpose(),
@@ -625,7 +625,7 @@ pub(crate) fn bake_csl_with(
     // where they sat for any other light direction, so a bundle search that seeds at the cell of
     // most energy finds the same bundles for a turned light (the object's own shape aside),
     // where an object-aligned volume cut the same caustic differently at every direction.
-    let frame = LightFrame::new(centre, light, u, v);
+    let frame = LightFrame::new(centre, u, v, light);
     frame.take_in(&mut rays);
     let mut stats = BakeStats {
         rays_traced: (0..n)
