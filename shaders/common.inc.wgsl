@@ -35,8 +35,9 @@ struct Globals {
     // rgb: irradiance (W/m²) of the directional light the caustic spot lights carry.
     csl_irradiance: vec4<f32>,
     // The participating medium the direct light crosses on its way to a surface (method beams
-    // sets it; medium_half.x = 0: none): world → its box's frame, the box's half extents, σt,
-    // σs and g.
+    // sets it, or a water body's absorption: render/water/gpu.rs DirectMedium; medium_half.x =
+    // 0: none): world → its box's frame, the box's half extents (w: 1 when the way back to the
+    // camera crosses it too, as a water body's), σt, σs and g.
     medium_to_local: mat4x4<f32>,
     medium_half: vec4<f32>,
     medium_sigma_t: vec4<f32>,

@@ -181,6 +181,14 @@ fn shade(in: VsOut) -> FsOut {
         sky = sky_visibility(p, n, ng);
     }
     l += albedo / PI * sh_irradiance(g.sh, n) * sky;
+    if HAS_MEDIUM && g.medium_half.w > 0.5 {
+        // A water body (render/water/gpu.rs DirectMedium): its water on the way back to the
+        // camera too (method beams adds the fog's on that way in a pass of its own).
+        let to_p = p - g.eye.xyz;
+        let dist = length(to_p);
+        let iv = box_interval(g.medium_to_local, g.medium_half.xyz, g.eye.xyz, to_p / dist);
+        l *= exp(-g.medium_sigma_t.rgb * max(min(iv.y, dist) - iv.x, 0.0));
+    }
     out.direct = vec4<f32>(l, 1.0);
     return out;
 }

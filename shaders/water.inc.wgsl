@@ -38,7 +38,8 @@ struct Water {
     // the sun's disc; z: 1 when receivers above the water can shade the surface; w: light
     // map texels per side.
     grid: vec4<u32>,
-    // rgb: the sun's irradiance per direction over its disc (E / directions).
+    // rgb: the sun's irradiance per direction over its disc (E / directions); w: those
+    // directions (so that rgb * w is E).
     sun_e: vec4<f32>,
     // The physical splat: x, the least spread radius per metre of refracted path (the sun
     // disc's blur per direction); y, the least spread radius (metres); z, how far a landed
@@ -198,6 +199,35 @@ fn in_water(p: vec3<f32>) -> bool {
 }
 
 
+// Beer-Lambert along the segment a -> b, which crosses no surface: over its part inside the
+// body's box (the rectangle, from the bottom up to the highest crest), when that part lies in
+// the water (as scene/water.rs WaterBody::transmittance: a segment may enter through the
+// body's open sides).
+fn water_beer(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let half = vec3<f32>(0.5 * water.size.x, 0.0, 0.5 * water.size.y);
+    let lo = vec3<f32>(water.centre.x, water.centre.y - water.centre.w - 1e-3, water.centre.z) - half;
+    let hi = vec3<f32>(water.centre.x, water.centre.y + water.beam.w, water.centre.z) + half;
+    let d = b - a;
+    var t0 = 0.0;
+    var t1 = 1.0;
+    for (var k = 0; k < 3; k++) {
+        if abs(d[k]) < 1e-20 {
+            if a[k] < lo[k] || a[k] > hi[k] {
+                return vec3<f32>(1.0);
+            }
+        } else {
+            let u = (lo[k] - a[k]) / d[k];
+            let v = (hi[k] - a[k]) / d[k];
+            t0 = max(t0, min(u, v));
+            t1 = min(t1, max(u, v));
+        }
+    }
+    if t0 >= t1 || !in_water(a + d * (0.5 * (t0 + t1))) {
+        return vec3<f32>(1.0);
+    }
+    return beer(length(d) * (t1 - t0));
+}
+
 // Where the line through q along the refracted sun meets the mean surface plane, in light
 // map coordinates (0..1 over the map).
 fn map_uv(q: vec3<f32>) -> vec2<f32> {
@@ -233,3 +263,33 @@ fn irradiance(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return water.beam.rgb * (facing * b) * beer(t);
 }
 
+// Sunlight that reaches q (unit normal n, in the water) through the body's open sides: the
+// straight ray towards the sun leaves the rectangle under the surface, without crossing it,
+// and nothing blocks it; E cos, through the water up to the side. The reference traces the
+// same light (its shadow rays and photons cross no surface there).
+fn side_light(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let l = -water.sun.xyz;
+    let c = dot(n, l);
+    if c <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let o = q + n * 1e-4;
+    // Where the ray leaves the rectangle's x and z slabs.
+    let half = 0.5 * water.size.xy;
+    var t_out = 1e30;
+    for (var k = 0u; k < 2u; k++) {
+        let oc = select(o.z, o.x, k == 0u) - select(water.centre.z, water.centre.x, k == 0u);
+        let dc = select(l.z, l.x, k == 0u);
+        let h = select(half.y, half.x, k == 0u);
+        if abs(dc) > 1e-9 {
+            t_out = min(t_out, (sign(dc) * h - oc) / dc);
+        }
+    }
+    if t_out >= 1e29 || above(o + l * t_out) >= 0.0 || cross_surface(o, l, t_out) >= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    if occluded(o, l, 1e30) {
+        return vec3<f32>(0.0);
+    }
+    return water.sun_e.rgb * water.sun_e.w * c * beer(max(t_out, 0.0));
+}

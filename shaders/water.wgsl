@@ -15,7 +15,11 @@
 //      the whole footprint (2).
 // The receiver reflects it (albedo / pi, or its glossy lobe) towards the camera, attenuated
 // along the water the view ray crosses and, from above, by the surface's Fresnel
-// transmittance times eta^2.
+// transmittance times eta^2. Seen from above it also reflects the sunlight the body's open
+// sides let in (side_light; seen directly, the direct pass draws that light).
+// What the camera sees directly goes to the caustics layer (location 0), what it sees through
+// the waves to the specular layer (location 1): a path the camera sees through a specular
+// surface is specular light, in every method and in the reference (docs/design.md).
 
 #include "water.inc.wgsl"
 
@@ -145,8 +149,16 @@ fn view_dir(xy: vec2<f32>) -> vec3<f32> {
     return normalize(far.xyz / far.w - g.eye.xyz);
 }
 
+// The pass's two layers.
+struct Layers {
+    @location(0) caustics: vec4<f32>,
+    @location(1) specular: vec4<f32>,
+}
+
+const NONE = Layers(vec4<f32>(0.0), vec4<f32>(0.0));
+
 @fragment
-fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs_main(@builtin(position) frag: vec4<f32>) -> Layers {
     let px = vec2<i32>(frag.xy);
     let gp = textureLoad(gbuf_position, px, 0);
     let gn = textureLoad(gbuf_normal, px, 0);
@@ -158,18 +170,15 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         // A receiver seen directly: under the water, or not lit by it.
         let q = gp.xyz;
         if !in_water(q + normalize(gn.xyz) * 1e-3) {
-            return vec4<f32>(0.0);
+            return NONE;
         }
         let m = materials[u32(gn.w)];
-        var through = vec3<f32>(1.0);
-        if in_water(0.5 * (eye + q)) {
-            through = beer(distance(eye, q));
-        }
+        let through = water_beer(eye, q);
         let n = normalize(gn.xyz);
         let wo = normalize(eye - q);
         let foot = distance(eye, q) * pixel_angle / sqrt(max(dot(n, wo), 0.0625));
         let e = irradiance_at(q, n, foot);
-        return vec4<f32>(receiver_brdf(m, n, wo) * e * through, 0.0);
+        return Layers(vec4<f32>(receiver_brdf(m, n, wo) * e * through, 0.0), vec4<f32>(0.0));
     }
     // Seen through the waves from above: the view ray refracted at the surface, on to the
     // first receiver under it.
@@ -180,33 +189,33 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     }
     let t = cross_surface(eye, d, t_max);
     if t < 0.0 {
-        return vec4<f32>(0.0);
+        return NONE;
     }
     let s = eye + d * t;
     let ns = normal_at(s);
     if dot(d, ns) >= 0.0 {
-        return vec4<f32>(0.0);
+        return NONE;
     }
     let eta = 1.0 / water.size.w;
     let r = refract(d, ns, eta);
     if dot(r, r) == 0.0 {
-        return vec4<f32>(0.0);
+        return NONE;
     }
     let o = s + r * 1e-4;
     let hit = closest_hit(o, r, 1e30);
     if hit.tri == 0xffffffffu {
-        return vec4<f32>(0.0);
+        return NONE;
     }
     let q = o + r * hit.t;
     let n = blocker_normal(hit.tri, r);
     if !in_water(q + n * 1e-3) {
-        return vec4<f32>(0.0);
+        return NONE;
     }
     let m = materials[u32(blocker_tris[hit.tri].v0.w)];
     let tr = (1.0 - fresnel_dielectric(-dot(d, ns), eta)) * eta * eta;
     // The footprint grows along the refracted ray about as the path's length; its side is
     // the geometric mean of its axes (1 across, 1 / cos along the receiver's slope).
     let foot = (t + hit.t) * pixel_angle / sqrt(max(dot(n, -r), 0.0625));
-    let e = irradiance_at(q, n, foot);
-    return vec4<f32>(receiver_brdf(m, n, -r) * e * tr * beer(hit.t), 0.0);
+    let e = irradiance_at(q, n, foot) + side_light(q, n);
+    return Layers(vec4<f32>(0.0), vec4<f32>(receiver_brdf(m, n, -r) * e * tr * beer(hit.t), 0.0));
 }

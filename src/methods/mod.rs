@@ -761,7 +761,7 @@ mod tests {
         assert!(!point[&Method::Csl].0, "{point:?}");
         assert!(point[&Method::Csl].1.contains("directional"), "{point:?}");
         assert!(point[&Method::Transport].0, "{point:?}");
-        // Water seen from under the surface: the water method; from above: the reference.
+        // Water seen from under the surface and from above: the water method.
         let under = verdicts("underwater-view.json");
         assert!(
             under[&Method::Auto].1.starts_with("picks water: "),
@@ -769,7 +769,7 @@ mod tests {
         );
         let pool = verdicts("pool-noon.json");
         assert!(
-            pool[&Method::Auto].1.starts_with("picks reference: "),
+            pool[&Method::Auto].1.starts_with("picks water: "),
             "{pool:?}"
         );
         assert!(pool[&Method::Water].0, "{pool:?}");

@@ -1,8 +1,10 @@
 //! Method `water`: underwater caustics (Sánchez-Crespo 2003) from a procedural water surface
 //! (a `water` shape) under directional lights (the sun, with its disc). The GPU renders the
-//! direct and specular layers; the caustics layer, the sunlight refracted by the waves onto
-//! everything under the water, is computed on the CPU ([`crate::render::water`]) in the
-//! article's mode or in a physical mode that converges to the reference.
+//! direct and specular layers; the sunlight refracted by the waves onto everything under the
+//! water (the caustics layer where the camera sees it directly, added to the specular layer
+//! where it sees it through the waves) is computed by the GPU's water passes or on the CPU
+//! ([`crate::render::water`]), in the article's mode or in a physical mode that converges to
+//! the reference.
 
 use super::{
     Env, Frames, Json, Lane, Method, MethodArgs, MethodError, MethodImpl, MethodInfo, ParamError,
@@ -309,12 +311,13 @@ impl RenderPlan for Plan {
         (env.progress)(0.1, "caustics");
         let mut stats = WaterStats::default();
         let t = Instant::now();
-        let layer = render_layer_with(world, &recv, &self.params, &mut stats, env.keep_going)?;
+        let layers = render_layer_with(world, &recv, &self.params, &mut stats, env.keep_going)?;
         timings.push(("caustics".into(), t.elapsed()));
         env.check()?;
         (env.progress)(0.8, "render");
         let mut out = env.render(&mut timings, |r| r.render(world, &RenderOptions::default()))?;
-        out.caustics = Some(layer);
+        out.caustics = Some(layers.caustics);
+        out.specular = out.specular.add(&layers.specular);
         let mut frames = Frames::from_output(out, timings);
         let p = &self.params;
         let kept = if stats.flux_transmitted > 0.0 {

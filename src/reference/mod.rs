@@ -1218,6 +1218,10 @@ fn background(world: &World, d: Vec3) -> Vec3 {
         .sum()
 }
 
+/// A shadow ray towards a directional light, as a segment for [`World::water_transmittance`]:
+/// long enough to leave any water body.
+const FAR_SEGMENT: f32 = 1e4;
+
 /// Reflected radiance at a non-specular hit towards `wo` from every light, shadowed by all
 /// geometry (specular objects included).
 #[allow(clippy::too_many_arguments)]
@@ -1265,9 +1269,13 @@ fn shade(
                     && n.dot(wi) > 0.0
                     && !accel.occluded(hit.spawn(wi), wi, f32::INFINITY)
                 {
+                    // Sunlight reaching a point under water without crossing its surface
+                    // came in through the body's open side: through the water on the way.
+                    let far = hit.point + wi * FAR_SEGMENT;
                     sum += brdf(mat, n, wi, wo)
                         * *irradiance
                         * world.media_transmittance_ray(hit.point, wi, f32::INFINITY)
+                        * world.water_transmittance(hit.point, far)
                         * n.dot(wi);
                 }
             }

@@ -500,7 +500,7 @@ impl Renderer {
     }
 
     /// Renders `world` and its caustics layer by the water passes (`RenderOutput::caustics` is
-    /// then `Some`).
+    /// then `Some`; what the camera sees through the waves is added to `specular`).
     pub fn render_water(
         &mut self,
         world: &World,
@@ -1136,17 +1136,42 @@ fn caustics_pass<'e>(
     name: &'static str,
     timestamps: Option<&mut timestamps::Timestamps>,
 ) -> wgpu::RenderPass<'e> {
+    caustics_pass_to(enc, &[view], name, timestamps)
+}
+
+/// [`caustics_pass`] onto several layers at once (each kept and added to).
+fn caustics_pass_to<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    views: &[&wgpu::TextureView],
+    name: &'static str,
+    timestamps: Option<&mut timestamps::Timestamps>,
+) -> wgpu::RenderPass<'e> {
     let ts = timestamps.map(|t| {
         let k = t.pass(name);
         (&*t, k)
     });
-    caustics_pass_timed(
-        enc,
+    let attachments: Vec<_> = views.iter().map(|v| kept_attachment(v)).collect();
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(name),
+        color_attachments: &attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
+/// A colour attachment whose contents are kept and stored.
+fn kept_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
         view,
-        name,
-        ts.map(|(t, k)| t.writes(k, true, true)),
-        None,
-    )
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        },
+    })
 }
 
 /// [`caustics_pass`] with the timestamp writes given (a pass timed together with the ones after
@@ -1160,15 +1185,7 @@ fn caustics_pass_timed<'e>(
 ) -> wgpu::RenderPass<'e> {
     enc.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(name),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            },
-        })],
+        color_attachments: &[kept_attachment(view)],
         depth_stencil_attachment: depth,
         timestamp_writes,
         occlusion_query_set: None,

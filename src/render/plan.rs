@@ -299,6 +299,12 @@ impl<'a> FramePlan<'a> {
                     l.beams.len()
                 )));
             }
+        } else if let Some(m) = super::water::gpu::DirectMedium::of(world) {
+            // The water's body absorbs the direct light on its way to the receivers in it and on
+            // the way back to the camera.
+            globals.medium_to_local = m.to_local;
+            globals.medium_half = m.half;
+            globals.medium_sigma_t = m.sigma_t;
         }
         if let Some(l) = photons {
             let bytes = l.record_bytes().max(l.bvh.triangles.len() as u64 * 48);

@@ -540,14 +540,47 @@ impl WaterBody {
         s.contains(p.x, p.z) && p.y > s.centre.y - self.depth - 1e-3 && p.y < s.height(p.x, p.z)
     }
 
+    /// The part of the straight segment a → b inside the body's box (the rectangle, from the
+    /// bottom up to the highest crest), as fractions of the segment; None if it misses the box.
+    pub fn clip(&self, a: Vec3, b: Vec3) -> Option<(f32, f32)> {
+        let s = &self.surface;
+        let half = Vec3::new(s.size.x * 0.5, 0.0, s.size.y * 0.5);
+        let lo = Vec3::new(s.centre.x, s.centre.y - self.depth - 1e-3, s.centre.z) - half;
+        let hi = Vec3::new(s.centre.x, s.centre.y + s.amplitude_bound(), s.centre.z) + half;
+        let d = b - a;
+        let (mut t0, mut t1) = (0.0f32, 1.0f32);
+        for k in 0..3 {
+            if d[k] == 0.0 {
+                if a[k] < lo[k] || a[k] > hi[k] {
+                    return None;
+                }
+                continue;
+            }
+            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+            t0 = t0.max(u.min(v));
+            t1 = t1.min(u.max(v));
+        }
+        (t0 < t1).then_some((t0, t1))
+    }
+
     /// Transmittance of the straight segment a → b, which crosses no surface: Beer-Lambert over
-    /// its length when it lies in the water (judged at its midpoint).
+    /// the length of it that lies in the water. The segment may enter or leave the body through
+    /// its open sides (the rectangle's edges under the surface: light the sides let in travels
+    /// straight, as the reference traces it), so it is clipped to the body's box first; the
+    /// clipped part crosses no surface, so it lies wholly in the water or wholly above it
+    /// (judged at its midpoint).
     pub fn transmittance(&self, a: Vec3, b: Vec3) -> Vec3 {
-        if self.absorption == Vec3::ZERO || !self.contains((a + b) * 0.5) {
+        if self.absorption == Vec3::ZERO {
             return Vec3::ONE;
         }
-        let l = (b - a).length();
-        (-self.absorption * l).exp()
+        let Some((t0, t1)) = self.clip(a, b) else {
+            return Vec3::ONE;
+        };
+        let d = b - a;
+        if !self.contains(a + d * (0.5 * (t0 + t1))) {
+            return Vec3::ONE;
+        }
+        (-self.absorption * (d.length() * (t1 - t0))).exp()
     }
 }
 

@@ -750,7 +750,8 @@ async fn water_renders_frames_at_a_time_and_sequences_as_animated_png() {
         &Receivers::build(&world),
         &p,
         &mut WaterStats::default(),
-    );
+    )
+    .caustics;
     assert!(layer.pixels.iter().any(|p| p.x > 0.0), "the floor is lit");
     // The same frame, up to the order the threads summed in.
     assert_eq!((served.width, served.height), (layer.width, layer.height));

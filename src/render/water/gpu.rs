@@ -262,7 +262,7 @@ impl WaterGpuLayer {
                 up: [up.x, up.y, up.z, s.feature_length() / 16.0],
                 map: [corner.x, corner.y, side, side],
                 grid: [g, landing_dirs, u32::from(shade), res],
-                sun_e: [sun_e.x, sun_e.y, sun_e.z, 0.0],
+                sun_e: [sun_e.x, sun_e.y, sun_e.z, n_dirs],
                 splat: [
                     blur,
                     least,
@@ -297,6 +297,31 @@ pub struct WaterPipeline {
     mip_layout: wgpu::BindGroupLayout,
 }
 
+/// The first water body as the direct pass's medium: its box (the rectangle, from the bottom
+/// up to the mean surface) absorbing at its rate. The direct pass attenuates the light on its
+/// way through it to a receiver (the sunlight the open sides let in, a lamp under the water)
+/// and, with `half[3]` = 1, the way from a receiver it sees in it back to the camera. None
+/// without water, or where it does not absorb.
+pub struct DirectMedium {
+    pub to_local: [f32; 16],
+    pub half: [f32; 4],
+    pub sigma_t: [f32; 4],
+}
+
+impl DirectMedium {
+    pub fn of(world: &World) -> Option<DirectMedium> {
+        let b = world.water.iter().find(|b| b.absorption != Vec3::ZERO)?;
+        let s = &b.surface;
+        let centre = s.centre - Vec3::Y * (0.5 * b.depth);
+        let a = b.absorption;
+        Some(DirectMedium {
+            to_local: glam::Mat4::from_translation(-centre).to_cols_array(),
+            half: [0.5 * s.size.x, 0.5 * b.depth, 0.5 * s.size.y, 1.0],
+            sigma_t: [a.x, a.y, a.z, 0.0],
+        })
+    }
+}
+
 /// A storage buffer a compute pass writes.
 const WRITE_BINDING: wgpu::BindingType = wgpu::BindingType::Buffer {
     ty: wgpu::BufferBindingType::Storage { read_only: false },
@@ -310,15 +335,25 @@ const ADD: wgpu::BlendComponent = wgpu::BlendComponent {
     operation: wgpu::BlendOperation::Add,
 };
 
-/// A render pipeline of `module` drawing to one `format` target, optionally adding to it.
+/// A render pipeline of `module` drawing to `targets` targets of `format`, optionally adding
+/// to them.
 fn render_pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
     layout: &wgpu::BindGroupLayout,
     (vs, fs): (&str, &str),
-    format: wgpu::TextureFormat,
+    (format, targets): (wgpu::TextureFormat, usize),
     add: bool,
 ) -> wgpu::RenderPipeline {
+    let target = Some(wgpu::ColorTargetState {
+        format,
+        blend: add.then_some(wgpu::BlendState {
+            color: ADD,
+            alpha: ADD,
+        }),
+        write_mask: wgpu::ColorWrites::ALL,
+    });
+    let targets = vec![target; targets];
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: None,
         bind_group_layouts: &[Some(layout)],
@@ -340,14 +375,7 @@ fn render_pipeline(
             module,
             entry_point: Some(fs),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format,
-                blend: add.then_some(wgpu::BlendState {
-                    color: ADD,
-                    alpha: ADD,
-                }),
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
+            targets: &targets,
         }),
         multiview_mask: None,
         cache: None,
@@ -386,13 +414,14 @@ impl WaterPipeline {
             ],
         );
         let module = module_of("water.wgsl");
-        // Added to the layer the direct pass cleared (alpha 0 added: stays 1).
+        // Added to the caustics layer and to the specular layer the direct pass drew (alpha 0
+        // added: stays 1).
         let pipeline = render_pipeline(
             device,
             &module,
             &layout,
             ("vs_main", "fs_main"),
-            HDR_FORMAT,
+            (HDR_FORMAT, 2),
             true,
         );
         let map_module = module_of("water_map.wgsl");
@@ -438,7 +467,7 @@ impl WaterPipeline {
             &map_module,
             &splat_layout,
             ("vs_splat", "fs_splat"),
-            MAP_FORMAT,
+            (MAP_FORMAT, 1),
             true,
         );
         let article_layout = layout_of(
@@ -455,7 +484,7 @@ impl WaterPipeline {
             &map_module,
             &article_layout,
             ("vs_full", "fs_article_map"),
-            MAP_FORMAT,
+            (MAP_FORMAT, 1),
             false,
         );
         let mip_layout = layout_of(
@@ -746,7 +775,8 @@ pub fn encode(
         ],
     });
     let cv = targets.caustics.create_view(&Default::default());
-    let mut pass = crate::render::caustics_pass(enc, &cv, "water", timestamps);
+    let sv = targets.specular.create_view(&Default::default());
+    let mut pass = crate::render::caustics_pass_to(enc, &[&cv, &sv], "water", timestamps);
     pass.set_pipeline(&p.pipeline);
     pass.set_bind_group(0, &bg, &[]);
     pass.draw(0..3, 0..1);

@@ -305,15 +305,31 @@ pub fn refracted_sun(sun: &Sun, ior: f32) -> Option<Vec3> {
     refract(sun.dir, Vec3::Y, 1.0 / ior)
 }
 
-/// The caustics layer of a frame: per pixel, the radiance the receivers under water reflect
-/// from the refracted sunlight, seen directly (camera under water) or through the surface
-/// (camera above).
+/// A frame's light from the water: per pixel, the radiance the receivers under water reflect
+/// from the refracted sunlight, seen directly (camera under water: the `caustics` layer) or
+/// through the surface (camera above: the `specular` layer, with the sunlight the body's open
+/// sides let in). A path the camera sees through a specular surface is specular light, in
+/// every method and in the reference.
+#[derive(Clone, Debug)]
+pub struct WaterLayers {
+    pub caustics: Frame,
+    pub specular: Frame,
+}
+
+impl WaterLayers {
+    /// Both layers added.
+    pub fn sum(&self) -> Frame {
+        self.caustics.add(&self.specular)
+    }
+}
+
+/// The water's layers of a frame ([`WaterLayers`]).
 pub fn render_layer(
     world: &World,
     recv: &Receivers,
     params: &WaterParams,
     stats: &mut WaterStats,
-) -> Frame {
+) -> WaterLayers {
     render_layer_with(world, recv, params, stats, &|| true).expect("never asked to stop")
 }
 
@@ -326,7 +342,7 @@ pub fn render_layer_with(
     params: &WaterParams,
     stats: &mut WaterStats,
     keep_going: KeepGoing,
-) -> Result<Frame, Canceled> {
+) -> Result<WaterLayers, Canceled> {
     let stop = Stop::new(keep_going);
     let keep_going = &|| stop.go();
     let cam = &world.camera;
@@ -341,7 +357,8 @@ pub fn render_layer_with(
     };
     let weight = 1.0 / (k * k) as f32;
     stats.stages.push(("view".into(), t.elapsed()));
-    let mut frame = Frame::new(cam.width, cam.height);
+    let mut caustics = Frame::new(cam.width, cam.height);
+    let mut specular = Frame::new(cam.width, cam.height);
     for (bi, body) in world.water.iter().enumerate() {
         stop.check()?;
         let t = Instant::now();
@@ -389,17 +406,73 @@ pub fn render_layer_with(
             .first()
             .and_then(|s| refracted_sun(s, body.ior))
             .map_or(Vec3::Y, |d| -d);
+        let sun = suns(world).into_iter().next();
         for (&i, e) in mine.iter().zip(e) {
             let v = views[i].as_ref().expect("kept");
-            let f = brdf(&world.materials[v.material as usize], v.shading, wi, v.wo);
-            frame.pixels[pixel(i)] += v.throughput * f * e * weight;
+            let m = &world.materials[v.material as usize];
+            let mut l = v.throughput * brdf(m, v.shading, wi, v.wo) * e;
+            if v.through {
+                // Seen directly, the direct pass draws the light the sides let in.
+                if let Some((wi, e)) = sun
+                    .as_ref()
+                    .and_then(|s| side_light(recv, body, s, &v.point))
+                {
+                    l += v.throughput * brdf(m, v.shading, wi, v.wo) * e;
+                }
+                specular.pixels[pixel(i)] += l * weight;
+            } else {
+                caustics.pixels[pixel(i)] += l * weight;
+            }
         }
         stats
             .stages
             .push((format!("irradiance[{bi}]"), t.elapsed()));
     }
     stop.check()?;
-    Ok(frame)
+    Ok(WaterLayers { caustics, specular })
+}
+
+/// The sunlight that reaches `p` (under `body`) through the body's open sides: the straight
+/// ray towards the sun leaves the rectangle under the surface without crossing it, and no
+/// receiver blocks it. Its direction towards the sun and the irradiance E·cosθ, through the
+/// water up to the side (the reference traces the same light).
+pub fn side_light(
+    recv: &Receivers,
+    body: &WaterBody,
+    sun: &Sun,
+    p: &RecvPoint,
+) -> Option<(Vec3, Vec3)> {
+    let l = -sun.dir;
+    let c = p.normal.dot(l);
+    if c <= 0.0 {
+        return None;
+    }
+    let s = &body.surface;
+    let o = p.pos + p.normal * 1e-4;
+    // Where the ray leaves the rectangle's x and z slabs.
+    let half = [s.size.x * 0.5, s.size.y * 0.5];
+    let t_out = [
+        (o.x - s.centre.x, l.x, half[0]),
+        (o.z - s.centre.z, l.z, half[1]),
+    ]
+    .into_iter()
+    .filter(|&(_, d, _)| d.abs() > 1e-9)
+    .map(|(oc, d, h)| (h.copysign(d) - oc) / d)
+    .fold(f32::INFINITY, f32::min);
+    if !t_out.is_finite() {
+        return None;
+    }
+    let exit = o + l * t_out;
+    if exit.y >= s.height(exit.x, exit.z) || s.intersect(o, l, t_out).is_some() {
+        return None;
+    }
+    if recv.accel.occluded(o, l, f32::INFINITY) {
+        return None;
+    }
+    Some((
+        l,
+        sun.irradiance * c * (-body.absorption * t_out.max(0.0)).exp(),
+    ))
 }
 
 /// E on a grid over a water's rectangle, at the receivers seen straight down from above the
@@ -644,13 +717,14 @@ mod tests {
                 pixel_samples: 1,
                 ..WaterParams::default()
             };
-            let whole = render_layer(&world, &recv, &params, &mut WaterStats::default());
+            let whole = render_layer(&world, &recv, &params, &mut WaterStats::default()).sum();
             assert!(whole.pixels.iter().any(|p| p.max_element() > 0.0));
             let asked = assert_cancels(
                 least,
                 |k| {
                     let f =
-                        render_layer_with(&world, &recv, &params, &mut WaterStats::default(), k)?;
+                        render_layer_with(&world, &recv, &params, &mut WaterStats::default(), k)?
+                            .sum();
                     // Asking changes nothing.
                     assert_eq!(f.pixels, whole.pixels);
                     Ok::<_, Canceled>(f)

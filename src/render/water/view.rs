@@ -22,6 +22,8 @@ pub struct ViewPoint {
     pub wo: Vec3,
     /// Fresnel transmittance through the surface and Beer-Lambert along the water.
     pub throughput: Vec3,
+    /// Seen through the wave surface (from above), not directly.
+    pub through: bool,
 }
 
 /// On a grid of `k` × `k` sub-pixels per pixel (row-major over the image `k` times the
@@ -63,7 +65,7 @@ pub fn view_point(world: &World, recv: &Receivers, eye: Vec3, d: Vec3) -> Option
         .enumerate()
         .filter_map(|(bi, b)| b.surface.intersect(eye, d, t_hit).map(|(t, p)| (t, p, bi)))
         .min_by(|a, b| a.0.total_cmp(&b.0));
-    let seen = |h: crate::trace::Hit, body: usize, wo: Vec3, throughput: Vec3| {
+    let seen = |h: crate::trace::Hit, body: usize, wo: Vec3, throughput: Vec3, through: bool| {
         let material = recv.accel.material(&h);
         if material.is_specular() {
             return None;
@@ -79,6 +81,7 @@ pub fn view_point(world: &World, recv: &Receivers, eye: Vec3, d: Vec3) -> Option
             material: h.material,
             wo,
             throughput,
+            through,
         })
     };
     match surface {
@@ -97,7 +100,7 @@ pub fn view_point(world: &World, recv: &Receivers, eye: Vec3, d: Vec3) -> Option
             let h = recv.accel.intersect(o, t, f32::INFINITY)?;
             // Radiance leaving the water for the air is divided by n² (L/n² is invariant).
             let tr = body.transmittance(o, h.point) * ((1.0 - fr) * eta * eta);
-            seen(h, bi, -t, tr)
+            seen(h, bi, -t, tr, true)
         }
         None => {
             let h = hit?;
@@ -105,7 +108,7 @@ pub fn view_point(world: &World, recv: &Receivers, eye: Vec3, d: Vec3) -> Option
                 .water
                 .iter()
                 .position(|b| b.contains(h.point + h.geo_normal * 1e-3))?;
-            seen(h, bi, -d, world.water_transmittance(eye, h.point))
+            seen(h, bi, -d, world.water_transmittance(eye, h.point), false)
         }
     }
 }
