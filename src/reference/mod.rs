@@ -17,7 +17,9 @@
 //!   not caustics: no method that starts from the light's caustic objects can carry it.
 //! - `specular`: camera paths through specular chains (glass and mirrors are visible and
 //!   refract the scene): E S+ D, with direct lighting at D plus caustics at D from a photon map
-//!   of caustic photons (fixed-radius density estimate whose radius shrinks as N^-1/6).
+//!   of caustic photons (a density estimate over a disc of the pixel's footprint at D, the
+//!   path's length times the pixel's angle, kept between a quarter of the map's radius and
+//!   its radius, which shrinks as N^-1/6).
 //! - `total` = direct + caustics + indirect + specular.
 //!
 //! Photons are aimed where they matter: for each (light, specular object) pair, photons are
@@ -1082,12 +1084,15 @@ impl PhotonMap {
         (c.x as i32, c.y as i32, c.z as i32)
     }
 
-    /// Reflected radiance from caustic photons around `hit` towards `wo`.
-    fn radiance(&self, hit: &Hit, mat: &Material, wo: Vec3) -> Vec3 {
+    /// Reflected radiance from caustic photons around `hit` towards `wo`, gathered over a disc
+    /// of about the pixel's footprint there (`footprint`, metres), between a quarter of the
+    /// map's radius (not to gather too few photons) and the whole radius.
+    fn radiance(&self, hit: &Hit, mat: &Material, wo: Vec3, footprint: f32) -> Vec3 {
         if self.photons.is_empty() {
             return Vec3::ZERO;
         }
-        let r2 = self.radius * self.radius;
+        let r = footprint.clamp(0.25 * self.radius, self.radius);
+        let r2 = r * r;
         let (cx, cy, cz) = Self::cell(hit.point, self.radius);
         let mut sum = Vec3::ZERO;
         for dx in -1..=1 {
@@ -1100,9 +1105,7 @@ impl PhotonMap {
                         let p = &self.photons[i as usize];
                         let v = p.pos - hit.point;
                         // Same surface: within the disk and close to its plane.
-                        if v.length_squared() < r2
-                            && v.dot(hit.geo_normal).abs() < 0.1 * self.radius
-                        {
+                        if v.length_squared() < r2 && v.dot(hit.geo_normal).abs() < 0.1 * r {
                             sum += p.flux * brdf(mat, hit.normal, p.wi, wo);
                         }
                     }
@@ -1132,6 +1135,9 @@ fn camera_pixel(
     // Stratified jitter on a k×k grid (k² ≥ spp; extra cells wrap).
     let k = (spp as f32).sqrt().ceil() as u32;
     let rays = cam.rays();
+    // The angle a pixel spans here: a camera path's footprint grows by it per metre travelled.
+    let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+    let pixel_angle = (rays.dir(cx + 1.0, cy) - rays.dir(cx, cy)).length();
     let (mut direct, mut spec) = (Vec3::ZERO, Vec3::ZERO);
     for s in 0..spp {
         let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
@@ -1151,6 +1157,7 @@ fn camera_pixel(
         }
         // Specular chain.
         let mut throughput = medium;
+        let mut travelled = hit.t;
         let (mut h, mut dir) = (hit, d);
         for _ in 0..params.max_depth {
             let m = accel.material(&h);
@@ -1158,7 +1165,7 @@ fn camera_pixel(
             if !m.is_specular() {
                 spec += throughput
                     * (shade(world, accel, params, env, &h, m, -dir, &mut rng)
-                        + pmap.radiance(&h, m, -dir));
+                        + pmap.radiance(&h, m, -dir, travelled * pixel_angle));
                 break;
             }
             let Some(b) = sample_specular(&h, dir, m, rng.f32()) else {
@@ -1177,6 +1184,7 @@ fn camera_pixel(
             match intersect(world, accel, o, dir) {
                 Some(n) => {
                     throughput *= world.water_transmittance(o, n.point) * fog(world, accel, o, &n);
+                    travelled += n.t;
                     h = n
                 }
                 None => {
