@@ -199,33 +199,34 @@ fn in_water(p: vec3<f32>) -> bool {
 }
 
 
+// The part [t0, t1] of o + t d (any d) inside the body's box (the rectangle, from the bottom
+// up to the highest crest): common.inc.wgsl's box_interval about the box's centre; t0 >= t1
+// where the line misses it.
+fn body_interval(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let bottom = -water.centre.w - 1e-3;
+    let top = water.beam.w;
+    let c = water.centre.xyz + vec3<f32>(0.0, 0.5 * (bottom + top), 0.0);
+    let h = vec3<f32>(0.5 * water.size.x, 0.5 * (top - bottom), 0.5 * water.size.y);
+    let to_local = mat4x4<f32>(
+        vec4<f32>(1.0, 0.0, 0.0, 0.0),
+        vec4<f32>(0.0, 1.0, 0.0, 0.0),
+        vec4<f32>(0.0, 0.0, 1.0, 0.0),
+        vec4<f32>(-c, 1.0),
+    );
+    return box_interval(to_local, h, o, d);
+}
+
 // Beer-Lambert along the segment a -> b, which crosses no surface: over its part inside the
-// body's box (the rectangle, from the bottom up to the highest crest), when that part lies in
-// the water (as scene/water.rs WaterBody::transmittance: a segment may enter through the
-// body's open sides).
+// body's box, when that part lies in the water (as scene/water.rs WaterBody::transmittance:
+// a segment may enter through the body's open sides).
 fn water_beer(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    let half = vec3<f32>(0.5 * water.size.x, 0.0, 0.5 * water.size.y);
-    let lo = vec3<f32>(water.centre.x, water.centre.y - water.centre.w - 1e-3, water.centre.z) - half;
-    let hi = vec3<f32>(water.centre.x, water.centre.y + water.beam.w, water.centre.z) + half;
     let d = b - a;
-    var t0 = 0.0;
-    var t1 = 1.0;
-    for (var k = 0; k < 3; k++) {
-        if abs(d[k]) < 1e-20 {
-            if a[k] < lo[k] || a[k] > hi[k] {
-                return vec3<f32>(1.0);
-            }
-        } else {
-            let u = (lo[k] - a[k]) / d[k];
-            let v = (hi[k] - a[k]) / d[k];
-            t0 = max(t0, min(u, v));
-            t1 = min(t1, max(u, v));
-        }
-    }
-    if t0 >= t1 || !in_water(a + d * (0.5 * (t0 + t1))) {
+    let iv = body_interval(a, d);
+    let t1 = min(iv.y, 1.0);
+    if iv.x >= t1 || !in_water(a + d * (0.5 * (iv.x + t1))) {
         return vec3<f32>(1.0);
     }
-    return beer(length(d) * (t1 - t0));
+    return beer(length(d) * (t1 - iv.x));
 }
 
 // Where the line through q along the refracted sun meets the mean surface plane, in light
@@ -274,17 +275,9 @@ fn side_light(q: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let o = q + n * 1e-4;
-    // Where the ray leaves the rectangle's x and z slabs.
-    let half = 0.5 * water.size.xy;
-    var t_out = 1e30;
-    for (var k = 0u; k < 2u; k++) {
-        let oc = select(o.z, o.x, k == 0u) - select(water.centre.z, water.centre.x, k == 0u);
-        let dc = select(l.z, l.x, k == 0u);
-        let h = select(half.y, half.x, k == 0u);
-        if abs(dc) > 1e-9 {
-            t_out = min(t_out, (sign(dc) * h - oc) / dc);
-        }
-    }
+    // Where the ray leaves the body's box: through a side under the surface, or else through
+    // its top, having crossed the surface.
+    let t_out = body_interval(o, l).y;
     if t_out >= 1e29 || above(o + l * t_out) >= 0.0 || cross_surface(o, l, t_out) >= 0.0 {
         return vec3<f32>(0.0);
     }

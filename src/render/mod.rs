@@ -34,13 +34,21 @@ pub mod lights;
 pub mod photons;
 pub mod pinhole;
 pub mod plan;
+mod resources;
 pub mod scene;
 pub mod shaders;
 pub mod shadow;
 pub mod sky;
+mod staging;
 pub mod timestamps;
 pub mod transport;
 pub mod water;
+
+use resources::{
+    STORAGE_BINDING, UNIFORM_BINDING, caustics_pass, caustics_pass_timed, caustics_pass_to,
+    cleared_attachment, layout_entry, texture_2d, texture_binding,
+};
+use staging::{KEEP_STAGING_BYTES, Staging};
 
 pub use csl::CslLayer;
 pub use pinhole::PinholeLayer;
@@ -990,218 +998,4 @@ impl Renderer {
             report,
         ))
     }
-}
-
-/// The buffers the layers a frame reads back (direct, specular, caustics) are copied into at
-/// the end of its command buffer, rows padded to 256 bytes: kept per image size with the
-/// targets (up to [`KEEP_STAGING_BYTES`]), so that a frame allocates no staging memory and
-/// waits for the device once.
-struct Staging {
-    width: u32,
-    height: u32,
-    /// Bytes a row takes in the buffers.
-    padded: u64,
-    buffers: [wgpu::Buffer; 3],
-}
-
-/// Staging buffers up to this size (the three together) are kept for the next frame; larger
-/// ones (past about 2.8 megapixels) are freed after their frame, so that one large render does
-/// not leave a service holding their memory.
-const KEEP_STAGING_BYTES: u64 = 128 << 20;
-
-impl Staging {
-    fn bytes(&self) -> u64 {
-        self.buffers.iter().map(|b| b.size()).sum()
-    }
-
-    fn new(device: &wgpu::Device, width: u32, height: u32) -> Staging {
-        let padded =
-            (u64::from(width) * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as u64);
-        let buffer = |label| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: padded * u64::from(height),
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            })
-        };
-        Staging {
-            width,
-            height,
-            padded,
-            buffers: [
-                buffer("direct readback"),
-                buffer("specular readback"),
-                buffer("caustics readback"),
-            ],
-        }
-    }
-
-    /// Copies `texture` (Rgba32Float, this size) into buffer `k`.
-    fn copy(&self, enc: &mut wgpu::CommandEncoder, k: usize, texture: &wgpu::Texture) {
-        crate::gpu::encode_texture_copy(enc, texture, &self.buffers[k], self.padded as u32);
-    }
-
-    /// The frame in a buffer's mapped `bytes`, and how many of its pixels have an alpha above
-    /// 1.5 (the direct pass leaves 1 in every pixel; each pinhole draw whose loop over points
-    /// was ended early adds 1; the transport gather flags the pixels whose list overflowed).
-    fn frame(&self, bytes: &[u8]) -> (Frame, usize) {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let mut pixels = Vec::with_capacity(w * h);
-        let mut flagged = 0;
-        for y in 0..h {
-            let start = y * self.padded as usize;
-            let row: &[f32] = bytemuck::cast_slice(&bytes[start..start + w * 16]);
-            for p in row.chunks_exact(4) {
-                flagged += usize::from(p[3] > 1.5);
-                pixels.push(Vec3::new(p[0], p[1], p[2]));
-            }
-        }
-        let frame = Frame {
-            width: self.width,
-            height: self.height,
-            pixels,
-        };
-        (frame, flagged)
-    }
-}
-
-/// A 2D texture of `size` (one mip level, one sample): the passes' targets.
-fn texture_2d(
-    device: &wgpu::Device,
-    label: &str,
-    (width, height): (u32, u32),
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
-}
-
-/// A bind group layout entry (no array).
-fn layout_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    ty: wgpu::BindingType,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty,
-        count: None,
-    }
-}
-
-/// A uniform buffer binding of any size.
-const UNIFORM_BINDING: wgpu::BindingType = wgpu::BindingType::Buffer {
-    ty: wgpu::BufferBindingType::Uniform,
-    has_dynamic_offset: false,
-    min_binding_size: None,
-};
-
-/// A read-only storage buffer binding of any size.
-const STORAGE_BINDING: wgpu::BindingType = wgpu::BindingType::Buffer {
-    ty: wgpu::BufferBindingType::Storage { read_only: true },
-    has_dynamic_offset: false,
-    min_binding_size: None,
-};
-
-/// A 2D float texture binding.
-fn texture_binding(filterable: bool) -> wgpu::BindingType {
-    wgpu::BindingType::Texture {
-        sample_type: wgpu::TextureSampleType::Float { filterable },
-        view_dimension: wgpu::TextureViewDimension::D2,
-        multisampled: false,
-    }
-}
-
-/// A render pass that adds to (or overwrites) the caustics layer `view` as it stands after the
-/// direct pass, timed as pass `name` when the adapter has timestamps: how the per-pixel caustics
-/// passes (transport, pinhole) draw.
-fn caustics_pass<'e>(
-    enc: &'e mut wgpu::CommandEncoder,
-    view: &wgpu::TextureView,
-    name: &'static str,
-    timestamps: Option<&mut timestamps::Timestamps>,
-) -> wgpu::RenderPass<'e> {
-    caustics_pass_to(enc, &[view], name, timestamps)
-}
-
-/// [`caustics_pass`] onto several layers at once (each kept and added to).
-fn caustics_pass_to<'e>(
-    enc: &'e mut wgpu::CommandEncoder,
-    views: &[&wgpu::TextureView],
-    name: &'static str,
-    timestamps: Option<&mut timestamps::Timestamps>,
-) -> wgpu::RenderPass<'e> {
-    let ts = timestamps.map(|t| {
-        let k = t.pass(name);
-        (&*t, k)
-    });
-    let attachments: Vec<_> = views.iter().map(|v| kept_attachment(v)).collect();
-    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(name),
-        color_attachments: &attachments,
-        depth_stencil_attachment: None,
-        timestamp_writes: ts.map(|(t, k)| t.writes(k, true, true)),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
-}
-
-/// A colour attachment whose contents are kept and stored.
-fn kept_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Load,
-            store: wgpu::StoreOp::Store,
-        },
-    })
-}
-
-/// [`caustics_pass`] with the timestamp writes given (a pass timed together with the ones after
-/// it writes only its beginning) and an optional depth attachment.
-fn caustics_pass_timed<'e>(
-    enc: &'e mut wgpu::CommandEncoder,
-    view: &wgpu::TextureView,
-    name: &'static str,
-    timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
-) -> wgpu::RenderPass<'e> {
-    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(name),
-        color_attachments: &[kept_attachment(view)],
-        depth_stencil_attachment: depth,
-        timestamp_writes,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
-}
-
-/// A colour attachment cleared to transparent black and stored: how every pass here starts.
-fn cleared_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-            store: wgpu::StoreOp::Store,
-        },
-    })
 }

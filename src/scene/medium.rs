@@ -189,22 +189,8 @@ impl Medium {
 
     /// The part [t0, t1] of o + t·d, 0 ≤ t ≤ t_max, inside the box (any d, not only unit).
     fn box_interval(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32)> {
-        let lo_ = self.to_local.transform_point3(o);
-        let ld = self.to_local.transform_vector3(d);
-        let (mut t0, mut t1) = (0.0f32, t_max);
-        for k in 0..3 {
-            if ld[k].abs() < 1e-20 {
-                if lo_[k].abs() > self.half[k] {
-                    return None;
-                }
-                continue;
-            }
-            let a = (-self.half[k] - lo_[k]) / ld[k];
-            let b = (self.half[k] - lo_[k]) / ld[k];
-            t0 = t0.max(a.min(b));
-            t1 = t1.min(a.max(b));
-        }
-        (t0 < t1).then_some((t0, t1))
+        let o = self.to_local.transform_point3(o);
+        box_interval(o, self.to_local.transform_vector3(d), self.half, t_max)
     }
 
     /// Whether `p` lies inside.
@@ -315,6 +301,25 @@ pub fn sample_hg(g: f32, wi: Vec3, u1: f32, u2: f32) -> Vec3 {
     let phi = 2.0 * PI * u2;
     let (t, b) = crate::sampling::frame(wi);
     (wi * cos + (t * phi.cos() + b * phi.sin()) * sin).normalize()
+}
+
+/// The part [t0, t1] of o + t·d, 0 ≤ t ≤ t_max, inside the box of half extents `half` about
+/// the origin (any d, not only unit); None where the line misses it.
+pub fn box_interval(o: Vec3, d: Vec3, half: Vec3, t_max: f32) -> Option<(f32, f32)> {
+    let (mut t0, mut t1) = (0.0f32, t_max);
+    for k in 0..3 {
+        if d[k].abs() < 1e-20 {
+            if o[k].abs() > half[k] {
+                return None;
+            }
+            continue;
+        }
+        let a = (-half[k] - o[k]) / d[k];
+        let b = (half[k] - o[k]) / d[k];
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    (t0 < t1).then_some((t0, t1))
 }
 
 #[cfg(test)]

@@ -544,23 +544,10 @@ impl WaterBody {
     /// bottom up to the highest crest), as fractions of the segment; None if it misses the box.
     pub fn clip(&self, a: Vec3, b: Vec3) -> Option<(f32, f32)> {
         let s = &self.surface;
-        let half = Vec3::new(s.size.x * 0.5, 0.0, s.size.y * 0.5);
-        let lo = Vec3::new(s.centre.x, s.centre.y - self.depth - 1e-3, s.centre.z) - half;
-        let hi = Vec3::new(s.centre.x, s.centre.y + s.amplitude_bound(), s.centre.z) + half;
-        let d = b - a;
-        let (mut t0, mut t1) = (0.0f32, 1.0f32);
-        for k in 0..3 {
-            if d[k] == 0.0 {
-                if a[k] < lo[k] || a[k] > hi[k] {
-                    return None;
-                }
-                continue;
-            }
-            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
-            t0 = t0.max(u.min(v));
-            t1 = t1.min(u.max(v));
-        }
-        (t0 < t1).then_some((t0, t1))
+        let (bottom, top) = (-self.depth - 1e-3, s.amplitude_bound());
+        let centre = s.centre + Vec3::Y * (0.5 * (bottom + top));
+        let half = Vec3::new(0.5 * s.size.x, 0.5 * (top - bottom), 0.5 * s.size.y);
+        super::medium::box_interval(a - centre, b - a, half, 1.0)
     }
 
     /// Transmittance of the straight segment a → b, which crosses no surface: Beer-Lambert over

@@ -359,6 +359,7 @@ pub fn render_layer_with(
     stats.stages.push(("view".into(), t.elapsed()));
     let mut caustics = Frame::new(cam.width, cam.height);
     let mut specular = Frame::new(cam.width, cam.height);
+    let sun = suns(world).into_iter().next();
     for (bi, body) in world.water.iter().enumerate() {
         stop.check()?;
         let t = Instant::now();
@@ -402,11 +403,10 @@ pub fn render_layer_with(
             }
         };
         stats.points += pts.len();
-        let wi = suns(world)
-            .first()
+        let wi = sun
+            .as_ref()
             .and_then(|s| refracted_sun(s, body.ior))
             .map_or(Vec3::Y, |d| -d);
-        let sun = suns(world).into_iter().next();
         for (&i, e) in mine.iter().zip(e) {
             let v = views[i].as_ref().expect("kept");
             let m = &world.materials[v.material as usize];
@@ -449,19 +449,10 @@ pub fn side_light(
     }
     let s = &body.surface;
     let o = p.pos + p.normal * 1e-4;
-    // Where the ray leaves the rectangle's x and z slabs.
-    let half = [s.size.x * 0.5, s.size.y * 0.5];
-    let t_out = [
-        (o.x - s.centre.x, l.x, half[0]),
-        (o.z - s.centre.z, l.z, half[1]),
-    ]
-    .into_iter()
-    .filter(|&(_, d, _)| d.abs() > 1e-9)
-    .map(|(oc, d, h)| (h.copysign(d) - oc) / d)
-    .fold(f32::INFINITY, f32::min);
-    if !t_out.is_finite() {
-        return None;
-    }
+    // Where the ray leaves the body's box (longer than any way across it): through a side
+    // under the surface, or else through its top, having crossed the surface.
+    let reach = s.size.length() + body.depth + 2.0 * s.amplitude_bound();
+    let t_out = reach * body.clip(o, o + l * reach)?.1;
     let exit = o + l * t_out;
     if exit.y >= s.height(exit.x, exit.z) || s.intersect(o, l, t_out).is_some() {
         return None;
